@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs everything hapticd needs to build, test and benchmark on Debian 12.
+# Idempotent; run as root or with sudo available.
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libeigen3-dev            # matrices, matrix exponential (unsupported/MatrixFunctions)
+  libcli11-dev             # hapticctl / hapticd command lines
+  nlohmann-json3-dev       # control-plane protocol, --json output
+  libtomlplusplus-dev       # config files
+  libsystemd-dev systemd   # sd_notify; systemd-analyze verify in the tests
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libusb-1.0-0-dev libmodbus-dev libgpiod-dev
+  rt-tests                 # cyclictest, the latency reference in bench/
+  clang-format clang-tidy
+)
+
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  export DEBIAN_FRONTEND=noninteractive
+  "${sudo_cmd[@]}" apt-get update -qq
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

@@ -1,0 +1,83 @@
+#include "world/integrator.hpp"
+
+#include <stdexcept>
+#include <unsupported/Eigen/MatrixFunctions>
+
+namespace hapticd::world {
+
+namespace {
+constexpr std::array<std::string_view, 5> names{"forward-euler", "semi-implicit-euler",
+                                                "trapezoid", "rk4", "exact"};
+}
+
+std::string_view to_string(Integrator integrator) noexcept {
+  return names[static_cast<std::size_t>(integrator)];
+}
+
+std::optional<Integrator> parse_integrator(std::string_view name) noexcept {
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return static_cast<Integrator>(i);
+  }
+  if (name == "euler") return Integrator::forward_euler;
+  if (name == "tustin" || name == "trapezoidal") return Integrator::trapezoid;
+  if (name == "zoh") return Integrator::exact;
+  return std::nullopt;
+}
+
+std::string_view integrator_names() noexcept {
+  return "forward-euler, semi-implicit-euler, trapezoid, rk4, exact";
+}
+
+DiscreteStateSpace discretize_zoh(const ContinuousStateSpace& sys, double period_s) {
+  const Eigen::Index n = sys.a.rows();
+  const Eigen::Index m = sys.b.cols();
+  Eigen::MatrixXd augmented = Eigen::MatrixXd::Zero(n + m, n + m);
+  augmented.topLeftCorner(n, n) = sys.a * period_s;
+  augmented.topRightCorner(n, m) = sys.b * period_s;
+  const Eigen::MatrixXd e = augmented.exp();
+  return {e.topLeftCorner(n, n), e.topRightCorner(n, m), period_s};
+}
+
+DiscreteStateSpace discretize(const ContinuousStateSpace& sys, double period_s, Integrator integrator) {
+  const Eigen::Index n = sys.a.rows();
+  const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(n, n);
+  const Eigen::MatrixXd ta = sys.a * period_s;
+  switch (integrator) {
+    case Integrator::forward_euler:
+      return {identity + ta, sys.b * period_s, period_s};
+    case Integrator::semi_implicit_euler: {
+      if (n % 2 != 0) throw std::invalid_argument("semi-implicit Euler needs [positions; velocities]");
+      // Step 1 updates the velocity rows from the old state; step 2 the
+      // position rows from the state that already holds the new velocity.
+      const Eigen::Index half = n / 2;
+      Eigen::MatrixXd select_velocity = Eigen::MatrixXd::Zero(n, n);
+      select_velocity.bottomRightCorner(half, half).setIdentity();
+      const Eigen::MatrixXd select_position = identity - select_velocity;
+      const Eigen::MatrixXd velocity_step = identity + select_velocity * ta;
+      const Eigen::MatrixXd position_step = identity + select_position * ta;
+      return {position_step * velocity_step,
+              position_step * select_velocity * sys.b * period_s + select_position * sys.b * period_s,
+              period_s};
+    }
+    case Integrator::trapezoid: {
+      const Eigen::MatrixXd lhs = identity - 0.5 * ta;
+      const auto lu = lhs.partialPivLu();
+      return {lu.solve(identity + 0.5 * ta), lu.solve(sys.b * period_s), period_s};
+    }
+    case Integrator::rk4: {
+      // For x' = A x + B u with u held, one RK4 step is the Taylor series of
+      // the exact map truncated after (TA)^4.
+      const Eigen::MatrixXd ta2 = ta * ta;
+      const Eigen::MatrixXd ta3 = ta2 * ta;
+      const Eigen::MatrixXd ta4 = ta3 * ta;
+      const Eigen::MatrixXd ad = identity + ta + ta2 / 2.0 + ta3 / 6.0 + ta4 / 24.0;
+      const Eigen::MatrixXd phi = identity + ta / 2.0 + ta2 / 6.0 + ta3 / 24.0;
+      return {ad, phi * sys.b * period_s, period_s};
+    }
+    case Integrator::exact:
+      return discretize_zoh(sys, period_s);
+  }
+  throw std::invalid_argument("unknown integrator");
+}
+
+}  // namespace hapticd::world
