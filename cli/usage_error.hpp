@@ -1,0 +1,17 @@
+#pragma once
+/// \file
+/// Bad command-line input: hapticctl prints the one-line message and exits 2.
+
+#include <stdexcept>
+#include <string>
+
+namespace hapticd::cli {
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Exit codes shared by every verb.
+enum ExitCode : int { exit_ok = 0, exit_refused = 1, exit_usage = 2, exit_unreachable = 3 };
+
+}  // namespace hapticd::cli

@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# clang-format must leave every C++ file unchanged; clang-tidy must be clean
+# on the project's own sources (uses build/compile_commands.json).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+mapfile -t files < <(git ls-files '*.cpp' '*.hpp')
+clang-format --dry-run --Werror "${files[@]}"
+echo "clang-format: ${#files[@]} files clean"
+mapfile -t sources < <(git ls-files '*.cpp' | grep -v '^tests/' | grep -v '^bench/')
+if [ -f build/compile_commands.json ]; then
+  printf '%s\n' "${sources[@]}" | xargs -P "$(nproc)" -n 4 clang-tidy -p build --quiet 2>/dev/null \
+    | tee /tmp/hapticd-clang-tidy.log | grep -E 'warning:|error:' && { echo "clang-tidy: findings above"; exit 1; }
+  echo "clang-tidy: ${#sources[@]} files clean"
+fi
