@@ -1,0 +1,26 @@
+#pragma once
+/// \file
+/// `free`: zero output, no state (Freudenberg 3: the hand released, the device
+/// moves freely).
+
+#include <array>
+#include <span>
+#include <string_view>
+
+#include "world/scene.hpp"
+
+namespace hapticd::world {
+
+class FreeScene {
+ public:
+  static constexpr std::size_t channel_count = 0;
+  static constexpr std::array<std::string_view, channel_count> channel_names{};
+
+  void reset(double /*measured_position*/) noexcept {}
+  double step(double /*measured_position*/) noexcept { return 0.0; }
+  void channels(std::span<double> /*out*/) const noexcept {}
+};
+
+static_assert(Scene<FreeScene>);
+
+}  // namespace hapticd::world
