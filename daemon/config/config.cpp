@@ -1,0 +1,475 @@
+#include "daemon/config/config.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <utility>
+
+#include <toml++/toml.h>
+
+#include "world/units.hpp"
+
+namespace hapticd::config {
+
+namespace {
+
+constexpr std::string_view builtin_source = "<built-in default>";
+
+// Keep in sync with config/hapticd.toml (a test checks they parse equal).
+constexpr std::string_view default_text = R"toml(# hapticd: default configuration (built into the daemon; docs/config.md).
+[loop]
+period = "1ms"
+priority = 80
+cpu = -1
+require_rt = false
+clock = "real"
+overrun_limit = 10
+duration = ""
+
+[device]
+driver = "loopback"
+torque_limit = 1.0
+
+[device.loopback]
+motion = "rotary"
+
+[scene]
+name = "spring-wheel"
+integrator = "exact"
+
+[control]
+socket = ""
+group = ""
+max_clients = 16
+max_message_bytes = 65536
+idle_timeout = "300s"
+
+[recorder]
+directory = ""
+ring_seconds = 2
+flush_interval = "100ms"
+)toml";
+
+std::string format_number(double value) {
+  char buffer[64];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  std::string text(buffer, ec == std::errc{} ? end : buffer);
+  if (std::isfinite(value) && text.find_first_of(".eE") == std::string::npos) text += ".0";
+  return text;
+}
+
+std::string quote(std::string_view text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  out += '"';
+  return out;
+}
+
+/// The value as the user (roughly) wrote it, for messages.
+std::string render(const toml::node& node) {
+  if (const auto* s = node.as_string()) return quote(s->get());
+  if (const auto* i = node.as_integer()) return std::to_string(i->get());
+  if (const auto* f = node.as_floating_point()) {
+    const double v = f->get();
+    if (std::isnan(v)) return "nan";
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    return format_number(v);
+  }
+  if (const auto* b = node.as_boolean()) return b->get() ? "true" : "false";
+  if (node.is_array()) return "[...]";
+  if (node.is_table()) return "{...}";
+  return "(a date/time)";
+}
+
+std::string join(std::initializer_list<std::string_view> names) {
+  std::string out;
+  for (const auto name : names) {
+    if (!out.empty()) out += ", ";
+    out += name;
+  }
+  return out;
+}
+
+std::string driver_list() {
+  std::string out;
+  for (const auto name : driver_kinds) {
+    if (!out.empty()) out += ", ";
+    out += name;
+  }
+  return out;
+}
+
+bool is_driver_kind(std::string_view name) {
+  return std::find(std::begin(driver_kinds), std::end(driver_kinds), name) != std::end(driver_kinds);
+}
+
+using Entry = std::pair<const toml::key*, const toml::node*>;
+
+/// Table entries in file order (toml::table iterates in key order).
+std::vector<Entry> in_file_order(const toml::table& table) {
+  std::vector<Entry> entries;
+  for (auto&& [key, node] : table) entries.emplace_back(&key, &node);
+  std::stable_sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    const auto& pa = a.first->source().begin;
+    const auto& pb = b.first->source().begin;
+    return std::pair(pa.line, pa.column) < std::pair(pb.line, pb.column);
+  });
+  return entries;
+}
+
+class Parser {
+ public:
+  explicit Parser(std::string file) : file_(std::move(file)) {}
+
+  SourcePosition position(const toml::source_region& region) const {
+    return SourcePosition{file_, region.begin.line, region.begin.column};
+  }
+
+  [[noreturn]] void fail(const toml::source_region& region, std::string key, std::string_view message) const {
+    throw ConfigError(position(region), std::move(key), message);
+  }
+
+  [[noreturn]] void wrong_type(const toml::node& node, const std::string& key, std::string_view accepted) const {
+    fail(node.source(), key, key + " = " + render(node) + " has the wrong type; accepted: " + std::string(accepted));
+  }
+
+  [[noreturn]] void out_of_range(const toml::node& node, const std::string& key, std::string_view accepted) const {
+    fail(node.source(), key, key + " = " + render(node) + " is out of range; accepted: " + std::string(accepted));
+  }
+
+  [[noreturn]] void unknown_key(const toml::key& key, std::string_view section, std::string_view accepted) const {
+    fail(key.source(), std::string(section) + "." + std::string(key.str()),
+         "unknown key '" + std::string(key.str()) + "' in [" + std::string(section) + "]; accepted: " +
+             std::string(accepted));
+  }
+
+  std::string get_string(const toml::node& node, const std::string& key, std::string_view accepted) const {
+    const auto* s = node.as_string();
+    if (!s) wrong_type(node, key, accepted);
+    return s->get();
+  }
+
+  bool get_bool(const toml::node& node, const std::string& key) const {
+    const auto* b = node.as_boolean();
+    if (!b) wrong_type(node, key, "true or false");
+    return b->get();
+  }
+
+  std::int64_t get_integer(const toml::node& node, const std::string& key, std::int64_t lo, std::int64_t hi,
+                           std::string_view accepted) const {
+    const auto* i = node.as_integer();
+    if (!i) wrong_type(node, key, accepted);
+    if (i->get() < lo || i->get() > hi) out_of_range(node, key, accepted);
+    return i->get();
+  }
+
+  double get_number(const toml::node& node, const std::string& key, std::string_view accepted) const {
+    double value = 0.0;
+    if (const auto* i = node.as_integer()) {
+      value = static_cast<double>(i->get());
+    } else if (const auto* f = node.as_floating_point()) {
+      value = f->get();
+    } else {
+      wrong_type(node, key, accepted);
+    }
+    if (!std::isfinite(value)) out_of_range(node, key, accepted);
+    return value;
+  }
+
+  /// A duration: a string with suffix s, ms or us, or a number of seconds.
+  double get_duration(const toml::node& node, const std::string& key, double lo, double hi,
+                      std::string_view range_text) const {
+    const std::string accepted =
+        std::string(range_text) + " (a string with suffix s, ms or us, or a number of seconds)";
+    double value = 0.0;
+    if (const auto* s = node.as_string()) {
+      const auto parsed = units::parse_duration_s(s->get());
+      if (!parsed) {
+        fail(node.source(), key, key + " = " + render(node) + " is not a duration; accepted: " + accepted);
+      }
+      value = *parsed;
+    } else if (node.is_integer() || node.is_floating_point()) {
+      value = get_number(node, key, accepted);
+    } else {
+      wrong_type(node, key, accepted);
+    }
+    // Relative tolerance so that "100us" == 100e-6 passes despite rounding.
+    if (value < lo * (1.0 - 1e-9) || value > hi * (1.0 + 1e-9)) out_of_range(node, key, range_text);
+    return value;
+  }
+
+  /// Flattens a free-form table into key -> (value, position).
+  void collect(const toml::table& table, const std::string& prefix, const std::string& section,
+               ParameterList& out, std::string_view skip = {}) const {
+    for (const auto& [key, node] : in_file_order(table)) {
+      if (!skip.empty() && key->str() == skip) continue;
+      const std::string name = prefix.empty() ? std::string(key->str()) : prefix + "." + std::string(key->str());
+      const std::string dotted = section + "." + name;
+      if (const auto* sub = node->as_table()) {
+        collect(*sub, name, section, out);
+        continue;
+      }
+      ParameterValue value;
+      if (const auto* s = node->as_string()) {
+        value = s->get();
+      } else if (const auto* b = node->as_boolean()) {
+        value = b->get();
+      } else if (node->is_integer() || node->is_floating_point()) {
+        value = get_number(*node, dotted, "a finite number, a boolean or a string");
+      } else {
+        wrong_type(*node, dotted, "a number, a boolean or a string");
+      }
+      out.push_back(Parameter{name, std::move(value), position(node->source())});
+    }
+  }
+
+  const toml::table& section_table(const toml::key& key, const toml::node& node) const {
+    const auto* table = node.as_table();
+    if (!table) {
+      fail(key.source(), std::string(key.str()),
+           "'" + std::string(key.str()) + "' must be a section [" + std::string(key.str()) + "], not a value");
+    }
+    return *table;
+  }
+
+  void parse_loop(const toml::table& table, LoopConfig& loop) const {
+    static const std::string accepted =
+        join({"period", "priority", "cpu", "require_rt", "clock", "overrun_limit", "duration"});
+    for (const auto& [key, node] : in_file_order(table)) {
+      const std::string_view name = key->str();
+      const std::string dotted = "loop." + std::string(name);
+      if (name == "period") {
+        loop.period_s = get_duration(*node, dotted, 100e-6, 10e-3, "100us to 10ms");
+      } else if (name == "priority") {
+        loop.priority = static_cast<int>(get_integer(*node, dotted, 1, 99, "an integer from 1 to 99"));
+      } else if (name == "cpu") {
+        loop.cpu = static_cast<int>(
+            get_integer(*node, dotted, -1, 1023, "-1 (no pinning) or a CPU index from 0 to 1023"));
+      } else if (name == "require_rt") {
+        loop.require_rt = get_bool(*node, dotted);
+      } else if (name == "clock") {
+        const std::string value = get_string(*node, dotted, "\"real\" or \"virtual\"");
+        if (value == "real") {
+          loop.clock = ClockKind::real;
+        } else if (value == "virtual") {
+          loop.clock = ClockKind::virtual_clock;
+        } else {
+          fail(node->source(), dotted, dotted + " = " + render(*node) + " is not a clock; accepted: \"real\" or \"virtual\"");
+        }
+      } else if (name == "overrun_limit") {
+        loop.overrun_limit = static_cast<std::uint32_t>(
+            get_integer(*node, dotted, 0, 1000000, "an integer from 0 (never) to 1000000"));
+      } else if (name == "duration") {
+        if (const auto* s = node->as_string(); s && s->get().empty()) {
+          loop.duration_s.reset();
+        } else {
+          loop.duration_s = get_duration(*node, dotted, 1e-9, 1e9, "\"\" (run until signalled) or more than 0s");
+        }
+      } else {
+        unknown_key(*key, "loop", accepted);
+      }
+    }
+  }
+
+  void parse_device(const toml::table& table, DeviceConfig& device) const {
+    static const std::string accepted =
+        "driver, torque_limit, and a table [device.<driver>] for the selected driver";
+    const std::string drivers = driver_list();
+    // The driver first: the driver table's name is checked against it.
+    if (const auto* node = table.get("driver")) {
+      const std::string value = get_string(*node, "device.driver", drivers);
+      if (!is_driver_kind(value)) {
+        fail(node->source(), "device.driver",
+             "device.driver = " + render(*node) + " is not a known driver; accepted: " + drivers);
+      }
+      device.driver = value;
+      device.driver_where = position(node->source());
+    }
+    for (const auto& [key, node] : in_file_order(table)) {
+      const std::string_view name = key->str();
+      const std::string dotted = "device." + std::string(name);
+      if (name == "driver") continue;
+      if (name == "torque_limit") {
+        const std::string range = "a number greater than 0 (N or N m)";
+        device.torque_limit = get_number(*node, dotted, range);
+        if (!(device.torque_limit > 0.0)) out_of_range(*node, dotted, range);
+      } else if (const auto* sub = node->as_table(); sub && is_driver_kind(name)) {
+        if (name != device.driver) {
+          fail(key->source(), dotted,
+               "[" + dotted + "] does not match device.driver = " + quote(device.driver) + "; accepted: [device." +
+                   device.driver + "]");
+        }
+        collect(*sub, "", dotted, device.parameters);
+      } else {
+        unknown_key(*key, "device", accepted);
+      }
+    }
+  }
+
+  void parse_scene(const toml::table& table, SceneConfig& scene) const {
+    scene.parameters.clear();
+    const std::string accepted = "a non-empty scene name (spring-wheel, spring-mass, wall, relay, free, ...)";
+    for (const auto& [key, node] : in_file_order(table)) {
+      if (key->str() != "name") continue;
+      scene.name = get_string(*node, "scene.name", accepted);
+      if (scene.name.empty()) out_of_range(*node, "scene.name", accepted);
+      scene.name_where = position(node->source());
+    }
+    collect(table, "", "scene", scene.parameters, "name");
+  }
+
+  void parse_control(const toml::table& table, ControlConfig& control) const {
+    static const std::string accepted =
+        join({"socket", "group", "max_clients", "max_message_bytes", "idle_timeout"});
+    for (const auto& [key, node] : in_file_order(table)) {
+      const std::string_view name = key->str();
+      const std::string dotted = "control." + std::string(name);
+      if (name == "socket") {
+        const std::string range = "\"\" (default path) or a path of at most 107 bytes";
+        control.socket = get_string(*node, dotted, range);
+        if (control.socket.size() > 107) out_of_range(*node, dotted, range);
+      } else if (name == "group") {
+        control.group = get_string(*node, dotted, "\"\" (owner only) or a group name");
+      } else if (name == "max_clients") {
+        control.max_clients =
+            static_cast<std::uint32_t>(get_integer(*node, dotted, 1, 1024, "an integer from 1 to 1024"));
+      } else if (name == "max_message_bytes") {
+        control.max_message_bytes = static_cast<std::uint32_t>(
+            get_integer(*node, dotted, 1024, 16777216, "an integer from 1024 to 16777216"));
+      } else if (name == "idle_timeout") {
+        control.idle_timeout_s = get_duration(*node, dotted, 0.0, 86400.0, "0s (never) to 86400s");
+      } else {
+        unknown_key(*key, "control", accepted);
+      }
+    }
+  }
+
+  void parse_recorder(const toml::table& table, RecorderConfig& recorder) const {
+    static const std::string accepted = join({"directory", "ring_seconds", "flush_interval"});
+    for (const auto& [key, node] : in_file_order(table)) {
+      const std::string_view name = key->str();
+      const std::string dotted = "recorder." + std::string(name);
+      if (name == "directory") {
+        recorder.directory = get_string(*node, dotted, "\"\" ($STATE_DIRECTORY/recordings or .) or a directory");
+      } else if (name == "ring_seconds") {
+        const std::string range = "a number of seconds from 0.1 to 60";
+        recorder.ring_seconds = get_number(*node, dotted, range);
+        if (recorder.ring_seconds < 0.1 || recorder.ring_seconds > 60.0) out_of_range(*node, dotted, range);
+      } else if (name == "flush_interval") {
+        recorder.flush_interval_s = get_duration(*node, dotted, 1e-3, 10.0, "1ms to 10s");
+      } else {
+        unknown_key(*key, "recorder", accepted);
+      }
+    }
+  }
+
+  DaemonConfig parse(std::string_view text) const {
+    toml::table root;
+    try {
+      root = toml::parse(text, file_);
+    } catch (const toml::parse_error& error) {
+      fail(error.source(), "", "TOML syntax error: " + std::string(error.description()));
+    }
+    DaemonConfig config;
+    config.source = file_;
+    static const std::string sections = join({"loop", "device", "scene", "control", "recorder"});
+    for (const auto& [key, node] : in_file_order(root)) {
+      const std::string_view name = key->str();
+      if (name == "loop") {
+        parse_loop(section_table(*key, *node), config.loop);
+      } else if (name == "device") {
+        parse_device(section_table(*key, *node), config.device);
+      } else if (name == "scene") {
+        parse_scene(section_table(*key, *node), config.scene);
+      } else if (name == "control") {
+        parse_control(section_table(*key, *node), config.control);
+      } else if (name == "recorder") {
+        parse_recorder(section_table(*key, *node), config.recorder);
+      } else if (node->is_table()) {
+        fail(key->source(), "[" + std::string(name) + "]",
+             "unknown section [" + std::string(name) + "]; accepted: " + sections);
+      } else {
+        fail(key->source(), std::string(name),
+             "unknown key '" + std::string(name) + "' outside any section; accepted sections: " + sections);
+      }
+    }
+    return config;
+  }
+
+ private:
+  std::string file_;
+};
+
+}  // namespace
+
+std::string SourcePosition::to_string() const {
+  std::string out = file;
+  if (line > 0) {
+    out += ":" + std::to_string(line);
+    if (column > 0) out += ":" + std::to_string(column);
+  }
+  return out;
+}
+
+std::string format_error(const SourcePosition& where, std::string_view message) {
+  const std::string prefix = where.to_string();
+  return prefix.empty() ? std::string(message) : prefix + ": " + std::string(message);
+}
+
+std::string to_toml(const ParameterValue& value) {
+  if (const auto* d = std::get_if<double>(&value)) return format_number(*d);
+  if (const auto* b = std::get_if<bool>(&value)) return *b ? "true" : "false";
+  return quote(std::get<std::string>(value));
+}
+
+std::string_view to_string(ClockKind clock) noexcept {
+  return clock == ClockKind::real ? "real" : "virtual";
+}
+
+std::size_t RecorderConfig::ring_capacity(double period_s) const noexcept {
+  if (!(period_s > 0.0)) return 2;
+  const double samples = std::ceil(ring_seconds / period_s - 1e-9);
+  return std::max<std::size_t>(2, static_cast<std::size_t>(samples));
+}
+
+ConfigError::ConfigError(SourcePosition where, std::string key, std::string_view message)
+    : std::runtime_error(format_error(where, message)), where_(std::move(where)), key_(std::move(key)) {}
+
+DaemonConfig parse_config(std::string_view text, std::string_view source_name) {
+  return Parser(std::string(source_name)).parse(text);
+}
+
+DaemonConfig load_config(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    throw ConfigError(SourcePosition{path.string(), 0, 0}, "", "cannot read the configuration file");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw ConfigError(SourcePosition{path.string(), 0, 0}, "", "error reading the configuration file");
+  return parse_config(text.str(), path.string());
+}
+
+DaemonConfig default_config() {
+  DaemonConfig config = parse_config(default_text, builtin_source);
+  return config;
+}
+
+std::string_view default_config_text() noexcept { return default_text; }
+
+std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder, const char* state_directory_env) {
+  if (!recorder.directory.empty()) return recorder.directory;
+  if (state_directory_env != nullptr && *state_directory_env != '\0') {
+    const std::string_view all(state_directory_env);
+    const std::string_view first = all.substr(0, all.find(':'));
+    if (!first.empty()) return std::filesystem::path(first) / "recordings";
+  }
+  return ".";
+}
+
+}  // namespace hapticd::config

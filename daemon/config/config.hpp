@@ -1,0 +1,147 @@
+#pragma once
+/// \file
+/// The daemon's configuration: a TOML file (docs/config.md) parsed into
+/// DaemonConfig. Every error is a ConfigError whose what() names the file,
+/// line, column, key and what is accepted, e.g.
+///   /etc/hapticd/hapticd.toml:4:10: loop.period = "5s" is out of range; accepted: 100us to 10ms
+///
+/// Scene parameters and driver parameters are not interpreted here: they are
+/// kept in file order with their source positions, so the daemon can check
+/// them against the scene catalog / the driver's parameter list and report
+/// the file and line of a bad value.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace hapticd::config {
+
+/// Same alternatives as world::ParameterValue (world/scene_catalog.hpp).
+/// TOML integers are stored as double.
+using ParameterValue = std::variant<double, bool, std::string>;
+
+/// Where something was written. line/column are 1-based; 0 when the value
+/// comes from the built-in default.
+struct SourcePosition {
+  std::string file;
+  std::uint32_t line = 0;
+  std::uint32_t column = 0;
+  /// "file:line:column", "file:line", or "file" (what is known).
+  std::string to_string() const;
+  bool operator==(const SourcePosition&) const = default;
+};
+
+/// One key of a free-form table ([scene], [device.<driver>]). Keys of nested
+/// tables are flattened with dots: [device.loopback.hand] kind = "sine" gives
+/// key "hand.kind".
+struct Parameter {
+  std::string key;
+  ParameterValue value;
+  SourcePosition where;  ///< position of the value
+  bool operator==(const Parameter&) const = default;
+};
+using ParameterList = std::vector<Parameter>;  ///< in file order, keys unique
+
+/// "file:line:column: message" (or without the unknown parts); what the
+/// daemon uses to report a parameter the catalog or a driver rejects.
+std::string format_error(const SourcePosition& where, std::string_view message);
+/// A parameter value as TOML would write it: 1.5, true, "exact".
+std::string to_toml(const ParameterValue& value);
+
+enum class ClockKind { real, virtual_clock };
+std::string_view to_string(ClockKind clock) noexcept;
+
+struct LoopConfig {
+  double period_s = 1e-3;         ///< 100e-6 .. 10e-3
+  int priority = 80;              ///< SCHED_FIFO priority, 1..99
+  int cpu = -1;                   ///< -1: no pinning, else CPU index (0..1023)
+  bool require_rt = false;        ///< refuse to run without SCHED_FIFO
+  ClockKind clock = ClockKind::real;
+  std::uint32_t overrun_limit = 10;   ///< consecutive overruns that latch a fault; 0 = never
+  std::optional<double> duration_s;   ///< stop after this much loop time; nullopt = until signalled
+  bool operator==(const LoopConfig&) const = default;
+};
+
+/// Driver kinds the configuration accepts. Only loopback is built in this
+/// version; the daemon (not the config) refuses the others.
+inline constexpr std::string_view driver_kinds[] = {"loopback", "usb-hid", "canopen", "modbus", "gpio"};
+
+struct DeviceConfig {
+  std::string driver = "loopback";
+  double torque_limit = 1.0;   ///< N (linear) or N m (rotary), > 0
+  ParameterList parameters;    ///< the [device.<driver>] table, unvalidated
+  SourcePosition driver_where; ///< position of device.driver (or of [device])
+  bool operator==(const DeviceConfig&) const = default;
+};
+
+struct SceneConfig {
+  std::string name = "spring-wheel";
+  ParameterList parameters;  ///< every [scene] key except name, unvalidated
+  SourcePosition name_where;
+  bool operator==(const SceneConfig&) const = default;
+};
+
+struct ControlConfig {
+  std::string socket;               ///< empty: default path resolution (daemon's business)
+  std::string group;                ///< group allowed to change things; empty: owner only
+  std::uint32_t max_clients = 16;   ///< 1..1024
+  std::uint32_t max_message_bytes = 65536;  ///< 1 KiB .. 16 MiB
+  double idle_timeout_s = 300.0;    ///< 0 = never
+  bool operator==(const ControlConfig&) const = default;
+};
+
+struct RecorderConfig {
+  /// Empty: $STATE_DIRECTORY/recordings under systemd, else "." (see
+  /// resolve_recording_directory).
+  std::string directory;
+  double ring_seconds = 2.0;        ///< telemetry ring capacity, seconds of samples; 0.1..60
+  double flush_interval_s = 0.1;    ///< 1ms..10s
+  /// Ring capacity in samples for a loop period: ceil(ring_seconds / period), at least 2.
+  std::size_t ring_capacity(double period_s) const noexcept;
+  bool operator==(const RecorderConfig&) const = default;
+};
+
+struct DaemonConfig {
+  std::string source;  ///< the file name, or "<built-in default>"
+  LoopConfig loop;
+  DeviceConfig device;
+  SceneConfig scene;
+  ControlConfig control;
+  RecorderConfig recorder;
+};
+
+class ConfigError : public std::runtime_error {
+ public:
+  ConfigError(SourcePosition where, std::string key, std::string_view message);
+  const SourcePosition& where() const noexcept { return where_; }
+  /// Dotted key ("loop.period"), section ("[foo]") or empty for syntax errors.
+  const std::string& key() const noexcept { return key_; }
+
+ private:
+  SourcePosition where_;
+  std::string key_;
+};
+
+/// Reads and parses a file. Throws ConfigError (also when it cannot be read).
+DaemonConfig load_config(const std::filesystem::path& path);
+/// Parses TOML text; source_name is used in messages.
+DaemonConfig parse_config(std::string_view text, std::string_view source_name);
+/// The built-in default: loopback rotary wheel, scene spring-wheel with the
+/// exact integrator, 1 ms period. Identical to config/hapticd.toml.
+DaemonConfig default_config();
+/// The TOML text of the built-in default (what config/hapticd.toml holds).
+std::string_view default_config_text() noexcept;
+
+/// The directory recordings go to: RecorderConfig::directory if set, else the
+/// first entry of state_directory_env ($STATE_DIRECTORY, set by systemd's
+/// StateDirectory=; colon-separated) + "/recordings", else ".".
+std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder,
+                                                  const char* state_directory_env);
+
+}  // namespace hapticd::config
