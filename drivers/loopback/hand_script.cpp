@@ -1,0 +1,260 @@
+#include "drivers/loopback/hand_script.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "drivers/loopback/key_value.hpp"
+#include "world/units.hpp"
+
+namespace hapticd::drivers::loopback {
+
+namespace {
+
+constexpr std::array<std::string_view, 4> mode_names{"free", "hold", "force", "impedance"};
+constexpr std::array<std::string_view, 4> trajectory_names{"constant", "step", "ramp", "sine"};
+constexpr std::string_view all_keys =
+    "mode, trajectory, position (alias offset), amplitude, at, rate, from, to, frequency, phase, ideal, "
+    "stiffness, damping, force, release_at";
+
+[[noreturn]] void fail(const std::string& message) { throw std::invalid_argument("hand script: " + message); }
+
+std::string join(std::initializer_list<std::string_view> names) {
+  std::string out;
+  for (const auto name : names) {
+    if (!out.empty()) out += ", ";
+    out += name;
+  }
+  return out;
+}
+
+std::string number_text(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
+
+}  // namespace
+
+std::string_view to_string(HandMode mode) noexcept { return mode_names[static_cast<std::size_t>(mode)]; }
+std::string_view to_string(TrajectoryKind kind) noexcept { return trajectory_names[static_cast<std::size_t>(kind)]; }
+
+Trajectory::Sample Trajectory::at_time(double t) const noexcept {
+  switch (kind) {
+    case TrajectoryKind::constant:
+      return {position, 0.0};
+    case TrajectoryKind::step:
+      return {t >= at ? position + amplitude : position, 0.0};
+    case TrajectoryKind::ramp: {
+      if (t <= at || from == to) return {t <= at ? from : to, 0.0};
+      const double direction = to > from ? 1.0 : -1.0;
+      const double travelled = rate * (t - at);
+      if (travelled >= std::abs(to - from)) return {to, 0.0};
+      return {from + direction * travelled, direction * rate};
+    }
+    case TrajectoryKind::sine: {
+      const double w = 2.0 * units::pi * frequency;
+      const double angle = w * t + phase;
+      return {position + amplitude * std::sin(angle), amplitude * w * std::cos(angle)};
+    }
+  }
+  return {position, 0.0};
+}
+
+std::string HandScript::to_text() const {
+  std::string out = "mode=" + std::string(to_string(mode));
+  auto add = [&out](std::string_view key, double value) {
+    out += ' ';
+    out += key;
+    out += '=';
+    out += number_text(value);
+  };
+  if (mode == HandMode::hold || mode == HandMode::impedance) {
+    out += " trajectory=" + std::string(to_string(trajectory.kind));
+    switch (trajectory.kind) {
+      case TrajectoryKind::constant:
+        add("position", trajectory.position);
+        break;
+      case TrajectoryKind::step:
+        add("position", trajectory.position);
+        add("amplitude", trajectory.amplitude);
+        add("at", trajectory.at);
+        break;
+      case TrajectoryKind::ramp:
+        add("rate", trajectory.rate);
+        add("from", trajectory.from);
+        add("to", trajectory.to);
+        add("at", trajectory.at);
+        break;
+      case TrajectoryKind::sine:
+        add("position", trajectory.position);
+        add("amplitude", trajectory.amplitude);
+        add("frequency", trajectory.frequency);
+        add("phase", trajectory.phase);
+        break;
+    }
+    if (mode == HandMode::hold) out += ideal ? " ideal=true" : " ideal=false";
+    if (stiffness) add("stiffness", *stiffness);
+    if (damping) add("damping", *damping);
+  }
+  if (mode == HandMode::force) {
+    add("force", force);
+    add("at", force_at);
+  }
+  if (release_at) add("release_at", *release_at);
+  return out;
+}
+
+HandScript parse_hand_script(std::string_view text) {
+  const auto pairs = detail::split_key_values(text, "hand script");
+  // Duplicates and unknown keys first, so the message names the key.
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const std::string& key = pairs[i].first;
+    const bool known = key == "mode" || key == "trajectory" || key == "position" || key == "offset" ||
+                       key == "amplitude" || key == "at" || key == "rate" || key == "from" || key == "to" ||
+                       key == "frequency" || key == "phase" || key == "ideal" || key == "stiffness" ||
+                       key == "damping" || key == "force" || key == "release_at";
+    if (!known) fail("unknown key '" + key + "'; accepted: " + std::string(all_keys));
+    for (std::size_t j = 0; j < i; ++j) {
+      const bool alias = (key == "offset" && pairs[j].first == "position") ||
+                         (key == "position" && pairs[j].first == "offset");
+      if (pairs[j].first == key || alias) fail("key '" + key + "' given twice");
+    }
+  }
+  auto find = [&pairs](std::string_view key) -> const std::string* {
+    for (const auto& [k, v] : pairs) {
+      if (k == key) return &v;
+    }
+    return nullptr;
+  };
+  auto number = [](std::string_view key, const std::string& value) {
+    const auto parsed = units::parse_finite(value);
+    if (!parsed) fail(std::string(key) + "=" + value + " is not a finite number");
+    return *parsed;
+  };
+
+  HandScript script;
+  const std::string* mode = find("mode");
+  if (!mode) fail("missing mode; accepted: mode=" + join({"free", "hold", "force", "impedance"}));
+  const auto mode_it = std::find(mode_names.begin(), mode_names.end(), *mode);
+  if (mode_it == mode_names.end()) fail("mode=" + *mode + " is not one of free, hold, force, impedance");
+  script.mode = static_cast<HandMode>(mode_it - mode_names.begin());
+
+  // Which keys this mode (and trajectory) accepts.
+  std::vector<std::string_view> accepted{"mode", "release_at"};
+  const bool has_reference = script.mode == HandMode::hold || script.mode == HandMode::impedance;
+  if (has_reference) {
+    accepted.push_back("trajectory");
+    if (const std::string* kind = find("trajectory")) {
+      const auto it = std::find(trajectory_names.begin(), trajectory_names.end(), *kind);
+      if (it == trajectory_names.end()) fail("trajectory=" + *kind + " is not one of constant, step, ramp, sine");
+      script.trajectory.kind = static_cast<TrajectoryKind>(it - trajectory_names.begin());
+    }
+    switch (script.trajectory.kind) {
+      case TrajectoryKind::constant:
+        accepted.insert(accepted.end(), {"position", "offset"});
+        break;
+      case TrajectoryKind::step:
+        accepted.insert(accepted.end(), {"position", "offset", "amplitude", "at"});
+        break;
+      case TrajectoryKind::ramp:
+        accepted.insert(accepted.end(), {"rate", "from", "to", "at"});
+        break;
+      case TrajectoryKind::sine:
+        accepted.insert(accepted.end(), {"position", "offset", "amplitude", "frequency", "phase"});
+        break;
+    }
+    accepted.insert(accepted.end(), {"stiffness", "damping"});
+    if (script.mode == HandMode::hold) accepted.push_back("ideal");
+  }
+  if (script.mode == HandMode::force) accepted.insert(accepted.end(), {"force", "at"});
+
+  for (const auto& [key, value] : pairs) {
+    if (std::find(accepted.begin(), accepted.end(), key) != accepted.end()) continue;
+    std::string list;
+    for (const auto name : accepted) {
+      if (!list.empty()) list += ", ";
+      list += name;
+    }
+    std::string context = "mode=" + *mode;
+    if (has_reference) context += " trajectory=" + std::string(to_string(script.trajectory.kind));
+    fail("key '" + key + "' does not apply to " + context + "; accepted: " + list);
+  }
+
+  if (const std::string* v = find("ideal")) {
+    if (*v == "true" || *v == "1" || *v == "yes") {
+      script.ideal = true;
+    } else if (*v == "false" || *v == "0" || *v == "no") {
+      script.ideal = false;
+    } else {
+      fail("ideal=" + *v + " is not one of true, false");
+    }
+  }
+  Trajectory& r = script.trajectory;
+  for (const auto& [key, value] : pairs) {
+    if (key == "mode" || key == "trajectory" || key == "ideal") continue;
+    const double x = number(key, value);
+    if (key == "position" || key == "offset") r.position = x;
+    else if (key == "amplitude") r.amplitude = x;
+    else if (key == "at" && script.mode == HandMode::force) script.force_at = x;
+    else if (key == "at") r.at = x;
+    else if (key == "rate") r.rate = x;
+    else if (key == "from") r.from = x;
+    else if (key == "to") r.to = x;
+    else if (key == "frequency") r.frequency = x;
+    else if (key == "phase") r.phase = x;
+    else if (key == "stiffness") script.stiffness = x;
+    else if (key == "damping") script.damping = x;
+    else if (key == "force") script.force = x;
+    else if (key == "release_at") script.release_at = x;
+  }
+
+  // Required keys and ranges.
+  auto require = [&find, &script](std::string_view key) {
+    if (!find(key)) fail("mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
+  };
+  if (has_reference) {
+    switch (r.kind) {
+      case TrajectoryKind::constant:
+        break;
+      case TrajectoryKind::step:
+        require("amplitude");
+        break;
+      case TrajectoryKind::ramp:
+        require("rate");
+        require("to");
+        if (!(r.rate > 0.0)) fail("rate must be > 0 (got " + number_text(r.rate) + ")");
+        break;
+      case TrajectoryKind::sine:
+        require("amplitude");
+        require("frequency");
+        if (!(r.frequency > 0.0)) fail("frequency must be > 0 Hz (got " + number_text(r.frequency) + ")");
+        break;
+    }
+  }
+  if (script.mode == HandMode::force) require("force");
+  if (script.mode == HandMode::impedance) require("stiffness");
+  if (script.mode == HandMode::hold && script.ideal && (script.stiffness || script.damping)) {
+    fail("stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position exactly)");
+  }
+  if (script.stiffness && !(*script.stiffness > 0.0)) {
+    fail("stiffness must be > 0 (got " + number_text(*script.stiffness) + ")");
+  }
+  if (script.damping && !(*script.damping >= 0.0)) {
+    fail("damping must be >= 0 (got " + number_text(*script.damping) + ")");
+  }
+  return script;
+}
+
+std::optional<HandScript> try_parse_hand_script(std::string_view text, std::string& error) {
+  try {
+    return parse_hand_script(text);
+  } catch (const std::invalid_argument& e) {
+    error = e.what();
+    return std::nullopt;
+  }
+}
+
+}  // namespace hapticd::drivers::loopback
