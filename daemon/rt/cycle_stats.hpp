@@ -1,0 +1,84 @@
+#pragma once
+/// \file
+/// Per-loop statistics the RT loop updates once per cycle, allocation-free:
+/// cycle count, overruns, missed periods, the current and longest streak of
+/// consecutive overruns (the safety layer zeroes the output on a streak), and
+/// histograms of wake-up latency and compute time. Counters are single-writer
+/// relaxed atomics behind a seqlock, so snapshot() from a non-RT thread is
+/// consistent and never blocks the loop. Each histogram has its own seqlock:
+/// a snapshot's histogram totals may differ from `cycles` by the one cycle
+/// being recorded while it was taken.
+
+#include <atomic>
+#include <cstdint>
+
+#include "daemon/rt/latency_stats.hpp"
+#include "daemon/rt/loop_timing.hpp"
+#include "daemon/rt/seqlock.hpp"
+
+namespace hapticd::rt {
+
+class CycleStats {
+ public:
+  struct Snapshot {
+    std::uint64_t cycles = 0;
+    std::uint64_t overruns = 0;
+    std::uint64_t missed_periods = 0;
+    std::uint64_t overrun_streak = 0;      ///< consecutive overruns ending at the last cycle
+    std::uint64_t max_overrun_streak = 0;
+    HistogramSnapshot latency;
+    HistogramSnapshot compute;
+  };
+
+  /// RT thread, once per cycle: the schedule's wake-up and the time the cycle
+  /// spent computing (read + step + write).
+  void record(const WakeUp& w, Nanos compute) noexcept {
+    version_.write_begin();
+    single_writer_add(cycles_, std::uint64_t{1});
+    if (w.overrun) {
+      single_writer_add(overruns_, std::uint64_t{1});
+      single_writer_add(missed_, w.missed);
+      const std::uint64_t s = streak_.load(std::memory_order_relaxed) + 1;
+      streak_.store(s, std::memory_order_relaxed);
+      if (s > max_streak_.load(std::memory_order_relaxed)) max_streak_.store(s, std::memory_order_relaxed);
+    } else {
+      streak_.store(0, std::memory_order_relaxed);
+    }
+    version_.write_end();
+    latency_.record(w.latency);
+    compute_.record(compute);
+  }
+
+  /// RT thread reads its own streak to decide the configured consequence.
+  std::uint64_t overrun_streak() const noexcept { return streak_.load(std::memory_order_relaxed); }
+
+  /// Any thread. Allocates.
+  Snapshot snapshot() const {
+    Snapshot s;
+    version_.read([&] {
+      s.cycles = cycles_.load(std::memory_order_relaxed);
+      s.overruns = overruns_.load(std::memory_order_relaxed);
+      s.missed_periods = missed_.load(std::memory_order_relaxed);
+      s.overrun_streak = streak_.load(std::memory_order_relaxed);
+      s.max_overrun_streak = max_streak_.load(std::memory_order_relaxed);
+    });
+    s.latency = latency_.snapshot();
+    s.compute = compute_.snapshot();
+    return s;
+  }
+
+  const LatencyHistogram& latency() const noexcept { return latency_; }
+  const LatencyHistogram& compute() const noexcept { return compute_; }
+
+ private:
+  SeqlockVersion version_;
+  std::atomic<std::uint64_t> cycles_{0};
+  std::atomic<std::uint64_t> overruns_{0};
+  std::atomic<std::uint64_t> missed_{0};
+  std::atomic<std::uint64_t> streak_{0};
+  std::atomic<std::uint64_t> max_streak_{0};
+  LatencyHistogram latency_;
+  LatencyHistogram compute_;
+};
+
+}  // namespace hapticd::rt
