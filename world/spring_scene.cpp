@@ -48,9 +48,13 @@ SpringScene<D>::SpringScene(const SpringParameters& parameters, double period_s)
       discretize(spring_continuous_model(parameters, D), period_s, parameters.integrator);
   for (Eigen::Index r = 0; r < 2; ++r) {
     for (Eigen::Index c = 0; c < 2; ++c) ad_[static_cast<std::size_t>(r * 2 + c)] = d.ad(r, c);
-    for (Eigen::Index c = 0; c < static_cast<Eigen::Index>(input_count); ++c) {
-      bd_[static_cast<std::size_t>(r) * input_count + static_cast<std::size_t>(c)] = d.bd(r, c);
-    }
+    if constexpr (relative) bd_velocity_[static_cast<std::size_t>(r)] = d.bd(r, 1);
+  }
+  // step() relies on [y, 0] being an equilibrium of the discretized model.
+  const Eigen::Vector2d e1 = Eigen::Vector2d::UnitX();
+  const double residual = (d.ad * e1 + d.bd.col(0) - e1).cwiseAbs().maxCoeff();
+  if (!(residual <= 1e-9 * (1.0 + d.ad.cwiseAbs().maxCoeff()))) {
+    throw std::logic_error("discretized spring does not keep [y, 0] at rest");
   }
   if constexpr (relative) damping_ = parameters.damping;
 }
@@ -72,9 +76,10 @@ DiscreteLinearScene SpringScene<D>::linear_model() const {
   if constexpr (relative) {
     // y_dot[n] = (y[n] - s2[n]) / T with s2 = y[n-1].
     const double inv_t = estimator_.inverse_period();
+    const auto bd_full = bd();
     for (Eigen::Index r = 0; r < 2; ++r) {
-      const double b_y = bd_[static_cast<std::size_t>(r) * 2];
-      const double b_v = bd_[static_cast<std::size_t>(r) * 2 + 1];
+      const double b_y = bd_full[static_cast<std::size_t>(r) * 2];
+      const double b_v = bd_full[static_cast<std::size_t>(r) * 2 + 1];
       m.b(r, 0) = b_y + b_v * inv_t;
       m.a(r, 2) = -b_v * inv_t;
     }
@@ -83,11 +88,23 @@ DiscreteLinearScene SpringScene<D>::linear_model() const {
     m.c(0, 2) = damping_ * inv_t;
     m.d(0, 0) = -stiffness_ - damping_ * inv_t;
   } else {
-    m.b(0, 0) = bd_[0];
-    m.b(1, 0) = bd_[1];
+    m.b(0, 0) = 1.0 - ad_[0];
+    m.b(1, 0) = -ad_[2];
   }
   m.output_delay_samples = 0;
   return m;
+}
+
+template <SpringDamping D>
+std::array<double, 2 * SpringScene<D>::input_count> SpringScene<D>::bd() const noexcept {
+  std::array<double, 2 * input_count> out{};
+  out[0] = 1.0 - ad_[0];
+  out[input_count] = -ad_[2];
+  if constexpr (relative) {
+    out[1] = bd_velocity_[0];
+    out[3] = bd_velocity_[1];
+  }
+  return out;
 }
 
 template class SpringScene<SpringDamping::none>;

@@ -73,17 +73,21 @@ class SpringScene {
   }
 
   double step(double y) noexcept {
-    const double w = position_;
+    // Deviation form of x[n+1] = Ad x[n] + Bd u[n]: every integrator keeps
+    // [y, 0] an equilibrium for a held y (Ad e1 + Bd_y = e1, checked when
+    // planning), so x[n+1] = [y, 0] + Ad (x[n] - [y, 0]) + Bd_v y_dot. Same
+    // numbers, but no cancellation when y is large (multi-turn wheels).
+    const double stretch = position_ - y;
     const double w_dot = velocity_;
     if constexpr (relative) {
       const double y_dot = estimator_.update(y);
-      position_ = ad_[0] * w + ad_[1] * w_dot + bd_[0] * y + bd_[1] * y_dot;
-      velocity_ = ad_[2] * w + ad_[3] * w_dot + bd_[2] * y + bd_[3] * y_dot;
-      return stiffness_ * (w - y) + damping_ * (w_dot - y_dot);
+      position_ = y + (ad_[0] * stretch + ad_[1] * w_dot + bd_velocity_[0] * y_dot);
+      velocity_ = ad_[2] * stretch + ad_[3] * w_dot + bd_velocity_[1] * y_dot;
+      return stiffness_ * stretch + damping_ * (w_dot - y_dot);
     } else {
-      position_ = ad_[0] * w + ad_[1] * w_dot + bd_[0] * y;
-      velocity_ = ad_[2] * w + ad_[3] * w_dot + bd_[1] * y;
-      return stiffness_ * (w - y);
+      position_ = y + (ad_[0] * stretch + ad_[1] * w_dot);
+      velocity_ = ad_[2] * stretch + ad_[3] * w_dot;
+      return stiffness_ * stretch;
     }
   }
 
@@ -102,12 +106,12 @@ class SpringScene {
   double virtual_velocity() const noexcept { return velocity_; }
   /// Ad row-major (for analysis and tests).
   const std::array<double, 4>& ad() const noexcept { return ad_; }
-  /// Bd row-major, 2 x input_count.
-  const std::array<double, 2 * input_count>& bd() const noexcept { return bd_; }
+  /// Bd row-major, 2 x input_count (column y rebuilt as e1 - Ad e1, see step()).
+  std::array<double, 2 * input_count> bd() const noexcept;
 
  private:
   std::array<double, 4> ad_{};
-  std::array<double, 2 * input_count> bd_{};
+  [[no_unique_address]] std::conditional_t<relative, std::array<double, 2>, detail::Absent<2>> bd_velocity_{};
   double stiffness_;
   double position_ = 0.0;
   double velocity_ = 0.0;
