@@ -1,0 +1,531 @@
+#include "daemon/recorder/recorder.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cstring>
+#include <ctime>
+#include <deque>
+
+#ifndef HAPTICD_VERSION
+#define HAPTICD_VERSION "unknown"
+#endif
+
+namespace hapticd::recorder {
+
+namespace {
+
+std::string errno_text(int error) { return std::strerror(error); }
+
+void append_double(std::string& out, double value) {
+  char buffer[32];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.append(buffer, ec == std::errc{} ? end : buffer);
+}
+
+void append_u64(std::string& out, std::uint64_t value) {
+  char buffer[24];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.append(buffer, ec == std::errc{} ? end : buffer);
+}
+
+/// Current CLOCK_REALTIME as ISO 8601 UTC with nanoseconds, and as seconds.
+std::pair<std::string, std::string> realtime_now() {
+  timespec now{};
+  clock_gettime(CLOCK_REALTIME, &now);
+  std::tm utc{};
+  gmtime_r(&now.tv_sec, &utc);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S", &utc);
+  char nanos[16];
+  std::snprintf(nanos, sizeof nanos, "%09ld", static_cast<long>(now.tv_nsec));
+  return {std::string(date) + "." + nanos + "Z", std::to_string(now.tv_sec) + "." + nanos};
+}
+
+std::string compact_utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y%m%dT%H%M%SZ", &utc);
+  return text;
+}
+
+std::string sanitize(std::string_view name) {
+  std::string out;
+  for (const char c : name) {
+    const bool keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+                      c == '-' || c == '.';
+    out += keep ? c : '_';
+  }
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- FileSink
+
+FileSink::FileSink(const std::filesystem::path& path) : path_(path) {
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+  if (fd_ < 0) {
+    const int error = errno;
+    const std::string message = "cannot create " + path.string() + ": " + errno_text(error);
+    if (error == EEXIST) throw Exists(message);
+    throw RecorderError(message);
+  }
+}
+
+FileSink::~FileSink() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void FileSink::write(std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw RecorderError("write " + path_.string() + ": " + errno_text(errno));
+    }
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
+void FileSink::sync() {
+  if (::fsync(fd_) != 0) throw RecorderError("fsync " + path_.string() + ": " + errno_text(errno));
+}
+
+void FileSink::close() {
+  if (fd_ < 0) return;
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) throw RecorderError("close " + path_.string() + ": " + errno_text(errno));
+}
+
+// ---------------------------------------------------------------- columns
+
+std::string unit_suffix(std::string_view unit) {
+  std::string out;
+  for (std::size_t i = 0; i < unit.size(); ++i) {
+    const char c = unit[i];
+    if (c == '/') {
+      out += "_per_";
+    } else if (c == ' ' || c == '*' || c == '.') {
+      if (!out.empty() && out.back() != '_') out += '_';
+    } else if (c == '^') {
+      // m/s^2 -> m_per_s2
+    } else if (c >= 'A' && c <= 'Z') {
+      out += static_cast<char>(c - 'A' + 'a');
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+namespace {
+std::string with_unit(std::string_view name, std::string_view unit) {
+  const std::string suffix = unit_suffix(unit);
+  std::string base = sanitize(name);
+  if (suffix.empty() || base.ends_with("_" + suffix)) return base;
+  return base + "_" + suffix;
+}
+}  // namespace
+
+std::vector<std::string> column_names(const RecordingHeader& header) {
+  const std::string_view position_unit = header.rotary ? "rad" : "m";
+  const std::string_view force_unit = header.rotary ? "N m" : "N";
+  std::vector<std::string> names = {"time_s", "cycle", with_unit("position", position_unit)};
+  for (const auto& channel : header.channels) names.push_back(with_unit(channel.name, channel.unit));
+  names.push_back(with_unit("command", force_unit));
+  names.push_back(with_unit("applied", force_unit));
+  names.push_back("latency_s");
+  names.push_back("compute_s");
+  names.push_back("flags");
+  return names;
+}
+
+// ---------------------------------------------------------------- Recording
+
+struct Recorder::Recording {
+  std::filesystem::path path;
+  std::unique_ptr<Sink> sink;
+  std::string buffer;
+  std::size_t buffered_samples = 0;
+  RecordingHeader header;
+  std::deque<std::pair<RecordingHeader, std::uint64_t>> next_sections;
+  std::uint64_t sections = 0;
+  std::uint64_t samples_written = 0;  // counted when they reach the sink
+  std::uint64_t dropped_write = 0;
+  std::uint64_t cycle_gaps = 0;
+  std::uint64_t bytes_written = 0;
+  std::uint64_t ring_baseline = 0;
+  std::uint64_t ring_drops = 0;
+  bool have_last_cycle = false;
+  std::uint64_t last_cycle = 0;
+  bool failed = false;
+  std::string error;
+  std::chrono::steady_clock::time_point last_write = std::chrono::steady_clock::now();
+
+  void append_header(std::uint64_t first_cycle) {
+    ++sections;
+    const auto [iso, seconds] = realtime_now();
+    std::string& b = buffer;
+    if (sections == 1) {
+      b += "# hapticd recording\n";
+    } else {
+      b += "# section " + std::to_string(sections) + ": scene changed at cycle " + std::to_string(first_cycle) + "\n";
+    }
+    b += "# hapticd_version: " HAPTICD_VERSION "\n";
+    b += "# section: " + std::to_string(sections) + "\n";
+    b += "# start_utc: " + iso + "\n";
+    b += "# start_clock_realtime_s: " + seconds + "\n";
+    b += "# device: " + header.device + "\n";
+    b += std::string("# motion: ") + (header.rotary ? "rotary" : "linear") + "\n";
+    b += "# clock: " + header.clock + "\n";
+    b += "# period_s: ";
+    append_double(b, header.period_s);
+    b += "\n# scene: " + header.scene + "\n";
+    for (const auto& [name, value] : header.parameters) b += "# parameter " + name + ": " + value + "\n";
+    for (const auto& note : header.notes) b += "# note: " + note + "\n";
+    const std::vector<std::string> names = column_names(header);
+    const std::string_view position_unit = header.rotary ? "rad" : "m";
+    const std::string_view force_unit = header.rotary ? "N m" : "N";
+    b += "# units: time_s s; cycle periods since loop start; " + names[2] + " " + std::string(position_unit);
+    for (std::size_t i = 0; i < header.channels.size(); ++i) {
+      b += "; " + names[3 + i] + " " + (header.channels[i].unit.empty() ? "1" : header.channels[i].unit);
+    }
+    const std::size_t k = 3 + header.channels.size();
+    b += "; " + names[k] + " " + std::string(force_unit) + " (scene output before the limit); " + names[k + 1] + " " +
+         std::string(force_unit) + " (sent to the device); latency_s s; compute_s s\n";
+    b += "# flags: bits 1 fault_latched, 2 torque_limited, 4 read_error, 8 overrun, 16 unstable_forced\n";
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      if (i > 0) b += ',';
+      b += names[i];
+    }
+    b += '\n';
+  }
+
+  void append_sample(const TelemetrySample& s) {
+    if (have_last_cycle && s.cycle > last_cycle + 1) cycle_gaps += s.cycle - last_cycle - 1;
+    have_last_cycle = true;
+    last_cycle = s.cycle;
+    if (failed) {
+      ++dropped_write;
+      return;
+    }
+    std::string& b = buffer;
+    append_double(b, s.time_s);
+    b += ',';
+    append_u64(b, s.cycle);
+    b += ',';
+    append_double(b, s.position);
+    for (std::size_t i = 0; i < header.channels.size(); ++i) {
+      b += ',';
+      if (i < s.channel_count && i < max_telemetry_channels_) {
+        append_double(b, s.channels[i]);
+      } else {
+        b += "nan";
+      }
+    }
+    b += ',';
+    append_double(b, s.command);
+    b += ',';
+    append_double(b, s.applied);
+    b += ',';
+    append_double(b, s.latency_s);
+    b += ',';
+    append_double(b, s.compute_s);
+    b += ',';
+    append_u64(b, s.flags);
+    b += '\n';
+    ++buffered_samples;
+  }
+
+  void write_out() {
+    last_write = std::chrono::steady_clock::now();
+    if (buffer.empty()) return;
+    if (!failed) {
+      try {
+        sink->write(buffer);
+        bytes_written += buffer.size();
+        samples_written += buffered_samples;
+      } catch (const std::exception& e) {
+        failed = true;
+        error = e.what();
+        dropped_write += buffered_samples;
+      }
+    }
+    buffer.clear();
+    buffered_samples = 0;
+  }
+
+  static constexpr std::size_t max_telemetry_channels_ = daemon::max_telemetry_channels;
+};
+
+// ---------------------------------------------------------------- Recorder
+
+Recorder::Recorder(DrainFn drain, RecorderOptions options) : drain_(std::move(drain)), options_(std::move(options)) {
+  if (!drain_) throw RecorderError("recorder: no drain callback");
+  if (options_.batch_samples == 0) options_.batch_samples = 1;
+  if (!options_.sink_factory) {
+    options_.sink_factory = [](const std::filesystem::path& path) { return std::make_unique<FileSink>(path); };
+  }
+  thread_ = std::thread([this] { run(); });
+}
+
+Recorder::~Recorder() {
+  bool active = false;
+  {
+    std::lock_guard lock(mutex_);
+    active = active_;
+  }
+  if (active) {
+    try {
+      stop();
+    } catch (...) {
+      // the status keeps the error; a destructor cannot report it
+    }
+  }
+  {
+    std::lock_guard lock(mutex_);
+    quit_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void Recorder::set_ring_drop_counter(DropCounterFn counter) {
+  std::lock_guard lock(mutex_);
+  ring_drops_ = std::move(counter);
+}
+
+std::uint64_t Recorder::ring_drops_now() {
+  DropCounterFn counter;
+  {
+    std::lock_guard lock(mutex_);
+    counter = ring_drops_;
+  }
+  return counter ? counter() : 0;
+}
+
+std::filesystem::path Recorder::start(const std::string& name, RecordingHeader header) {
+  {
+    std::lock_guard lock(mutex_);
+    if (active_) throw RecorderError("a recording is already active: " + status_.path.string());
+  }
+  std::string file = name.empty() ? "hapticd-" + sanitize(header.scene) + "-" + compact_utc_now() + ".csv" : name;
+  if (file.find('/') != std::string::npos || file == "." || file == ".." || file.find('\0') != std::string::npos) {
+    throw RecorderError("recording name '" + name + "' is not a file name; accepted: a file name without '/', created in " +
+                        options_.directory.string());
+  }
+  if (!std::filesystem::path(file).has_extension()) file += ".csv";
+  std::error_code ec;
+  std::filesystem::create_directories(options_.directory, ec);
+  if (ec) throw RecorderError("cannot create " + options_.directory.string() + ": " + ec.message());
+
+  auto rec = std::make_unique<Recording>();
+  const std::filesystem::path wanted = options_.directory / file;
+  const std::string stem = wanted.stem().string();
+  const std::string extension = wanted.extension().string();
+  for (int attempt = 0; attempt <= 999 && !rec->sink; ++attempt) {
+    const std::filesystem::path candidate =
+        attempt == 0 ? wanted : options_.directory / (stem + "-" + std::to_string(attempt) + extension);
+    try {
+      rec->sink = options_.sink_factory(candidate);
+      rec->path = candidate;
+    } catch (const FileSink::Exists&) {
+      continue;
+    }
+  }
+  if (!rec->sink) throw RecorderError("cannot create " + wanted.string() + ": it and its -1 .. -999 variants exist");
+
+  rec->buffer.reserve(options_.buffer_bytes + 65536);
+  rec->header = std::move(header);
+  rec->append_header(0);
+  rec->ring_baseline = ring_drops_now();
+  const std::filesystem::path path = rec->path;
+  {
+    std::lock_guard lock(mutex_);
+    if (active_) throw RecorderError("a recording is already active: " + status_.path.string());
+    active_ = true;
+    pending_start_ = std::move(rec);
+    pending_scenes_.clear();
+    status_ = RecorderStatus{};
+    status_.recording = true;
+    status_.path = path;
+    status_.sections = 1;
+  }
+  wake_.notify_all();
+  return path;
+}
+
+void Recorder::set_scene(RecordingHeader header, std::uint64_t first_cycle) {
+  {
+    std::lock_guard lock(mutex_);
+    if (!active_) return;
+    pending_scenes_.emplace_back(std::move(header), first_cycle);
+  }
+  wake_.notify_all();
+}
+
+RecorderStatus Recorder::stop() {
+  std::unique_lock lock(mutex_);
+  if (!active_) throw RecorderError("no recording is active");
+  stop_requested_ = true;
+  wake_.notify_all();
+  done_.wait(lock, [this] { return !active_; });
+  return status_;
+}
+
+std::uint64_t Recorder::add_stream(StreamFn stream) {
+  std::lock_guard lock(streams_mutex_);
+  const std::uint64_t id = next_stream_id_++;
+  streams_.emplace_back(id, std::move(stream));
+  return id;
+}
+
+void Recorder::remove_stream(std::uint64_t id) {
+  std::lock_guard lock(streams_mutex_);
+  std::erase_if(streams_, [id](const auto& entry) { return entry.first == id; });
+}
+
+RecorderStatus Recorder::status() const {
+  RecorderStatus copy;
+  DropCounterFn counter;
+  {
+    std::lock_guard lock(mutex_);
+    copy = status_;
+    counter = ring_drops_;
+  }
+  copy.samples_drained = samples_drained_.load(std::memory_order_relaxed);
+  if (counter) copy.dropped_ring_total = counter();
+  return copy;
+}
+
+void Recorder::publish_status() {
+  if (!recording_) return;
+  const Recording& rec = *recording_;
+  std::lock_guard lock(mutex_);
+  status_.recording = true;
+  status_.path = rec.path;
+  status_.sections = rec.sections;
+  status_.samples_written = rec.samples_written;
+  status_.dropped_write = rec.dropped_write;
+  status_.dropped_ring = rec.ring_drops;
+  status_.cycle_gaps = rec.cycle_gaps;
+  status_.bytes_written = rec.bytes_written;
+  status_.error = rec.error;
+}
+
+void Recorder::take_requests(std::unique_lock<std::mutex>& lock) {
+  if (pending_start_) recording_ = std::move(pending_start_);
+  if (recording_) {
+    for (auto& scene : pending_scenes_) recording_->next_sections.push_back(std::move(scene));
+  }
+  pending_scenes_.clear();
+  (void)lock;
+}
+
+void Recorder::record(std::span<const TelemetrySample> batch) {
+  Recording& rec = *recording_;
+  for (const TelemetrySample& sample : batch) {
+    while (!rec.next_sections.empty() && sample.cycle >= rec.next_sections.front().second) {
+      rec.header = std::move(rec.next_sections.front().first);
+      const std::uint64_t first_cycle = rec.next_sections.front().second;
+      rec.next_sections.pop_front();
+      rec.append_header(std::max(first_cycle, sample.cycle));
+    }
+    rec.append_sample(sample);
+  }
+  if (rec.buffer.size() >= options_.buffer_bytes) rec.write_out();
+}
+
+void Recorder::finish() {
+  Recording& rec = *recording_;
+  rec.ring_drops = ring_drops_now() - rec.ring_baseline;
+  const auto [iso, seconds] = realtime_now();
+  rec.write_out();  // the samples first, so samples_written is final
+  std::string tail = "# stop_utc: " + iso + "\n# stop_clock_realtime_s: " + seconds + "\n";
+  tail += "# samples_written: " + std::to_string(rec.samples_written) + "\n";
+  tail += "# cycle_gaps: " + std::to_string(rec.cycle_gaps) + "\n";
+  tail += "# dropped " + std::to_string(rec.ring_drops + rec.dropped_write) + " samples (ring full: " +
+          std::to_string(rec.ring_drops) + ", write failed: " + std::to_string(rec.dropped_write) + ")\n";
+  rec.buffer = tail;
+  rec.buffered_samples = 0;
+  rec.write_out();
+  if (!rec.failed) {
+    try {
+      rec.sink->sync();
+    } catch (const std::exception& e) {
+      rec.failed = true;
+      rec.error = e.what();
+    }
+  }
+  try {
+    rec.sink->close();
+  } catch (const std::exception& e) {
+    if (rec.error.empty()) rec.error = e.what();
+    rec.failed = true;
+  }
+  publish_status();
+  recording_.reset();
+}
+
+void Recorder::run() {
+  std::vector<TelemetrySample> batch(options_.batch_samples);
+  const auto flush_interval = std::chrono::duration<double>(options_.flush_interval_s);
+  const auto idle_wait = std::chrono::duration<double>(options_.idle_wait_s);
+  for (;;) {
+    bool stop_now = false;
+    bool quit = false;
+    {
+      std::unique_lock lock(mutex_);
+      take_requests(lock);
+      stop_now = stop_requested_;
+      quit = quit_;
+    }
+    // On stop, drain what the ring holds now (bounded: the RT side keeps pushing).
+    std::size_t rounds = stop_now ? 64 : 1;
+    std::size_t n = 0;
+    do {
+      n = drain_(std::span<TelemetrySample>(batch));
+      if (n > batch.size()) n = batch.size();
+      samples_drained_.fetch_add(n, std::memory_order_relaxed);
+      const std::span<const TelemetrySample> drained(batch.data(), n);
+      if (n > 0) {
+        std::lock_guard lock(streams_mutex_);
+        for (auto& [id, stream] : streams_) stream(drained);
+      }
+      if (n > 0 && recording_) record(drained);
+    } while (--rounds > 0 && n == batch.size());
+
+    if (recording_) {
+      if (std::chrono::steady_clock::now() - recording_->last_write >= flush_interval) recording_->write_out();
+      recording_->ring_drops = ring_drops_now() - recording_->ring_baseline;
+      if (stop_now) {
+        finish();
+      } else {
+        publish_status();
+      }
+    }
+    if (stop_now) {
+      {
+        std::lock_guard lock(mutex_);
+        stop_requested_ = false;
+        active_ = false;
+        status_.recording = false;
+      }
+      done_.notify_all();
+    }
+    if (quit) return;
+    if (n < batch.size()) {
+      std::unique_lock lock(mutex_);
+      wake_.wait_for(lock, idle_wait, [this] { return quit_ || stop_requested_ || pending_start_ != nullptr; });
+    }
+  }
+}
+
+}  // namespace hapticd::recorder
