@@ -1,0 +1,128 @@
+// Client library pieces that need no server: the socket path rule,
+// connection failures, name=value parsing.
+
+#include <cerrno>
+#include <cstdlib>
+#include <string>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "client/assignment.hpp"
+#include "client/client.hpp"
+#include "client/socket_path.hpp"
+#include "control_test_util.hpp"
+
+using namespace std::chrono_literals;
+using hapticd::client::AssignmentError;
+using hapticd::client::Client;
+using hapticd::client::ConnectError;
+using hapticd::client::parse_assignment;
+using hapticd::client::parse_assignments;
+using hapticd::client::parse_value;
+using hapticd::client::resolve_socket_path;
+using nlohmann::json;
+
+namespace {
+
+class EnvGuard {
+ public:
+  explicit EnvGuard(const char* name) : name_(name) {
+    if (const char* v = std::getenv(name)) saved_ = v;
+  }
+  ~EnvGuard() {
+    if (saved_) ::setenv(name_, saved_->c_str(), 1);
+    else ::unsetenv(name_);
+  }
+  EnvGuard(const EnvGuard&) = delete;
+  EnvGuard& operator=(const EnvGuard&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> saved_;
+};
+
+TEST(SocketPath, ResolutionOrder) {
+  EnvGuard a("RUNTIME_DIRECTORY"), b("XDG_RUNTIME_DIR");
+  ::setenv("RUNTIME_DIRECTORY", "/run/hapticd", 1);
+  ::setenv("XDG_RUNTIME_DIR", "/run/user/1000", 1);
+  EXPECT_EQ(resolve_socket_path("/etc/custom.sock"), "/etc/custom.sock");
+  EXPECT_EQ(resolve_socket_path(), "/run/hapticd/hapticd.sock");
+  ::setenv("RUNTIME_DIRECTORY", "/run/hapticd/:/run/other", 1);
+  EXPECT_EQ(resolve_socket_path(), "/run/hapticd/hapticd.sock");
+  ::unsetenv("RUNTIME_DIRECTORY");
+  EXPECT_EQ(resolve_socket_path(), "/run/user/1000/hapticd.sock");
+  ::setenv("XDG_RUNTIME_DIR", "", 1);
+  EXPECT_EQ(resolve_socket_path(), "/tmp/hapticd-" + std::to_string(::geteuid()) + ".sock");
+  ::unsetenv("XDG_RUNTIME_DIR");
+  EXPECT_EQ(resolve_socket_path(), "/tmp/hapticd-" + std::to_string(::geteuid()) + ".sock");
+}
+
+TEST(ClientConnect, MissingSocketIsConnectErrorNamingThePath) {
+  hapticd::control::test::TempDir dir;
+  std::string path = dir.file("absent.sock");
+  try {
+    Client::connect(path, 1s);
+    FAIL() << "connected to nothing";
+  } catch (const ConnectError& e) {
+    EXPECT_EQ(e.error_number(), ENOENT);
+    EXPECT_EQ(e.path(), path);
+    EXPECT_EQ(std::string(e.what()),
+              "hapticd is not running at " + path + " (connect: No such file or directory)");
+  }
+  EXPECT_THROW(Client::connect(std::string(200, 'x'), 1s), ConnectError);
+}
+
+TEST(Assignment, ValuesBecomeTypedJson) {
+  EXPECT_EQ(parse_value("2"), json(2));
+  EXPECT_TRUE(parse_value("2").is_number_integer());
+  EXPECT_EQ(parse_value("-3"), json(-3));
+  EXPECT_EQ(parse_value("+4"), json(4));
+  EXPECT_EQ(parse_value("2.5"), json(2.5));
+  EXPECT_TRUE(parse_value("2.0").is_number_float());
+  EXPECT_EQ(parse_value("1e3"), json(1000.0));
+  EXPECT_EQ(parse_value("-.5"), json(-0.5));
+  EXPECT_EQ(parse_value("5."), json(5.0));
+  EXPECT_EQ(parse_value("true"), json(true));
+  EXPECT_EQ(parse_value("false"), json(false));
+  EXPECT_EQ(parse_value("null"), json(nullptr));
+  // Names, not numbers.
+  EXPECT_EQ(parse_value("forward-euler"), json("forward-euler"));
+  EXPECT_EQ(parse_value("nan"), json("nan"));
+  EXPECT_EQ(parse_value("inf"), json("inf"));
+  EXPECT_EQ(parse_value("0x10"), json("0x10"));
+  EXPECT_EQ(parse_value("1e999"), json("1e999"));
+  EXPECT_EQ(parse_value("1e"), json("1e"));
+  EXPECT_EQ(parse_value("."), json("."));
+  EXPECT_EQ(parse_value("-"), json("-"));
+  EXPECT_EQ(parse_value("3kg"), json("3kg"));
+  EXPECT_EQ(parse_value("True"), json("True"));
+  EXPECT_EQ(parse_value(""), json(""));
+  // Quotes force a string.
+  EXPECT_EQ(parse_value("\"2\""), json("2"));
+  EXPECT_EQ(parse_value("'true'"), json("true"));
+  // Integers too large for int64 stay numbers (as doubles).
+  EXPECT_TRUE(parse_value("99999999999999999999").is_number_float());
+}
+
+TEST(Assignment, NameValuePairs) {
+  auto [name, value] = parse_assignment("K=2000");
+  EXPECT_EQ(name, "K");
+  EXPECT_EQ(value, json(2000));
+  EXPECT_EQ(parse_assignment("path=a=b").second, json("a=b"));
+  EXPECT_EQ(parse_assignment("s=").second, json(""));
+  EXPECT_THROW(parse_assignment("K"), AssignmentError);
+  EXPECT_THROW(parse_assignment("=3"), AssignmentError);
+  EXPECT_EQ(parse_assignments({"k=1", "integrator=rk4", "force=true"}),
+            json({{"k", 1}, {"integrator", "rk4"}, {"force", true}}));
+  EXPECT_EQ(parse_assignments({}), json::object());
+  EXPECT_THROW(parse_assignments({"k=1", "k=2"}), AssignmentError);
+  try {
+    parse_assignment("oops");
+  } catch (const AssignmentError& e) {
+    EXPECT_NE(std::string(e.what()).find("name=value"), std::string::npos);
+  }
+}
+
+}  // namespace

@@ -1,0 +1,563 @@
+// ControlServer driven by the Client and by raw sockets.
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <string>
+
+#include <grp.h>
+#include <pwd.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "client/client.hpp"
+#include "control_test_util.hpp"
+#include "daemon/control/server.hpp"
+
+using namespace std::chrono_literals;
+using hapticd::client::Client;
+using hapticd::client::ConnectError;
+using hapticd::control::Access;
+using hapticd::control::ControlServer;
+using hapticd::control::PeerInfo;
+using hapticd::control::ServerError;
+using hapticd::control::ServerOptions;
+using hapticd::control::test::eventually;
+using hapticd::control::test::RawPeer;
+using hapticd::control::test::TempDir;
+using hapticd::rpc::RpcError;
+using nlohmann::json;
+namespace code = hapticd::rpc::code;
+
+namespace {
+
+int code_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const RpcError& e) {
+    return e.code();
+  }
+  return 0;
+}
+
+json parse(const std::optional<std::string>& line) {
+  if (!line) return json();
+  return json::parse(*line);
+}
+
+class ServerTest : public ::testing::Test {
+ protected:
+  void start(ServerOptions opts = {}) {
+    if (opts.socket_path.empty()) opts.socket_path = dir.file("hapticd.sock");
+    server = std::make_unique<ControlServer>(opts);
+    server->register_method(
+        "echo", [](const json& params, const PeerInfo&) { return params; }, Access::read);
+    server->register_method(
+        "whoami",
+        [](const json&, const PeerInfo& peer) {
+          return json{{"uid", peer.uid}, {"can_write", peer.can_write}, {"client", peer.client_id}};
+        },
+        Access::read);
+    server->register_method(
+        "param.set", [this](const json& params, const PeerInfo&) {
+          ++writes;
+          return json{{"set", params.at("params")}};
+        },
+        Access::write);
+    server->register_method(
+        "typed", [](const json& params, const PeerInfo&) { return json(params.at("k").get<double>() * 2); },
+        Access::read);
+    server->register_method(
+        "refuse",
+        [](const json&, const PeerInfo&) -> json {
+          throw RpcError(code::refused, "K = 20000 N/m is outside the stable region", json{{"limit", 4500.0}});
+        },
+        Access::read);
+    server->register_method(
+        "boom", [](const json&, const PeerInfo&) -> json { throw std::runtime_error("handler exploded"); },
+        Access::read);
+    server->register_method(
+        "count", [this](const json&, const PeerInfo&) { return json(++counted); }, Access::read);
+    server->set_stream_source([](const std::vector<std::string>& channels) {
+      json values = json::object();
+      for (const auto& ch : channels.empty() ? std::vector<std::string>{"position"} : channels) {
+        if (ch != "position" && ch != "torque") {
+          throw RpcError(code::invalid_params, "unknown channel '" + ch + "'", json{{"channel", ch}});
+        }
+        values[ch] = 1.5;
+      }
+      return json{{"t_s", 0.0}, {"values", values}};
+    });
+    server->start();
+    path = server->socket_path();
+  }
+  Client connect() { return Client::connect(path, 2s); }
+
+  TempDir dir;
+  std::unique_ptr<ControlServer> server;
+  std::string path;
+  std::atomic<int> writes{0};
+  std::atomic<int> counted{0};
+};
+
+TEST_F(ServerTest, RoundTrip) {
+  start();
+  auto c = connect();
+  json params{{"a", 1}, {"b", {1, 2, 3}}, {"s", "x"}};
+  EXPECT_EQ(c.call("echo", params), params);
+  EXPECT_EQ(c.call("echo"), json::object());
+  auto me = c.call("whoami");
+  EXPECT_EQ(me["uid"], ::geteuid());
+  EXPECT_TRUE(me["can_write"].get<bool>());
+  EXPECT_EQ(c.call("param.set", {{"params", {{"k", 2}}}})["set"]["k"], 2);
+  EXPECT_EQ(writes.load(), 1);
+}
+
+TEST_F(ServerTest, ErrorsCarryCodeMessageAndData) {
+  start();
+  auto c = connect();
+  try {
+    c.call("no.such.method");
+    FAIL() << "no error";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), code::method_not_found);
+    EXPECT_NE(std::string(e.what()).find("no.such.method"), std::string::npos);
+  }
+  try {
+    c.call("refuse");
+    FAIL() << "no error";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), code::refused);
+    EXPECT_STREQ(e.what(), "K = 20000 N/m is outside the stable region");
+    EXPECT_EQ(e.data()["limit"], 4500.0);
+  }
+  try {
+    c.call("boom");
+    FAIL() << "no error";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), code::internal_error);
+    EXPECT_STREQ(e.what(), "handler exploded");
+  }
+  // A handler reading a missing or wrong-typed member: invalid params.
+  EXPECT_EQ(code_of([&] { c.call("typed", {{"k", "two"}}); }), code::invalid_params);
+  EXPECT_EQ(code_of([&] { c.call("typed", json::object()); }), code::invalid_params);
+  EXPECT_EQ(c.call("typed", {{"k", 2.5}}), 5.0);
+  // Still usable after errors.
+  EXPECT_EQ(c.call("echo", {{"x", 1}}), json({{"x", 1}}));
+}
+
+TEST_F(ServerTest, MalformedRequestsGetStandardErrors) {
+  start();
+  RawPeer p(path);
+  ASSERT_TRUE(p.connected());
+  auto expect_error = [&](const std::string& line, int expected, const json& id) {
+    ASSERT_TRUE(p.send(line + "\n"));
+    auto reply = parse(p.read_line());
+    ASSERT_TRUE(reply.is_object()) << line;
+    EXPECT_EQ(reply["jsonrpc"], "2.0") << line;
+    EXPECT_EQ(reply["error"]["code"], expected) << line;
+    EXPECT_TRUE(reply["error"]["message"].is_string()) << line;
+    EXPECT_EQ(reply["id"], id) << line;
+  };
+  expect_error("{not json", code::parse_error, nullptr);
+  expect_error("\xff\xfe", code::parse_error, nullptr);
+  expect_error("[1,2]", code::invalid_request, nullptr);
+  expect_error("42", code::invalid_request, nullptr);
+  expect_error(R"({"jsonrpc":"2.0","id":{"a":1},"method":"echo"})", code::invalid_request, nullptr);
+  expect_error(R"({"id":1,"method":"echo"})", code::invalid_request, 1);
+  expect_error(R"({"jsonrpc":"1.0","id":2,"method":"echo"})", code::invalid_request, 2);
+  expect_error(R"({"jsonrpc":"2.0","id":3})", code::invalid_request, 3);
+  expect_error(R"({"jsonrpc":"2.0","id":4,"method":7})", code::invalid_request, 4);
+  expect_error(R"({"jsonrpc":"2.0","id":5,"method":"echo","params":[1,2]})", code::invalid_params, 5);
+  expect_error(R"({"jsonrpc":"2.0","id":"s","method":"echo","params":"x"})", code::invalid_params, "s");
+  expect_error(R"({"jsonrpc":"2.0","id":6,"method":"nope"})", code::method_not_found, 6);
+  // A valid request on the same connection, with a string id, CRLF ending.
+  ASSERT_TRUE(p.send("{\"jsonrpc\":\"2.0\",\"id\":\"abc\",\"method\":\"echo\",\"params\":{\"v\":1}}\r\n"));
+  auto ok = parse(p.read_line());
+  EXPECT_EQ(ok["id"], "abc");
+  EXPECT_EQ(ok["result"]["v"], 1);
+}
+
+TEST_F(ServerTest, NotificationsFromClientsAreExecutedWithoutReply) {
+  start();
+  RawPeer p(path);
+  ASSERT_TRUE(p.send(R"({"jsonrpc":"2.0","method":"count"})"
+                     "\n"
+                     R"({"jsonrpc":"2.0","method":"nope"})"
+                     "\n"
+                     R"({"jsonrpc":"2.0","id":9,"method":"count"})"
+                     "\n"));
+  auto reply = parse(p.read_line());
+  EXPECT_EQ(reply["id"], 9);  // nothing was sent for the two notifications
+  EXPECT_EQ(reply["result"], 2);
+}
+
+TEST_F(ServerTest, ThousandMalformedRequestsLeaveServerResponsive) {
+  start();
+  RawPeer p(path);
+  std::string junk;
+  const char* kinds[] = {"{", "]", "nul", "{\"jsonrpc\":\"2.0\",\"id\":1}", "\"str\"", "{\"a\":[1,2,{\"b\":}]}",
+                         "[[[[[[[[[[[[", "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"echo\",\"params\":5}"};
+  for (int i = 0; i < 1000; ++i) junk += std::string(kinds[i % 8]) + "\n";
+  ASSERT_TRUE(p.send(junk));
+  int errors = 0;
+  for (int i = 0; i < 1000; ++i) {
+    auto reply = parse(p.read_line());
+    if (reply.is_object() && reply.contains("error")) ++errors;
+  }
+  EXPECT_EQ(errors, 1000);
+  // The same connection and a new one both still work.
+  ASSERT_TRUE(p.send(R"({"jsonrpc":"2.0","id":1,"method":"echo","params":{"ok":true}})"
+                     "\n"));
+  EXPECT_EQ(parse(p.read_line())["result"]["ok"], true);
+  auto c = connect();
+  EXPECT_EQ(c.call("echo", {{"ok", 1}})["ok"], 1);
+  EXPECT_GE(server->stats().errors, 1000u);
+}
+
+TEST_F(ServerTest, OversizedLineIsRefusedAndConnectionClosed) {
+  ServerOptions o;
+  o.max_message_bytes = 1024;
+  start(o);
+  RawPeer p(path);
+  // Exactly at the limit is fine.
+  std::string fits = R"({"jsonrpc":"2.0","id":1,"method":"echo","params":{"s":")";
+  fits += std::string(1024 - fits.size() - 3, 'x') + "\"}}";
+  ASSERT_EQ(fits.size(), 1024u);
+  ASSERT_TRUE(p.send(fits + "\n"));
+  EXPECT_EQ(parse(p.read_line())["id"], 1);
+  // Over the limit, even without a newline yet.
+  ASSERT_TRUE(p.send(std::string(3000, 'y')));
+  auto reply = parse(p.read_line());
+  EXPECT_EQ(reply["error"]["code"], code::message_too_large);
+  EXPECT_EQ(reply["error"]["data"]["limit"], 1024);
+  EXPECT_TRUE(p.closed_within(2s));
+  // The server carries on.
+  auto c = connect();
+  EXPECT_EQ(c.call("echo", {{"a", 1}})["a"], 1);
+}
+
+TEST_F(ServerTest, TooManyClientsGetBusy) {
+  ServerOptions o;
+  o.max_clients = 2;
+  start(o);
+  auto a = connect();
+  auto b = connect();
+  EXPECT_EQ(a.call("echo", {{"n", 1}})["n"], 1);
+  EXPECT_EQ(b.call("echo", {{"n", 2}})["n"], 2);
+  {
+    auto extra = connect();
+    try {
+      extra.call("echo");
+      FAIL() << "third client was served";
+    } catch (const RpcError& e) {
+      EXPECT_EQ(e.code(), code::busy);
+      EXPECT_EQ(e.data()["limit"], 2);
+    } catch (const ConnectError&) {
+      FAIL() << "expected the busy error line before the close";
+    }
+  }
+  // Free a slot: a new client is served again.
+  { Client gone = std::move(a); }
+  ASSERT_TRUE(eventually([&] { return server->stats().clients < 2; }));
+  auto again = connect();
+  EXPECT_EQ(again.call("echo", {{"n", 3}})["n"], 3);
+  EXPECT_EQ(server->stats().refused_busy, 1u);
+}
+
+TEST_F(ServerTest, IdleClientsAreDisconnectedButSubscribersAreNot) {
+  ServerOptions o;
+  o.idle_timeout = 300ms;
+  start(o);
+  RawPeer idle(path);
+  auto subscriber = connect();
+  subscriber.subscribe(20);
+  // A client that keeps talking stays.
+  auto busy = connect();
+  auto t0 = std::chrono::steady_clock::now();
+  bool closed = false;
+  while (std::chrono::steady_clock::now() - t0 < 3s && !closed) {
+    busy.call("echo");
+    closed = idle.closed_within(100ms);
+  }
+  EXPECT_TRUE(closed) << "idle client not disconnected";
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, 250ms);
+  // Twice the timeout later, the talker and the silent subscriber are still there.
+  for (int i = 0; i < 6; ++i) {
+    std::this_thread::sleep_for(100ms);
+    ASSERT_NO_THROW(busy.call("echo"));
+  }
+  EXPECT_NO_THROW(subscriber.unsubscribe()) << "subscriber was dropped as idle";
+  EXPECT_GE(server->stats().idle_disconnects, 1u);
+}
+
+TEST_F(ServerTest, StreamDeliversNotificationsAtRequestedRate) {
+  start();
+  auto c = connect();
+  auto r = c.subscribe(50, {"position", "torque"});
+  EXPECT_EQ(r["rate_hz"], 50.0);
+  EXPECT_EQ(r["channels"], json({"position", "torque"}));
+  int received = 0;
+  std::uint64_t last_seq = 0;
+  auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < 1s) {
+    auto n = c.read_notification(100ms);
+    if (!n) continue;
+    EXPECT_EQ((*n)["method"], "telemetry");
+    const auto& p = (*n)["params"];
+    EXPECT_EQ(p["values"]["position"], 1.5);
+    EXPECT_EQ(p["values"]["torque"], 1.5);
+    if (received > 0) {
+      EXPECT_GT(p["seq"].get<std::uint64_t>(), last_seq);
+    }
+    last_seq = p["seq"].get<std::uint64_t>();
+    ++received;
+  }
+  // 50 expected; the host stalls the VM now and then, so wide bounds.
+  EXPECT_GE(received, 15);
+  EXPECT_LE(received, 60);
+  // Calls still work while streaming; notifications are queued meanwhile.
+  EXPECT_EQ(c.call("echo", {{"x", 1}})["x"], 1);
+  auto stop = c.unsubscribe();
+  EXPECT_GE(stop["sent"].get<int>(), received);
+  // After the stop, the stream ends (allow samples already in flight).
+  while (c.read_notification(100ms)) {
+  }
+  EXPECT_FALSE(c.read_notification(300ms).has_value());
+}
+
+TEST_F(ServerTest, StreamValidatesItsParams) {
+  start();
+  auto c = connect();
+  EXPECT_EQ(code_of([&] { c.call("stream", json::object()); }), code::invalid_params);
+  EXPECT_EQ(code_of([&] { c.call("stream", {{"rate_hz", -1}}); }), code::invalid_params);
+  EXPECT_EQ(code_of([&] { c.call("stream", {{"rate_hz", 1e6}}); }), code::invalid_params);
+  EXPECT_EQ(code_of([&] { c.call("stream", {{"rate_hz", 10}, {"channels", "position"}}); }), code::invalid_params);
+  EXPECT_EQ(code_of([&] { c.subscribe(10, {"nonsense"}); }), code::invalid_params);
+  EXPECT_FALSE(c.read_notification(300ms).has_value());
+  EXPECT_EQ(c.unsubscribe()["subscription"], nullptr);
+}
+
+TEST_F(ServerTest, SlowStreamReaderGetsDropsCountedNotUnboundedMemory) {
+  ServerOptions o;
+  o.max_output_bytes = 4096;
+  start(o);
+  auto c = connect();
+  c.subscribe(1000);
+  // Do not read for a while: the socket buffer and then the queue fill.
+  ASSERT_TRUE(eventually([&] { return server->stats().notifications_dropped > 0; }, 10s));
+  // The client is still connected and, once it reads, sees the drops.
+  std::uint64_t dropped = 0;
+  auto t0 = std::chrono::steady_clock::now();
+  while (dropped == 0 && std::chrono::steady_clock::now() - t0 < 10s) {
+    auto n = c.read_notification(1s);
+    ASSERT_TRUE(n.has_value());
+    dropped = (*n)["params"]["dropped"].get<std::uint64_t>();
+  }
+  EXPECT_GT(dropped, 0u);
+  EXPECT_NO_THROW(c.unsubscribe());
+}
+
+TEST_F(ServerTest, StopRemovesSocketAndClosesClients) {
+  start();
+  auto c = connect();
+  c.call("echo");
+  server->stop();
+  struct stat st {};
+  EXPECT_NE(::lstat(path.c_str(), &st), 0);
+  EXPECT_THROW(c.call("echo"), ConnectError);
+  EXPECT_THROW(Client::connect(path, 1s), ConnectError);
+}
+
+TEST_F(ServerTest, StaleSocketIsReplaced) {
+  std::string p = dir.file("hapticd.sock");
+  {
+    // A socket file nobody listens on: what a crashed daemon leaves.
+    int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    p.copy(addr.sun_path, sizeof(addr.sun_path) - 1);
+    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+    ::close(fd);
+  }
+  ServerOptions o;
+  o.socket_path = p;
+  start(o);
+  auto c = connect();
+  EXPECT_EQ(c.call("echo", {{"a", 1}})["a"], 1);
+}
+
+TEST_F(ServerTest, LiveSocketIsNotTakenOver) {
+  start();
+  ServerOptions o;
+  o.socket_path = path;
+  ControlServer second(o);
+  try {
+    second.start();
+    FAIL() << "second server started on a live socket";
+  } catch (const ServerError& e) {
+    EXPECT_NE(std::string(e.what()).find("already running"), std::string::npos) << e.what();
+  }
+  // The first one is untouched.
+  auto c = connect();
+  EXPECT_EQ(c.call("echo", {{"a", 1}})["a"], 1);
+}
+
+TEST_F(ServerTest, NonSocketFileIsNotRemoved) {
+  std::string p = dir.file("hapticd.sock");
+  { std::ofstream(p) << "precious"; }
+  ServerOptions o;
+  o.socket_path = p;
+  ControlServer s(o);
+  EXPECT_THROW(s.start(), ServerError);
+  std::ifstream in(p);
+  std::string text;
+  in >> text;
+  EXPECT_EQ(text, "precious");
+}
+
+TEST_F(ServerTest, UnknownGroupRefusesToStart) {
+  ServerOptions o;
+  o.socket_path = dir.file("hapticd.sock");
+  o.group = "no-such-group-hapticd-test";
+  ControlServer s(o);
+  try {
+    s.start();
+    FAIL();
+  } catch (const ServerError& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-group-hapticd-test"), std::string::npos);
+  }
+}
+
+// ---- permissions -----------------------------------------------------------
+
+/// A group that exists and is not root's primary group, for ownership tests.
+std::optional<std::pair<std::string, gid_t>> test_group() {
+  for (const char* name : {"adm", "daemon", "users", "nogroup"}) {
+    if (group* g = ::getgrnam(name); g != nullptr && g->gr_gid != 0) return std::make_pair(std::string(name), g->gr_gid);
+  }
+  return std::nullopt;
+}
+
+TEST_F(ServerTest, SocketModeAndGroupOwnership) {
+  auto g = test_group();
+  if (!g) GTEST_SKIP() << "no suitable group on this system";
+  if (::geteuid() != 0) {
+    // chown to a group needs membership without root.
+    GTEST_SKIP() << "needs root to give the socket to an arbitrary group";
+  }
+  ServerOptions o;
+  o.group = g->first;
+  start(o);
+  struct stat st {};
+  ASSERT_EQ(::lstat(path.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 07777, 0660u);
+  EXPECT_EQ(st.st_gid, g->second);
+}
+
+struct ChildResult {
+  int read_code = -1;    // 0: read method succeeded, else RpcError code
+  int write_code = -1;   // 0: write method succeeded, else RpcError code
+  std::string message;   // message of the write refusal
+};
+
+/// Forks, drops to `nobody` with the given primary and supplementary groups,
+/// and calls a read and a write method.
+ChildResult call_as_nobody(const std::string& path, gid_t gid, std::vector<gid_t> groups) {
+  passwd* nobody = ::getpwnam("nobody");
+  int fds[2];
+  if (nobody == nullptr || ::pipe(fds) != 0) return {};
+  uid_t uid = nobody->pw_uid;
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    ::close(fds[0]);
+    int rc = 0;
+    if (::setgroups(groups.size(), groups.data()) != 0 || ::setgid(gid) != 0 || ::setuid(uid) != 0) rc = 100;
+    json out;
+    if (rc == 0) {
+      try {
+        auto c = Client::connect(path, 2s);
+        out["read"] = code_of([&] { c.call("echo", {{"a", 1}}); });
+        try {
+          c.call("param.set", {{"params", {{"k", 1}}}});
+          out["write"] = 0;
+        } catch (const RpcError& e) {
+          out["write"] = e.code();
+          out["message"] = e.what();
+        }
+      } catch (const std::exception& e) {
+        out["fatal"] = e.what();
+      }
+    }
+    std::string s = out.dump();
+    [[maybe_unused]] auto n = ::write(fds[1], s.data(), s.size());
+    ::_exit(rc);
+  }
+  ::close(fds[1]);
+  std::string text;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::read(fds[0], buf, sizeof(buf))) > 0) text.append(buf, static_cast<std::size_t>(n));
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ChildResult r;
+  auto j = json::parse(text, nullptr, false);
+  if (j.is_object() && j.contains("read")) {
+    r.read_code = j["read"];
+    r.write_code = j["write"];
+    r.message = j.value("message", "");
+  } else {
+    r.message = text;
+  }
+  return r;
+}
+
+class PermissionTest : public ServerTest {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "needs root to setuid() a child to nobody";
+    if (::getpwnam("nobody") == nullptr) GTEST_SKIP() << "no user nobody";
+    auto g = test_group();
+    if (!g) GTEST_SKIP() << "no suitable group";
+    group = *g;
+    nogroup = ::getpwnam("nobody")->pw_gid;
+    ASSERT_NE(nogroup, group.second);
+    ::chmod(dir.path().c_str(), 0711);  // nobody must reach the socket
+    ServerOptions o;
+    o.group = group.first;
+    o.mode = 0666;  // let nobody connect: the credential check is under test
+    start(o);
+  }
+  std::pair<std::string, gid_t> group;
+  gid_t nogroup = 0;
+};
+
+TEST_F(PermissionTest, StrangerMayReadButNotWrite) {
+  auto r = call_as_nobody(path, nogroup, {});
+  EXPECT_EQ(r.read_code, 0) << r.message;
+  EXPECT_EQ(r.write_code, code::not_permitted) << r.message;
+  EXPECT_NE(r.message.find("uid " + std::to_string(::getpwnam("nobody")->pw_uid)), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("'" + group.first + "'"), std::string::npos) << r.message;
+  EXPECT_EQ(writes.load(), 0);
+}
+
+TEST_F(PermissionTest, SupplementaryGroupMemberMayWrite) {
+  auto r = call_as_nobody(path, nogroup, {group.second});
+  EXPECT_EQ(r.read_code, 0) << r.message;
+  EXPECT_EQ(r.write_code, 0) << r.message;
+  EXPECT_EQ(writes.load(), 1);
+}
+
+TEST_F(PermissionTest, PrimaryGroupMemberMayWrite) {
+  auto r = call_as_nobody(path, group.second, {});
+  EXPECT_EQ(r.write_code, 0) << r.message;
+  EXPECT_EQ(writes.load(), 1);
+}
+
+}  // namespace
