@@ -1,0 +1,36 @@
+# systemd/install.cmake: install rules for the systemd unit, the sysusers.d
+# entry and the configuration. Included from the top-level CMakeLists.txt
+# (after GNUInstallDirs and the daemon's targets).
+include_guard(GLOBAL)
+include(GNUInstallDirs)
+
+set(HAPTICD_CONFIG_DIR "/etc/hapticd" CACHE PATH
+    "Directory of hapticd.toml (the unit's --config points here)")
+set(HAPTICD_SYSTEMD_UNIT_DIR "${CMAKE_INSTALL_PREFIX}/lib/systemd/system" CACHE PATH
+    "Where hapticd.service is installed (systemd also reads /usr/local/lib/systemd/system)")
+set(HAPTICD_SYSUSERS_DIR "${CMAKE_INSTALL_PREFIX}/lib/sysusers.d" CACHE PATH
+    "Where the sysusers.d entry is installed")
+
+set(HAPTICD_BINARY "${CMAKE_INSTALL_FULL_BINDIR}/hapticd")
+set(HAPTICD_DOC_DIR "${CMAKE_INSTALL_FULL_DOCDIR}")
+set(HAPTICD_GENERATED_UNIT "${PROJECT_BINARY_DIR}/systemd/hapticd.service")
+configure_file(${CMAKE_CURRENT_LIST_DIR}/hapticd.service.in ${HAPTICD_GENERATED_UNIT} @ONLY)
+
+install(FILES ${HAPTICD_GENERATED_UNIT} DESTINATION ${HAPTICD_SYSTEMD_UNIT_DIR} COMPONENT systemd)
+install(FILES ${CMAKE_CURRENT_LIST_DIR}/hapticd.sysusers DESTINATION ${HAPTICD_SYSUSERS_DIR}
+        RENAME hapticd.conf COMPONENT systemd)
+
+# The installed configuration: never overwrite a file the administrator edited.
+set(_hapticd_config_src "${CMAKE_CURRENT_LIST_DIR}/../config/hapticd.toml")
+install(CODE "
+  set(_dest \"\$ENV{DESTDIR}${HAPTICD_CONFIG_DIR}\")
+  if(EXISTS \"\${_dest}/hapticd.toml\")
+    message(STATUS \"Keeping existing: \${_dest}/hapticd.toml\")
+  else()
+    file(INSTALL \"${_hapticd_config_src}\" DESTINATION \"\${_dest}\" FILE_PERMISSIONS OWNER_READ OWNER_WRITE GROUP_READ WORLD_READ)
+  endif()
+" COMPONENT config)
+# Every example, for reference.
+file(GLOB _hapticd_examples ${CMAKE_CURRENT_LIST_DIR}/../config/*.toml)
+install(FILES ${_hapticd_examples} DESTINATION ${CMAKE_INSTALL_DATADIR}/hapticd/examples COMPONENT config)
+install(FILES ${CMAKE_CURRENT_LIST_DIR}/../docs/config.md DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT config OPTIONAL)
