@@ -1,0 +1,294 @@
+// The loopback device's plant against closed forms: free mass, viscous
+// damping, Coulomb friction with stiction, encoder, saturation, delay,
+// two-mass static deflection and cable mode.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "drivers/loopback/loopback_device.hpp"
+
+namespace {
+
+using hapticd::drivers::IoResult;
+using hapticd::drivers::Motion;
+using hapticd::drivers::Reading;
+using namespace hapticd::drivers::loopback;
+
+LoopbackConfig rotary_rigid(double mass, double damping = 0.0) {
+  LoopbackConfig config = LoopbackConfig::defaults(Motion::rotary);
+  config.mass = mass;
+  config.damping = damping;
+  return config;
+}
+
+TEST(LoopbackPlant, FreeMassUnderConstantForceIsParabolaAtSampleTimes) {
+  const LoopbackConfig config = rotary_rigid(0.01);
+  LoopbackDevice device(config);
+  device.start();
+  const double force = 0.01;
+  const double res = config.resolution();
+  for (int n = 1; n <= 500; ++n) {
+    ASSERT_EQ(device.write(force), IoResult::ok);
+    const double t = n * config.period_s;
+    const auto s = device.snapshot();
+    EXPECT_EQ(s.period, static_cast<std::uint64_t>(n));
+    EXPECT_NEAR(s.motor_position, force * t * t / (2.0 * config.mass), 1e-12) << "n=" << n;
+    EXPECT_NEAR(s.motor_velocity, force * t / config.mass, 1e-12) << "n=" << n;
+    Reading r;
+    ASSERT_EQ(device.read(r), IoResult::ok);
+    // Encoder truncation: the reading lies in (x - res, x].
+    EXPECT_LE(r.position, s.motor_position + 1e-12);
+    EXPECT_GT(r.position, s.motor_position - res - 1e-12);
+  }
+}
+
+TEST(LoopbackPlant, ViscousDampingMatchesClosedForm) {
+  LoopbackConfig config = LoopbackConfig::defaults(Motion::linear);
+  config.mass = 0.1;
+  config.damping = 2.0;
+  LoopbackDevice device(config);
+  device.start();
+  const double f = 1.0, m = config.mass, b = config.damping;
+  for (int n = 1; n <= 2000; ++n) {
+    device.write(f);
+    const double t = n * config.period_s;
+    const double x = f / b * t - f * m / (b * b) * (1.0 - std::exp(-b * t / m));
+    const double v = f / b * (1.0 - std::exp(-b * t / m));
+    const auto s = device.snapshot();
+    ASSERT_NEAR(s.body_position, x, 1e-12) << "n=" << n;
+    ASSERT_NEAR(s.body_velocity, v, 1e-12) << "n=" << n;
+  }
+}
+
+TEST(LoopbackPlant, CoulombBelowLevelStaysAtRest) {
+  LoopbackConfig config = rotary_rigid(0.01);
+  config.coulomb = 0.1;
+  LoopbackDevice device(config);
+  device.start();
+  for (int n = 0; n < 1000; ++n) device.write(n % 2 == 0 ? 0.099 : -0.05);
+  const auto s = device.snapshot();
+  EXPECT_EQ(s.motor_position, 0.0);
+  EXPECT_EQ(s.motor_velocity, 0.0);
+  EXPECT_TRUE(s.stuck);
+  EXPECT_DOUBLE_EQ(s.friction_force, 0.05);  // stiction balances the last load (-0.05)
+}
+
+TEST(LoopbackPlant, CoulombAboveLevelAcceleratesWithNetForce) {
+  LoopbackConfig config = rotary_rigid(0.01);
+  config.coulomb = 0.1;
+  LoopbackDevice device(config);
+  device.start();
+  for (const double force : {0.3, -0.3}) {
+    device.stop();
+    device.set_initial_state(0.0, 0.0);
+    device.start();
+    const auto start = device.snapshot();
+    for (int n = 1; n <= 300; ++n) {
+      device.write(force);
+      const double t = n * config.period_s;
+      const double net = force - std::copysign(config.coulomb, force);
+      const auto s = device.snapshot();
+      ASSERT_NEAR(s.motor_position, net * t * t / (2.0 * config.mass), 1e-12) << "F=" << force << " n=" << n;
+      ASSERT_FALSE(s.stuck);
+    }
+    EXPECT_EQ(start.motor_position, 0.0);
+  }
+}
+
+TEST(LoopbackPlant, CoulombSlidingMassStopsAndSticks) {
+  LoopbackConfig config = rotary_rigid(0.01);
+  config.coulomb = 0.1;  // deceleration Fc/m = 10 rad/s^2
+  LoopbackDevice device(config);
+  device.set_initial_state(0.0, 1.0);
+  device.start();
+  for (int n = 1; n <= 400; ++n) device.write(0.05);  // below the friction level
+  // v0^2 / (2 (Fc - F)/m) with F helping: deceleration (0.1 - 0.05)/0.01 = 5.
+  const auto s = device.snapshot();
+  EXPECT_TRUE(s.stuck);
+  EXPECT_EQ(s.motor_velocity, 0.0);
+  EXPECT_NEAR(s.motor_position, 1.0 / (2.0 * 5.0), 1e-12);
+  for (int n = 0; n < 100; ++n) device.write(0.05);
+  EXPECT_EQ(device.snapshot().motor_position, s.motor_position);
+}
+
+TEST(LoopbackPlant, EncoderQuantizesToCounts) {
+  const LoopbackConfig config = rotary_rigid(0.01);
+  LoopbackDevice device(config);
+  const double res = 2.0 * std::acos(-1.0) / 16384.0;
+  EXPECT_DOUBLE_EQ(device.info().position_resolution, res);
+  for (int count = -3; count <= 3; ++count) {
+    for (const double fraction : {0.001, 0.5, 0.999}) {
+      device.stop();
+      device.set_initial_state((count + fraction) * res, 0.0);
+      device.start();
+      Reading r;
+      ASSERT_EQ(device.read(r), IoResult::ok);
+      EXPECT_NEAR(r.position, count * res, 1e-15) << count << " + " << fraction;
+    }
+  }
+  LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
+  EXPECT_NEAR(LoopbackDevice(linear).info().position_resolution, 3.14e-6, 1e-18);
+}
+
+TEST(LoopbackPlant, SaturationClampsTheForce) {
+  LoopbackConfig config = rotary_rigid(0.01);
+  config.max_force = 0.8;
+  LoopbackDevice device(config);
+  device.start();
+  ASSERT_EQ(device.write(5.0), IoResult::ok);
+  EXPECT_EQ(device.snapshot().applied_force, 0.8);
+  EXPECT_EQ(device.snapshot().commanded_force, 0.8);
+  ASSERT_EQ(device.write(-5.0), IoResult::ok);
+  EXPECT_EQ(device.snapshot().applied_force, -0.8);
+  ASSERT_EQ(device.write(0.3), IoResult::ok);
+  EXPECT_EQ(device.snapshot().applied_force, 0.3);
+  // Position after +0.8, -0.8, +0.3 held one period each.
+  const double t = config.period_s, m = config.mass;
+  double x = 0.0, v = 0.0;
+  for (const double f : {0.8, -0.8, 0.3}) {
+    x += v * t + f * t * t / (2.0 * m);
+    v += f * t / m;
+  }
+  EXPECT_NEAR(device.snapshot().motor_position, x, 1e-15);
+}
+
+TEST(LoopbackPlant, NonFiniteCommandIsRefusedAndZeroApplied) {
+  LoopbackDevice device(rotary_rigid(0.01));
+  device.start();
+  EXPECT_EQ(device.write(std::nan("")), IoResult::error);
+  EXPECT_EQ(device.snapshot().applied_force, 0.0);
+  EXPECT_EQ(device.status().write_errors, 1U);
+}
+
+TEST(LoopbackPlant, DelayShiftsResponseByExactlyDSamples) {
+  for (const int d : {1, 3, 7}) {
+    LoopbackConfig config = rotary_rigid(0.01, 0.01);
+    LoopbackConfig delayed = config;
+    delayed.delay = d;
+    LoopbackDevice a(config), b(delayed);
+    EXPECT_EQ(b.info().inherent_delay_samples, d);
+    a.start();
+    b.start();
+    std::vector<double> xa, xb;
+    for (int n = 0; n < 300; ++n) {
+      const double f = 0.5 * std::sin(0.05 * n) + (n == 10 ? 0.3 : 0.0);
+      a.write(f);
+      b.write(f);
+      xa.push_back(a.snapshot().motor_position);
+      xb.push_back(b.snapshot().motor_position);
+    }
+    for (int n = 0; n < d; ++n) EXPECT_EQ(xb[n], 0.0) << "d=" << d;
+    for (int n = d; n < 300; ++n) ASSERT_EQ(xb[n], xa[n - d]) << "d=" << d << " n=" << n;
+  }
+}
+
+TEST(LoopbackPlant, WriteBeforeStartIsRefused) {
+  LoopbackDevice device(rotary_rigid(0.01));
+  Reading r;
+  EXPECT_EQ(device.read(r), IoResult::error);
+  EXPECT_EQ(device.write(0.1), IoResult::error);
+  EXPECT_EQ(device.snapshot().period, 0U);
+  device.start();
+  EXPECT_EQ(device.write(0.1), IoResult::ok);
+  device.stop();
+  EXPECT_EQ(device.write(0.1), IoResult::error);
+  EXPECT_EQ(device.snapshot().period, 1U);
+  EXPECT_FALSE(device.status().running);
+}
+
+LoopbackConfig two_mass_linear() {
+  LoopbackConfig config = LoopbackConfig::defaults(Motion::linear);
+  config.plant = PlantKind::two_mass;
+  return config;
+}
+
+TEST(LoopbackTwoMass, InfoReportsTotalMassAndFullModel) {
+  LoopbackDevice device(two_mass_linear());
+  EXPECT_DOUBLE_EQ(device.info().effective_mass, 5.4);
+  EXPECT_DOUBLE_EQ(device.info().viscous_damping, 3.5);
+  ASSERT_TRUE(device.two_mass().has_value());
+  EXPECT_EQ(device.two_mass()->cable_stiffness, 79.5e3);
+  EXPECT_FALSE(LoopbackDevice(rotary_rigid(0.01)).two_mass().has_value());
+}
+
+TEST(LoopbackTwoMass, StaticDeflectionUnderHeldBodyIsForceOverCableStiffness) {
+  LoopbackDevice device(two_mass_linear());
+  device.set_hand(parse_hand_script("mode=hold trajectory=constant position=0"));
+  device.start();
+  const double force = 5.0;
+  for (int n = 0; n < 3000; ++n) device.write(force);
+  const auto s = device.snapshot();
+  EXPECT_EQ(s.body_position, 0.0);
+  EXPECT_NEAR(s.motor_position, force / 79.5e3, 1e-12);
+  EXPECT_NEAR(s.motor_velocity, 0.0, 1e-12);
+  EXPECT_NEAR(s.hand_force, -force, 1e-6);  // the hand resists the cable pull
+  // Motor sensing (default) reads the deflection, quantized to 3.14 um.
+  hapticd::drivers::Reading r;
+  device.read(r);
+  EXPECT_NEAR(r.position, std::floor(force / 79.5e3 / 3.14e-6) * 3.14e-6, 1e-12);
+}
+
+TEST(LoopbackTwoMass, BodySensorReadsTheBody) {
+  LoopbackConfig config = two_mass_linear();
+  config.sensor = hapticd::world::Sensor::body;
+  LoopbackDevice device(config);
+  device.set_hand(parse_hand_script("mode=hold position=0.01"));
+  device.start();
+  for (int n = 0; n < 100; ++n) device.write(5.0);
+  hapticd::drivers::Reading r;
+  device.read(r);
+  EXPECT_NEAR(r.position, std::floor(0.01 / 3.14e-6) * 3.14e-6, 1e-12);
+  EXPECT_NE(device.snapshot().motor_position, device.snapshot().body_position);
+}
+
+TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
+  const LoopbackConfig config = two_mass_linear();
+  LoopbackDevice device(config);
+  device.start();
+  device.write(10.0);  // one-period force pulse, then the free response
+  std::vector<double> d;
+  for (int n = 0; n < 120; ++n) {
+    device.write(0.0);
+    const auto s = device.snapshot();
+    d.push_back(s.motor_position - s.body_position);
+  }
+  // The cable deflection is a sum of three discrete modes (the position
+  // integrator does not show in it): fit d[n+3] = a0 d[n] + a1 d[n+1] + a2 d[n+2].
+  const int rows = static_cast<int>(d.size()) - 3;
+  Eigen::MatrixXd h(rows, 3);
+  Eigen::VectorXd y(rows);
+  for (int n = 0; n < rows; ++n) {
+    h(n, 0) = d[n];
+    h(n, 1) = d[n + 1];
+    h(n, 2) = d[n + 2];
+    y(n) = d[n + 3];
+  }
+  const Eigen::Vector3d a = h.colPivHouseholderQr().solve(y);
+  Eigen::Matrix3d companion = Eigen::Matrix3d::Zero();
+  companion(0, 1) = 1.0;
+  companion(1, 2) = 1.0;
+  companion.row(2) = a.transpose();
+  const Eigen::Vector3cd z = companion.eigenvalues();
+  std::complex<double> lambda_measured;
+  for (int i = 0; i < 3; ++i) {
+    if (z(i).imag() > 0.0) lambda_measured = std::log(z(i)) / config.period_s;
+  }
+  const Eigen::VectorXcd lambda = device.plant_model().dynamics.a.eigenvalues();
+  std::complex<double> lambda_model;
+  for (Eigen::Index i = 0; i < lambda.size(); ++i) {
+    if (lambda(i).imag() > 0.0) lambda_model = lambda(i);
+  }
+  ASSERT_GT(lambda_model.imag(), 0.0);
+  EXPECT_NEAR(lambda_measured.imag(), lambda_model.imag(), 1e-6 * lambda_model.imag());
+  EXPECT_NEAR(lambda_measured.real(), lambda_model.real(), 1e-5 * std::abs(lambda_model));
+  // And near the undamped w_n^2 = k_c m / (m_d m_m) of Diaz & Gil eq. 13.
+  const double wn = std::sqrt(79.5e3 * 5.4 / (5.1 * 0.3));
+  EXPECT_NEAR(std::abs(lambda_model), wn, 0.01 * wn);
+}
+
+}  // namespace
