@@ -4,7 +4,7 @@
 /// cycle count, overruns, missed periods, the current and longest streak of
 /// consecutive overruns (the safety layer zeroes the output on a streak), and
 /// histograms of wake-up latency and compute time. Counters are single-writer
-/// relaxed atomics behind a seqlock, so snapshot() from a non-RT thread is
+/// single-writer atomics behind a seqlock, so snapshot() from a non-RT thread is
 /// consistent and never blocks the loop. Each histogram has its own seqlock:
 /// a snapshot's histogram totals may differ from `cycles` by the one cycle
 /// being recorded while it was taken.
@@ -39,10 +39,10 @@ class CycleStats {
       single_writer_add(overruns_, std::uint64_t{1});
       single_writer_add(missed_, w.missed);
       const std::uint64_t s = streak_.load(std::memory_order_relaxed) + 1;
-      streak_.store(s, std::memory_order_relaxed);
-      if (s > max_streak_.load(std::memory_order_relaxed)) max_streak_.store(s, std::memory_order_relaxed);
+      seq_store(streak_, s);
+      if (s > max_streak_.load(std::memory_order_relaxed)) seq_store(max_streak_, s);
     } else {
-      streak_.store(0, std::memory_order_relaxed);
+      seq_store(streak_, 0);
     }
     version_.write_end();
     latency_.record(w.latency);
@@ -56,11 +56,11 @@ class CycleStats {
   Snapshot snapshot() const {
     Snapshot s;
     version_.read([&] {
-      s.cycles = cycles_.load(std::memory_order_relaxed);
-      s.overruns = overruns_.load(std::memory_order_relaxed);
-      s.missed_periods = missed_.load(std::memory_order_relaxed);
-      s.overrun_streak = streak_.load(std::memory_order_relaxed);
-      s.max_overrun_streak = max_streak_.load(std::memory_order_relaxed);
+      s.cycles = seq_load(cycles_);
+      s.overruns = seq_load(overruns_);
+      s.missed_periods = seq_load(missed_);
+      s.overrun_streak = seq_load(streak_);
+      s.max_overrun_streak = seq_load(max_streak_);
     });
     s.latency = latency_.snapshot();
     s.compute = compute_.snapshot();

@@ -56,22 +56,22 @@ HistogramSnapshot LatencyHistogram::snapshot() const {
   HistogramSnapshot s;
   s.counts.resize(HistogramLayout::bucket_count);
   s.consistent = version_.read([&] {
-    for (std::size_t b = 0; b < buckets_.size(); ++b) s.counts[b] = buckets_[b].load(std::memory_order_relaxed);
-    s.count = count_.load(std::memory_order_relaxed);
-    s.min_ns = min_.load(std::memory_order_relaxed);
-    s.max_ns = max_.load(std::memory_order_relaxed);
-    s.sum_ns = sum_.load(std::memory_order_relaxed);
+    for (std::size_t b = 0; b < buckets_.size(); ++b) s.counts[b] = seq_load(buckets_[b]);
+    s.count = seq_load(count_);
+    s.min_ns = seq_load(min_);
+    s.max_ns = seq_load(max_);
+    s.sum_ns = seq_load(sum_);
   });
   return s;
 }
 
 void LatencyHistogram::reset() noexcept {
   version_.write_begin();
-  for (auto& b : buckets_) b.store(0, std::memory_order_relaxed);
-  count_.store(0, std::memory_order_relaxed);
-  min_.store(0, std::memory_order_relaxed);
-  max_.store(0, std::memory_order_relaxed);
-  sum_.store(0, std::memory_order_relaxed);
+  for (auto& b : buckets_) seq_store(b, 0);
+  seq_store(count_, 0);
+  seq_store(min_, 0);
+  seq_store(max_, 0);
+  seq_store(sum_, 0);
   version_.write_end();
 }
 

@@ -8,7 +8,7 @@
 ///   same resolution as cyclictest's histogram, so the two compare directly),
 ///   then 8 log buckets per octave up to 100 ms (host stalls of 1-43 ms are
 ///   seen here), then one overflow bucket; exact min/max/sum on the side;
-/// - one writer (the RT thread) bumps relaxed atomics inside a seqlock; a
+/// - one writer (the RT thread) bumps single-writer atomics inside a seqlock; a
 ///   non-RT reader takes a consistent snapshot without ever blocking it;
 /// - percentiles are computed outside RT, from the snapshot.
 
@@ -76,10 +76,10 @@ class LatencyHistogram {
     version_.write_begin();
     single_writer_add(buckets_[b], std::uint64_t{1});
     const std::uint64_t n = count_.load(std::memory_order_relaxed);
-    if (n == 0 || ns < min_.load(std::memory_order_relaxed)) min_.store(ns, std::memory_order_relaxed);
-    if (n == 0 || ns > max_.load(std::memory_order_relaxed)) max_.store(ns, std::memory_order_relaxed);
+    if (n == 0 || ns < min_.load(std::memory_order_relaxed)) seq_store(min_, ns);
+    if (n == 0 || ns > max_.load(std::memory_order_relaxed)) seq_store(max_, ns);
     single_writer_add(sum_, ns);
-    count_.store(n + 1, std::memory_order_relaxed);
+    seq_store(count_, n + 1);
     version_.write_end();
   }
 

@@ -95,8 +95,8 @@ class Mailbox {
   Applied applied() const {
     Applied a;
     applied_version_.read([&] {
-      a.seq = applied_seq_.load(std::memory_order_relaxed);
-      a.cycle = applied_cycle_.load(std::memory_order_relaxed);
+      a.seq = seq_load(applied_seq_);
+      a.cycle = seq_load(applied_cycle_);
     });
     return a;
   }
@@ -130,8 +130,8 @@ class Mailbox {
           single_writer_add(retire_failures_, std::uint64_t{1});
         current_ = fresh;
         applied_version_.write_begin();
-        applied_seq_.store(fresh->seq, std::memory_order_relaxed);
-        applied_cycle_.store(cycle, std::memory_order_relaxed);
+        seq_store(applied_seq_, fresh->seq);
+        seq_store(applied_cycle_, cycle);
         applied_version_.write_end();
       }
     }
