@@ -384,8 +384,9 @@ IoResult LoopbackDevice::write(double force) noexcept {
 
 void LoopbackDevice::publish_snapshot() noexcept {
   const std::uint64_t seq = snapshot_seq_.load(std::memory_order_relaxed);
+  // Seqlock without fences (TSAN-clean, Boehm 2012): the data stores are
+  // releases after the odd sequence number, the reader's data loads acquires.
   snapshot_seq_.store(seq + 1, std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_release);
   const int sensed = config_.sensor == world::Sensor::motor ? pos_motor_ : pos_body_;
   const std::array<double, 10> values{static_cast<double>(period_) * config_.period_s,
                                       x_[pos_motor_],
@@ -397,10 +398,10 @@ void LoopbackDevice::publish_snapshot() noexcept {
                                       applied_,
                                       hand_force_,
                                       friction_};
-  cells_.period.store(period_, std::memory_order_relaxed);
-  for (std::size_t i = 0; i < values.size(); ++i) cells_.values[i].store(values[i], std::memory_order_relaxed);
-  cells_.stuck.store(stuck_, std::memory_order_relaxed);
-  cells_.released.store(released_, std::memory_order_relaxed);
+  cells_.period.store(period_, std::memory_order_release);
+  for (std::size_t i = 0; i < values.size(); ++i) cells_.values[i].store(values[i], std::memory_order_release);
+  cells_.stuck.store(stuck_, std::memory_order_release);
+  cells_.released.store(released_, std::memory_order_release);
   snapshot_seq_.store(seq + 2, std::memory_order_release);
 }
 
@@ -409,12 +410,11 @@ PlantSnapshot LoopbackDevice::snapshot() const noexcept {
     const std::uint64_t before = snapshot_seq_.load(std::memory_order_acquire);
     if (before & 1U) continue;
     PlantSnapshot s;
-    s.period = cells_.period.load(std::memory_order_relaxed);
+    s.period = cells_.period.load(std::memory_order_acquire);
     std::array<double, 10> v{};
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = cells_.values[i].load(std::memory_order_relaxed);
-    s.stuck = cells_.stuck.load(std::memory_order_relaxed);
-    s.hand_released = cells_.released.load(std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_acquire);
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = cells_.values[i].load(std::memory_order_acquire);
+    s.stuck = cells_.stuck.load(std::memory_order_acquire);
+    s.hand_released = cells_.released.load(std::memory_order_acquire);
     if (snapshot_seq_.load(std::memory_order_relaxed) != before) continue;
     s.time_s = v[0];
     s.motor_position = v[1];

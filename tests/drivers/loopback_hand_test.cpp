@@ -192,9 +192,12 @@ TEST(LoopbackHand, SetHandFromAnotherThreadWhileRunning) {
   LoopbackDevice device(config);
   device.start();
   std::atomic<bool> done{false};
+  std::atomic<int> torn{0};
   std::thread control([&] {
     int i = 0;
     while (!done.load()) {
+      const auto s = device.snapshot();  // consistent: time and period from the same period
+      if (s.time_s != static_cast<double>(s.period) * config.period_s) torn.fetch_add(1);
       device.set_hand(i++ % 2 == 0 ? std::string("mode=impedance stiffness=20 damping=0.5 position=0.1")
                                    : std::string("mode=hold position=0.1"));
     }
@@ -205,6 +208,7 @@ TEST(LoopbackHand, SetHandFromAnotherThreadWhileRunning) {
   }
   done.store(true);
   control.join();
+  EXPECT_EQ(torn.load(), 0);
   device.set_hand("mode=hold position=0.1");
   device.write(0.0);
   EXPECT_EQ(device.snapshot().motor_position, 0.1);
