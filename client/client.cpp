@@ -62,6 +62,11 @@ Client Client::connect(const std::string& path, std::chrono::milliseconds timeou
       if (n == 0) e = ETIMEDOUT;
     }
     ::close(fd);
+    if (e == EACCES || e == EPERM) {
+      throw ConnectError("not allowed to connect to hapticd at " + path + " (connect: " + errno_text(e) +
+                             "); ask to be added to the daemon's group",
+                         path, e);
+    }
     throw ConnectError("hapticd is not running at " + path + " (connect: " + errno_text(e) + ")", path, e);
   }
   return Client(fd, path, timeout);

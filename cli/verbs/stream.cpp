@@ -1,0 +1,108 @@
+// hapticctl stream [--rate HZ] [--count N] [CHANNEL ...]: live telemetry.
+// On a terminal one line refreshes in place; otherwise one line per sample.
+
+#include <csignal>
+#include <iostream>
+
+#include <unistd.h>
+
+#include "cli/verbs.hpp"
+
+namespace hapticctl {
+
+namespace {
+volatile std::sig_atomic_t interrupted = 0;
+extern "C" void on_interrupt(int) { interrupted = 1; }
+
+std::string sample_line(const nlohmann::json& params) {
+  std::string line;
+  auto add = [&line](const std::string& key, const nlohmann::json& value) {
+    line += (line.empty() ? "" : "  ") + detail::display_key(key) + " " + detail::format_value(key, value);
+  };
+  for (const auto& [key, value] : params.items()) {
+    if (key == "values" || key == "dropped") continue;
+    if (!value.is_structured()) add(key, value);
+  }
+  if (params.contains("values") && params["values"].is_object()) {
+    for (const auto& [key, value] : params["values"].items()) add(key, value);
+  }
+  if (params.value("dropped", 0) > 0) add("dropped", params["dropped"]);
+  return line;
+}
+}  // namespace
+
+void add_stream_command(CLI::App& app, CommonOptions& opts) {
+  struct Args {
+    double rate_hz = 10.0;
+    long count = 0;
+    std::vector<std::string> channels;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("stream", "show live telemetry until Ctrl-C (or --count samples)");
+  add_common_options(*cmd, opts);
+  cmd->add_option("--rate", args->rate_hz, "samples per second")->check(CLI::PositiveNumber);
+  cmd->add_option("--count", args->count, "stop after N samples (0: until interrupted)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("channels", args->channels, "channels to show (default: the daemon's set)");
+  cmd->callback([&opts, args] {
+    auto client = detail::connect(opts);
+    interrupted = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_interrupt;  // no SA_RESTART: poll() returns EINTR
+    sigemptyset(&sa.sa_mask);
+    struct sigaction old_int {}, old_term {};
+    ::sigaction(SIGINT, &sa, &old_int);
+    ::sigaction(SIGTERM, &sa, &old_term);
+    const bool tty = ::isatty(STDOUT_FILENO) == 1 && !opts.json;
+    long received = 0;
+    bool ended_on_error = false;
+    try {
+      client.subscribe(args->rate_hz, args->channels);
+      // Wait long enough for the slowest rate before calling it silence.
+      auto patience = std::chrono::milliseconds(static_cast<long long>(1000.0 / args->rate_hz)) +
+                      std::chrono::milliseconds(static_cast<long long>(opts.timeout_s * 1000.0));
+      auto last = std::chrono::steady_clock::now();
+      while (interrupted == 0 && (args->count == 0 || received < args->count)) {
+        auto n = client.read_notification(std::chrono::milliseconds(200));
+        if (!n) {
+          if (std::chrono::steady_clock::now() - last > patience) {
+            std::cerr << (tty && received > 0 ? "\n" : "") << "hapticctl: no telemetry from hapticd for "
+                      << opts.timeout_s << " s\n";
+            ended_on_error = true;
+            break;
+          }
+          continue;
+        }
+        last = std::chrono::steady_clock::now();
+        if (n->value("method", std::string()) != hapticd::rpc::telemetry_method) continue;
+        const auto& params = (*n)["params"];
+        ++received;
+        if (opts.json) {
+          std::cout << params.dump() << '\n' << std::flush;
+        } else if (tty) {
+          std::cout << '\r' << sample_line(params) << "\x1b[K" << std::flush;
+        } else {
+          std::cout << sample_line(params) << '\n' << std::flush;
+        }
+      }
+      if (tty && received > 0) std::cout << '\n';
+      try {
+        client.unsubscribe();
+      } catch (const std::exception&) {
+        // The daemon ends the stream with the connection anyway.
+      }
+    } catch (const Exit&) {
+      throw;
+    } catch (...) {
+      if (tty && received > 0) std::cout << '\n';
+      ::sigaction(SIGINT, &old_int, nullptr);
+      ::sigaction(SIGTERM, &old_term, nullptr);
+      detail::exit_for_current_exception("stream");
+    }
+    ::sigaction(SIGINT, &old_int, nullptr);
+    ::sigaction(SIGTERM, &old_term, nullptr);
+    if (ended_on_error) throw Exit(exit_code::unreachable);
+  });
+}
+
+}  // namespace hapticctl
