@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstddef>
 
-#include <Eigen/Dense>
 #include <benchmark/benchmark.h>
+#include <Eigen/Dense>
 
 #include "world/any_scene.hpp"
 #include "world/scene_catalog.hpp"
@@ -70,8 +70,12 @@ BENCHMARK_TEMPLATE(BM_Wall, WallDamping::none, WallDelay::samples);
 BENCHMARK_TEMPLATE(BM_Wall, WallDamping::backward_difference, WallDelay::none);
 BENCHMARK_TEMPLATE(BM_Wall, WallDamping::backward_difference, WallDelay::samples);
 
-void BM_RelayPlain(benchmark::State& state) { run(state, RelayScene<RelayHysteresis::none>({1.0, 0.0, 0.0})); }
-void BM_RelayBand(benchmark::State& state) { run(state, RelayScene<RelayHysteresis::band>({1.0, 0.002, 0.0})); }
+void BM_RelayPlain(benchmark::State& state) {
+  run(state, RelayScene<RelayHysteresis::none>({1.0, 0.0, 0.0}));
+}
+void BM_RelayBand(benchmark::State& state) {
+  run(state, RelayScene<RelayHysteresis::band>({1.0, 0.002, 0.0}));
+}
 void BM_Free(benchmark::State& state) { run(state, FreeScene{}); }
 BENCHMARK(BM_RelayPlain);
 BENCHMARK(BM_RelayBand);
@@ -139,7 +143,9 @@ void BM_IntegratorAccuracy(benchmark::State& state) {
   scene.reset(0.0);
   for (auto _ : state) benchmark::DoNotOptimize(scene.step(z0));
 }
-BENCHMARK(BM_IntegratorAccuracy)->ArgsProduct({{0, 1, 2, 3, 4}, {1, 10, 100}})->ArgNames({"integrator", "T_1e-4s"});
+BENCHMARK(BM_IntegratorAccuracy)
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {1, 10, 100}})
+    ->ArgNames({"integrator", "T_1e-4s"});
 
 }  // namespace
 

@@ -13,10 +13,10 @@
 
 namespace hapticd::world {
 
-using AnyScene = std::variant<FreeScene,                                    //
-                              SpringScene<SpringDamping::none>,             //
-                              SpringScene<SpringDamping::absolute>,         //
-                              SpringScene<SpringDamping::relative>,         //
+using AnyScene = std::variant<FreeScene,                                      //
+                              SpringScene<SpringDamping::none>,               //
+                              SpringScene<SpringDamping::absolute>,           //
+                              SpringScene<SpringDamping::relative>,           //
                               WallScene<WallDamping::none, WallDelay::none>,  //
                               WallScene<WallDamping::none, WallDelay::samples>,
                               WallScene<WallDamping::backward_difference, WallDelay::none>,

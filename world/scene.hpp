@@ -21,9 +21,12 @@ namespace hapticd::world {
 
 template <class S>
 concept Scene = requires(S scene, const S& const_scene, double y, std::span<double> out) {
-  { scene.reset(y) } noexcept -> std::same_as<void>;
-  { scene.step(y) } noexcept -> std::same_as<double>;
-  { const_scene.channels(out) } noexcept -> std::same_as<void>;
+  { scene.reset(y) }
+  noexcept->std::same_as<void>;
+  { scene.step(y) }
+  noexcept->std::same_as<double>;
+  { const_scene.channels(out) }
+  noexcept->std::same_as<void>;
   { S::channel_count } -> std::convertible_to<std::size_t>;
   requires std::same_as<std::remove_cvref_t<decltype(S::channel_names)>,
                         std::array<std::string_view, S::channel_count>>;

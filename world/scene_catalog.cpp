@@ -49,20 +49,20 @@ std::vector<ParameterDescription> spring_parameters(bool rotary) {
   out.push_back(number("stiffness", k_unit, k_unit, rotary ? d::wheel_stiffness : d::mass_stiffness,
                        "spring k between device and virtual body", 0.0));
   if (rotary) {
-    out.push_back(number("inertia", "kg m^2", "kg m^2", d::wheel_inertia, "virtual wheel inertia J_w", 0.0, true));
+    out.push_back(
+        number("inertia", "kg m^2", "kg m^2", d::wheel_inertia, "virtual wheel inertia J_w", 0.0, true));
   } else {
     out.push_back(number("mass", "kg", "kg", d::mass_mass, "virtual mass m", 0.0, true));
   }
-  ParameterDescription damping =
-      number("damping", b_unit, b_unit, 0.0,
-             "damper b; 'auto' = T k, which makes forward Euler a lossless oscillator (Freudenberg 2.24)", 0.0);
+  ParameterDescription damping = number(
+      "damping", b_unit, b_unit, 0.0,
+      "damper b; 'auto' = T k, which makes forward Euler a lossless oscillator (Freudenberg 2.24)", 0.0);
   damping.accepted = {"auto"};
   out.push_back(std::move(damping));
   out.push_back(enumeration("damping_reference", "relative", {"relative", "absolute"},
                             "relative: b on theta_w_dot - y_dot (2.19-2.22, needs a velocity estimate); "
                             "absolute: b on theta_w_dot against the fixed frame (footnote 2)"));
-  out.push_back(enumeration("integrator", "exact", integrator_list(),
-                            "discretization of the virtual body"));
+  out.push_back(enumeration("integrator", "exact", integrator_list(), "discretization of the virtual body"));
   return out;
 }
 
@@ -75,15 +75,17 @@ std::vector<SceneDescription> build_catalog() {
   out.push_back({"spring-mass", "Freudenberg 2, 2.19-2.24 (linear units)",
                  "virtual mass m on a spring k (and damper b) to the device", spring_parameters(false)});
   {
-    SceneDescription wall{"wall", "Hulin et al. 2006, eq. (1), section 7",
+    SceneDescription wall{"wall",
+                          "Hulin et al. 2006, eq. (1), section 7",
                           "unilateral PD wall: F = -K (y - x_w) - B v while penetrating, delayed d samples",
                           {}};
-    wall.parameters.push_back(number("stiffness", "N/m", "N m/rad", d::wall_stiffness, "wall stiffness K", 0.0));
     wall.parameters.push_back(
-        number("damping", "N s/m", "N m s/rad", d::wall_damping, "wall damping B on the backward-difference velocity", 0.0));
+        number("stiffness", "N/m", "N m/rad", d::wall_stiffness, "wall stiffness K", 0.0));
+    wall.parameters.push_back(number("damping", "N s/m", "N m s/rad", d::wall_damping,
+                                     "wall damping B on the backward-difference velocity", 0.0));
     wall.parameters.push_back(number("position", "m", "rad", 0.0, "wall surface x_w", std::nullopt));
-    wall.parameters.push_back(enumeration("side", "upper", {"upper", "lower"},
-                                          "upper: the wall occupies y > x_w; lower: y < x_w"));
+    wall.parameters.push_back(
+        enumeration("side", "upper", {"upper", "lower"}, "upper: the wall occupies y > x_w; lower: y < x_w"));
     ParameterDescription delay;
     delay.name = "delay";
     delay.type = ParameterType::integer;
@@ -96,8 +98,10 @@ std::vector<SceneDescription> build_catalog() {
     out.push_back(std::move(wall));
   }
   {
-    SceneDescription relay{"relay", "Diaz & Gil, section V (relay experiment)",
-                           "F = -h sign(y - reference), optional hysteresis band", {}};
+    SceneDescription relay{"relay",
+                           "Diaz & Gil, section V (relay experiment)",
+                           "F = -h sign(y - reference), optional hysteresis band",
+                           {}};
     relay.parameters.push_back(number("amplitude", "N", "N m", d::relay_amplitude, "relay amplitude h", 0.0));
     relay.parameters.push_back(number("hysteresis", "m", "rad", 0.0, "hysteresis half-width eps", 0.0));
     relay.parameters.push_back(number("reference", "m", "rad", 0.0, "reference position", std::nullopt));
@@ -207,7 +211,9 @@ std::optional<ParameterValue> validate(const ParameterDescription& p, const Para
   return std::nullopt;
 }
 
-double num(const ParameterSet& set, std::string_view name) { return std::get<double>(set.find(name)->second); }
+double num(const ParameterSet& set, std::string_view name) {
+  return std::get<double>(set.find(name)->second);
+}
 const std::string& text(const ParameterSet& set, std::string_view name) {
   return std::get<std::string>(set.find(name)->second);
 }
@@ -296,10 +302,14 @@ void build_relay(ScenePlan& plan, Motion motion) {
 
 std::string_view to_string(ParameterType type) noexcept {
   switch (type) {
-    case ParameterType::number: return "number";
-    case ParameterType::integer: return "integer";
-    case ParameterType::enumeration: return "enum";
-    case ParameterType::boolean: return "bool";
+    case ParameterType::number:
+      return "number";
+    case ParameterType::integer:
+      return "integer";
+    case ParameterType::enumeration:
+      return "enum";
+    case ParameterType::boolean:
+      return "bool";
   }
   return "?";
 }

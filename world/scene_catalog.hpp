@@ -65,7 +65,7 @@ struct ScenePlan {
   AnyScene scene_object;
   std::vector<ChannelDescription> channels;
   std::optional<DiscreteLinearScene> linear;  ///< spring scenes; wall: the in-contact law
-  std::vector<std::string> notes;            ///< e.g. how damping=auto was resolved
+  std::vector<std::string> notes;             ///< e.g. how damping=auto was resolved
 };
 
 using PlanResult = std::variant<ScenePlan, SceneError>;

@@ -10,7 +10,8 @@ namespace {
 
 void check(const SpringParameters& p, double period_s, SpringDamping kind) {
   if (!(std::isfinite(period_s) && period_s > 0.0)) throw std::invalid_argument("period must be > 0");
-  if (!(std::isfinite(p.stiffness) && p.stiffness >= 0.0)) throw std::invalid_argument("stiffness must be >= 0");
+  if (!(std::isfinite(p.stiffness) && p.stiffness >= 0.0))
+    throw std::invalid_argument("stiffness must be >= 0");
   if (!(std::isfinite(p.inertia) && p.inertia > 0.0)) throw std::invalid_argument("inertia must be > 0");
   if (!(std::isfinite(p.damping) && p.damping >= 0.0)) throw std::invalid_argument("damping must be >= 0");
   if (kind == SpringDamping::none && p.damping != 0.0) {

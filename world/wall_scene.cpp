@@ -9,7 +9,8 @@ namespace {
 
 void check(const WallParameters& p, double period_s, WallDamping damping, WallDelay delay) {
   if (!(std::isfinite(period_s) && period_s > 0.0)) throw std::invalid_argument("period must be > 0");
-  if (!(std::isfinite(p.stiffness) && p.stiffness >= 0.0)) throw std::invalid_argument("stiffness must be >= 0");
+  if (!(std::isfinite(p.stiffness) && p.stiffness >= 0.0))
+    throw std::invalid_argument("stiffness must be >= 0");
   if (!(std::isfinite(p.damping) && p.damping >= 0.0)) throw std::invalid_argument("damping must be >= 0");
   if (!std::isfinite(p.position)) throw std::invalid_argument("position must be finite");
   if (damping == WallDamping::none && p.damping != 0.0) {

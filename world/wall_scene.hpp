@@ -41,7 +41,7 @@ struct WallParameters {
   double damping = 4.6;       ///< B, N s/m, >= 0; must be 0 for WallDamping::none
   double position = 0.0;      ///< x_w, m (or rad)
   WallSide side = WallSide::upper;
-  int delay_samples = 1;      ///< d in 0..max_wall_delay_samples; 0 for WallDelay::none, >= 1 otherwise
+  int delay_samples = 1;  ///< d in 0..max_wall_delay_samples; 0 for WallDelay::none, >= 1 otherwise
 };
 
 template <WallDamping Damping, WallDelay Delay>

@@ -58,7 +58,8 @@ TEST(CoupledSimulation, ReleasedDeviceOscillatesAtTheCoupledFrequency) {
     x = device.ad * x + device.bd.col(motor_force_input) * torque;
   }
   ASSERT_GT(crossings.size(), 10u);
-  const double half_period = (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
+  const double half_period =
+      (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
   const double measured = std::numbers::pi / half_period;
   const double expected = std::sqrt(k * (1.0 / j_z + 1.0 / j_w));
   EXPECT_NEAR(measured / expected, 1.0, 0.01);

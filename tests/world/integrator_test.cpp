@@ -18,7 +18,8 @@ using test::eigenvalues;
 constexpr double k = 1.0;
 constexpr double j = 0.025;
 
-Eigen::MatrixXd ad_for(double stiffness, double inertia, double damping, double period, Integrator integrator) {
+Eigen::MatrixXd ad_for(double stiffness, double inertia, double damping, double period,
+                       Integrator integrator) {
   const SpringParameters p{stiffness, inertia, damping, integrator};
   return discretize(spring_continuous_model(p, SpringDamping::absolute), period, integrator).ad;
 }
@@ -55,7 +56,8 @@ TEST(Integrators, TrapezoidKeepsUnitModulus) {
 TEST(Integrators, Rk4ModulusIsItsTaylorPolynomialOfExpJwT) {
   const double w = std::sqrt(k / j);
   for (const double wt : {0.01, 0.2, 1.0, 2.0}) {
-    const std::complex<double> expected(1.0 - wt * wt / 2.0 + std::pow(wt, 4) / 24.0, wt - std::pow(wt, 3) / 6.0);
+    const std::complex<double> expected(1.0 - wt * wt / 2.0 + std::pow(wt, 4) / 24.0,
+                                        wt - std::pow(wt, 3) / 6.0);
     for (const auto& l : eigenvalues(ad_for(k, j, 0.0, wt / w, Integrator::rk4))) {
       EXPECT_NEAR(std::abs(l), std::abs(expected), 1e-12);
       EXPECT_LT(std::abs(l), 1.0);

@@ -34,7 +34,7 @@ TEST(RelayScene, HysteresisKeepsTheLastOutputInsideTheBand) {
   relay.reset(0.0);
   EXPECT_EQ(relay.step(0.005), 0.0);  // inside the band after reset: nothing yet
   EXPECT_EQ(relay.step(0.011), -1.5);
-  EXPECT_EQ(relay.step(0.0), -1.5);    // keeps
+  EXPECT_EQ(relay.step(0.0), -1.5);     // keeps
   EXPECT_EQ(relay.step(-0.009), -1.5);  // keeps
   EXPECT_EQ(relay.step(-0.0101), 1.5);
   EXPECT_EQ(relay.step(0.0099), 1.5);

@@ -41,8 +41,8 @@ TEST(SceneCatalog, SpringWheelDefaultsFollowFreudenberg21) {
   EXPECT_NEAR(scene_defaults::wheel_stiffness, 0.8 / (std::numbers::pi / 4.0), 1e-12);
   EXPECT_NEAR(scene_defaults::wheel_stiffness, 1.0186, 1e-4);
   EXPECT_NEAR(scene_defaults::wheel_inertia, 0.0258, 1e-4);
-  EXPECT_NEAR(std::sqrt(scene_defaults::wheel_stiffness / scene_defaults::wheel_inertia), 2.0 * std::numbers::pi,
-              1e-12);
+  EXPECT_NEAR(std::sqrt(scene_defaults::wheel_stiffness / scene_defaults::wheel_inertia),
+              2.0 * std::numbers::pi, 1e-12);
   const ScenePlan plan = plan_of("spring-wheel", {});
   EXPECT_EQ(std::get<double>(plan.parameters.at("stiffness")), scene_defaults::wheel_stiffness);
   EXPECT_EQ(std::get<std::string>(plan.parameters.at("integrator")), "exact");
@@ -82,7 +82,8 @@ TEST(SceneCatalog, ChoosesTheVariantThatShowsWhatIsUsed) {
 }
 
 TEST(SceneCatalog, DampingAutoResolvesToTk) {
-  const ScenePlan plan = plan_of("spring-wheel", {{"damping", "auto"}, {"integrator", "forward-euler"}}, 2e-3);
+  const ScenePlan plan =
+      plan_of("spring-wheel", {{"damping", "auto"}, {"integrator", "forward-euler"}}, 2e-3);
   EXPECT_NEAR(std::get<double>(plan.parameters.at("damping")), 2e-3 * scene_defaults::wheel_stiffness, 1e-15);
   EXPECT_TRUE(std::holds_alternative<SpringScene<SpringDamping::relative>>(plan.scene_object));
   EXPECT_EQ(plan.channels.size(), 3u);
@@ -91,17 +92,21 @@ TEST(SceneCatalog, DampingAutoResolvesToTk) {
 }
 
 TEST(SceneCatalog, AcceptsNumericTextAndIntegratorAliases) {
-  const ScenePlan plan = plan_of("spring-mass", {{"stiffness", "12.5"}, {"mass", " 2 "}, {"integrator", "tustin"}});
+  const ScenePlan plan =
+      plan_of("spring-mass", {{"stiffness", "12.5"}, {"mass", " 2 "}, {"integrator", "tustin"}});
   EXPECT_EQ(std::get<double>(plan.parameters.at("stiffness")), 12.5);
   EXPECT_EQ(std::get<double>(plan.parameters.at("mass")), 2.0);
   EXPECT_EQ(std::get<std::string>(plan.parameters.at("integrator")), "trapezoid");
 }
 
 TEST(SceneCatalog, ErrorMessages) {
-  EXPECT_EQ(error_of("walll", {}), "unknown scene 'walll'; accepted: spring-wheel, spring-mass, wall, relay, free");
-  EXPECT_EQ(error_of("wall", {{"stifness", 1.0}}),
-            "unknown parameter 'stifness' for scene wall; accepted: stiffness, damping, position, side, delay");
-  EXPECT_EQ(error_of("free", {{"stiffness", 1.0}}), "unknown parameter 'stiffness' for scene free; accepted: none");
+  EXPECT_EQ(error_of("walll", {}),
+            "unknown scene 'walll'; accepted: spring-wheel, spring-mass, wall, relay, free");
+  EXPECT_EQ(
+      error_of("wall", {{"stifness", 1.0}}),
+      "unknown parameter 'stifness' for scene wall; accepted: stiffness, damping, position, side, delay");
+  EXPECT_EQ(error_of("free", {{"stiffness", 1.0}}),
+            "unknown parameter 'stiffness' for scene free; accepted: none");
   EXPECT_EQ(error_of("spring-wheel", {{"stiffness", -3.0}}),
             "stiffness: -3 is not accepted; a finite number >= 0 (N m/rad)");
   EXPECT_EQ(error_of("spring-mass", {{"mass", -1.0}}), "mass: -1 is not accepted; a finite number > 0 (kg)");
@@ -121,7 +126,8 @@ TEST(SceneCatalog, ErrorMessages) {
   EXPECT_EQ(error_of("wall", {{"stiffness", -1.0}}, 1e-3, Motion::rotary),
             "stiffness: -1 is not accepted; a finite number >= 0 (N m/rad)");
   EXPECT_EQ(error_of("spring-wheel", {{"integrator", "leapfrog"}}),
-            "integrator: 'leapfrog' is not accepted; one of forward-euler, semi-implicit-euler, trapezoid, rk4, exact");
+            "integrator: 'leapfrog' is not accepted; one of forward-euler, semi-implicit-euler, trapezoid, "
+            "rk4, exact");
   EXPECT_EQ(error_of("relay", {{"hysteresis", -0.1}}),
             "hysteresis: -0.1 is not accepted; a finite number >= 0 (m)");
   EXPECT_EQ(error_of("free", {}, 0.0), "period: 0 is not accepted; a finite number > 0 (s)");

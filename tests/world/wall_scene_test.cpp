@@ -83,7 +83,7 @@ TEST(WallScene, DisarmedWhenLoadedInsideUntilOutsideOnce) {
   for (int n = 0; n < 10; ++n) EXPECT_EQ(wall.step(0.02 - 0.001 * n), 0.0);
   wall.step(-0.001);  // out once
   EXPECT_TRUE(wall.armed());
-  wall.step(0.001);   // law: -9 N, applied one sample later
+  wall.step(0.001);  // law: -9 N, applied one sample later
   EXPECT_NEAR(wall.step(0.001), -9.0, 1e-12);
   // A fresh reset outside arms at once.
   Plain plain(WallParameters{9000.0, 0.0, 0.0, WallSide::upper, 0}, period);
@@ -152,12 +152,14 @@ std::vector<std::complex<double>> hulin_roots(double stiffness, double damping, 
 TEST(WallScene, LinearModelWithRigidMassGivesHulinEquation1) {
   const double mass = 0.1;
   for (const int d : {0, 1, 2}) {
-    for (const auto& [stiffness, damping] : {std::pair{9000.0, 46.0}, std::pair{2000.0, 4.6}, std::pair{500.0, 20.0}}) {
+    for (const auto& [stiffness, damping] :
+         {std::pair{9000.0, 46.0}, std::pair{2000.0, 4.6}, std::pair{500.0, 20.0}}) {
       const WallParameters p{stiffness, damping, 0.3, WallSide::lower, d};
       const DiscreteLinearScene model =
           d == 0 ? Damped(p, period).linear_model() : Full(p, period).linear_model();
       EXPECT_EQ(model.output_delay_samples, d);
-      EXPECT_LT(test::match_roots(closed_loop_poles(model, mass), hulin_roots(stiffness, damping, mass, d)), 1e-6)
+      EXPECT_LT(test::match_roots(closed_loop_poles(model, mass), hulin_roots(stiffness, damping, mass, d)),
+                1e-6)
           << "d=" << d << " K=" << stiffness;
     }
   }
@@ -169,9 +171,8 @@ TEST(WallScene, HulinSection7Example) {
   const double mass = 0.1;
   const auto radius = [&](double damping) {
     double r = 0.0;
-    for (const auto& z : closed_loop_poles(Full(WallParameters{9000.0, damping, 0.0, WallSide::upper, 1}, period)
-                                               .linear_model(),
-                                           mass)) {
+    for (const auto& z : closed_loop_poles(
+             Full(WallParameters{9000.0, damping, 0.0, WallSide::upper, 1}, period).linear_model(), mass)) {
       r = std::max(r, std::abs(z));
     }
     return r;
