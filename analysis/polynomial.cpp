@@ -143,7 +143,10 @@ std::vector<UnitCircleCrossing> unit_circle_crossings(const Polynomial& p0, cons
 std::vector<Interval> stable_intervals(const Polynomial& p0, const Polynomial& p1, double t_min) {
   std::vector<double> cuts{t_min};
   for (const auto& c : unit_circle_crossings(p0, p1)) {
-    if (c.t > t_min && c.t > cuts.back()) cuts.push_back(c.t);
+    // Crossings within rounding of t_min or of the previous cut are the same
+    // point (e.g. the z = 1 root at t = 0 computed as 1e-17).
+    const double tol = 1e-12 * (1.0 + std::abs(c.t));
+    if (c.t > cuts.back() + tol) cuts.push_back(c.t);
   }
   cuts.push_back(std::numeric_limits<double>::infinity());
   std::vector<Interval> out;

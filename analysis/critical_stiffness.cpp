@@ -1,0 +1,127 @@
+#include "analysis/critical_stiffness.hpp"
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+#include <unsupported/Eigen/MatrixFunctions>
+
+namespace hapticd::analysis {
+
+namespace {
+
+using cd = std::complex<double>;
+
+/// [e^{Ah}, int_0^h e^{As} ds b] from expm([A b; 0 0] h).
+std::pair<Eigen::MatrixXd, Eigen::VectorXd> exp_and_integral(const Eigen::MatrixXd& a, const Eigen::VectorXd& b,
+                                                             double h) {
+  const Eigen::Index n = a.rows();
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 1, n + 1);
+  m.topLeftCorner(n, n) = a * h;
+  m.topRightCorner(n, 1) = b * h;
+  const Eigen::MatrixXd e = m.exp();
+  return {e.topLeftCorner(n, n), e.topRightCorner(n, 1)};
+}
+
+}  // namespace
+
+DelayedZoh discretize_delayed_zoh(const Eigen::MatrixXd& a, const Eigen::VectorXd& b, double period_s,
+                                  double delay_s) {
+  if (!(period_s > 0.0) || !std::isfinite(period_s)) throw std::invalid_argument("period must be > 0");
+  if (!(delay_s >= 0.0) || !std::isfinite(delay_s)) throw std::invalid_argument("delay must be >= 0");
+  DelayedZoh d;
+  d.period_s = period_s;
+  double whole = std::floor(delay_s / period_s);
+  double frac = delay_s - whole * period_s;
+  if (frac > period_s * (1.0 - 1e-12)) {  // rounding just below a whole sample
+    whole += 1.0;
+    frac = 0.0;
+  }
+  if (frac < period_s * 1e-12) frac = 0.0;
+  d.whole_samples = static_cast<int>(whole);
+  d.fraction_s = frac;
+  const auto [phi, gamma_full] = exp_and_integral(a, b, period_s);
+  d.phi = phi;
+  if (frac == 0.0) {
+    d.gamma0 = gamma_full;
+    d.gamma1 = Eigen::VectorXd::Zero(a.rows());
+  } else {
+    const auto [e_rest, g0] = exp_and_integral(a, b, period_s - frac);
+    const auto [e_frac, g1] = exp_and_integral(a, b, frac);
+    d.gamma0 = g0;
+    d.gamma1 = e_rest * g1;
+  }
+  return d;
+}
+
+std::complex<double> frequency_response(const DelayedZoh& sys, const Eigen::RowVectorXd& c,
+                                        double omega_rad_per_s) {
+  const cd z = std::polar(1.0, omega_rad_per_s * sys.period_s);
+  const Eigen::Index n = sys.phi.rows();
+  const Eigen::MatrixXcd m = z * Eigen::MatrixXcd::Identity(n, n) - sys.phi.cast<cd>();
+  const Eigen::VectorXcd rhs = sys.gamma0.cast<cd>() + sys.gamma1.cast<cd>() / z;
+  const Eigen::VectorXcd x = m.partialPivLu().solve(rhs);
+  return (c.cast<cd>() * x)(0) * std::pow(z, -sys.whole_samples);
+}
+
+std::vector<PhaseCrossover> phase_crossovers(const DelayedZoh& sys, const Eigen::RowVectorXd& c) {
+  const double nyquist = std::numbers::pi / sys.period_s;
+  const double start = 1e-4 / sys.period_s;
+  constexpr int points = 6000;
+  const double ratio = std::pow(nyquist / start, 1.0 / (points - 1));
+  std::vector<PhaseCrossover> out;
+  auto h = [&](double w) { return frequency_response(sys, c, w); };
+
+  cd prev = h(start);
+  if (prev.real() < 0.0 && prev.imag() > 0.0) out.push_back({0.0, prev, 0.0});
+  double w_prev = start;
+  for (int i = 1; i < points; ++i) {
+    const double w = i == points - 1 ? nyquist : start * std::pow(ratio, i);
+    const cd cur = h(w);
+    if (cur.imag() == 0.0 || (cur.imag() > 0.0) != (prev.imag() > 0.0)) {
+      double lo = w_prev, hi = w;
+      double ilo = prev.imag();
+      if (cur.imag() != 0.0) {
+        while (hi - lo > 1e-13 * hi) {
+          const double mid = 0.5 * (lo + hi);
+          const double im = h(mid).imag();
+          if (im == 0.0) { lo = hi = mid; break; }
+          if ((im > 0.0) == (ilo > 0.0)) { lo = mid; ilo = im; } else { hi = mid; }
+        }
+      } else {
+        lo = w;
+      }
+      const double wc = cur.imag() == 0.0 ? w : 0.5 * (lo + hi);
+      const cd hc = h(wc);
+      if (hc.real() < 0.0) out.push_back({wc, hc, -1.0 / hc.real()});
+    }
+    prev = cur;
+    w_prev = w;
+  }
+  // z = -1: H is real there (up to rounding); the scan may miss a sign change.
+  const cd hn = h(nyquist);
+  const bool have_nyquist = !out.empty() && out.back().omega_rad_per_s > nyquist * (1.0 - 1e-9);
+  if (hn.real() < 0.0 && !have_nyquist) out.push_back({nyquist, hn, -1.0 / hn.real()});
+  return out;
+}
+
+CriticalStiffness critical_stiffness(const world::LinearPlant& plant, world::Sensor sensor, double period_s,
+                                     double delay_s) {
+  const DelayedZoh sys = discretize_delayed_zoh(
+      plant.dynamics.a, plant.dynamics.b.col(world::motor_force_input), period_s, delay_s);
+  const auto crossovers = phase_crossovers(sys, plant.position(sensor));
+  if (crossovers.empty()) throw std::invalid_argument("no phase crossover: no finite critical stiffness found");
+  const PhaseCrossover* best = &crossovers.front();
+  for (const auto& c : crossovers) {
+    if (c.stiffness < best->stiffness) best = &c;
+  }
+  CriticalStiffness k;
+  k.k_cr = best->stiffness;
+  k.crossover_rad_per_s = best->omega_rad_per_s;
+  k.crossover_hz = best->omega_rad_per_s / (2.0 * std::numbers::pi);
+  k.gain_margin_db = 20.0 * std::log10(best->stiffness);
+  return k;
+}
+
+}  // namespace hapticd::analysis

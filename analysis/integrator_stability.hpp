@@ -1,0 +1,41 @@
+#pragma once
+/// \file
+/// Numerical stability of a discretized spring scene (Freudenberg 2.3):
+/// J x'' = -k x - b x', state [x; x'], A = [[0, 1], [-k/J, -b/J]] (eq. 2.6),
+/// discretized with the scene's integrator to x[n+1] = Ad x[n] (eq. 2.7).
+/// Forward Euler gives |lambda_d|^2 = 1 - 2 T zeta w_n + T^2 w_n^2 (eq. 2.13),
+/// stable iff T < 2 zeta / w_n, i.e. b > T k (eq. 2.14-2.15).
+
+#include <complex>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "world/integrator.hpp"
+
+namespace hapticd::analysis {
+
+struct SpringScene {
+  double stiffness = 0.0;  ///< k, N/m or N m/rad
+  double inertia = 0.0;    ///< J (or m), kg m^2 or kg
+  double damping = 0.0;    ///< b >= 0, N m s/rad or N s/m
+  double period_s = 1e-3;  ///< T
+  world::Integrator integrator = world::Integrator::exact;
+};
+
+/// Tolerance on |lambda| - 1 for "marginal" (and for "stable": |lambda| <= 1 + tol).
+inline constexpr double marginal_tolerance = 1e-12;
+
+struct IntegratorVerdict {
+  Eigen::Matrix2d ad;                              ///< discrete state matrix
+  std::vector<std::complex<double>> eigenvalues;   ///< of ad
+  double eigenvalue_magnitude = 0.0;               ///< max |lambda|
+  bool stable = false;    ///< max |lambda| <= 1 + marginal_tolerance
+  bool marginal = false;  ///< | max |lambda| - 1 | <= marginal_tolerance (neither grows nor decays)
+  double growth_per_second = 0.0;  ///< max|lambda|^(1/T): free-oscillation amplitude factor per second
+};
+
+/// Throws std::invalid_argument unless k >= 0, J > 0, b >= 0, T > 0 (finite).
+IntegratorVerdict analyze_integrator(const SpringScene& scene);
+
+}  // namespace hapticd::analysis
