@@ -1,1 +1,27 @@
-int main() { return 0; }
+// hapticctl: drive hapticd from the shell, and analyze stability offline.
+// Exit codes: 0 ok, 1 refused by the daemon, 2 bad usage, 3 daemon unreachable.
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <stdexcept>
+
+#include "cli/analyze.hpp"
+#include "cli/usage_error.hpp"
+#include "cli/verbs.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"hapticctl: control hapticd and analyze haptic stability"};
+  app.require_subcommand(1);
+  hapticctl::CommonOptions options;
+  hapticctl::add_daemon_commands(app, options);
+  hapticd::cli::add_analyze_command(app);
+  try {
+    return hapticctl::run(app, argc, argv);
+  } catch (const hapticd::cli::UsageError& e) {
+    std::cerr << "hapticctl: " << e.what() << "\n";
+    return hapticd::cli::exit_usage;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "hapticctl: " << e.what() << "\n";
+    return hapticd::cli::exit_usage;
+  }
+}

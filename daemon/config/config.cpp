@@ -34,6 +34,8 @@ torque_limit = 1.0
 
 [device.loopback]
 motion = "rotary"
+damping = 0.002
+max_force = 1.2
 
 [scene]
 name = "spring-wheel"

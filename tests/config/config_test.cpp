@@ -50,14 +50,19 @@ TEST(ConfigDefaults, BuiltInDefaultIsLoopbackWheelWithExactIntegrator) {
   const DaemonConfig config = default_config();
   EXPECT_EQ(config.source, "<built-in default>");
   EXPECT_EQ(config.device.driver, "loopback");
-  ASSERT_EQ(config.device.parameters.size(), 1u);
+  // A rotary wheel with bearing damping (without it the default scene is
+  // refused as unstable) and an actuator peak above the software limit.
+  ASSERT_EQ(config.device.parameters.size(), 3u);
   EXPECT_EQ(config.device.parameters[0].key, "motion");
   EXPECT_EQ(config.device.parameters[0].value, ParameterValue{std::string("rotary")});
+  EXPECT_EQ(config.device.parameters[1].key, "damping");
+  EXPECT_EQ(config.device.parameters[1].value, ParameterValue{0.002});
+  EXPECT_EQ(config.device.parameters[2].key, "max_force");
   EXPECT_EQ(config.scene.name, "spring-wheel");
   ASSERT_EQ(config.scene.parameters.size(), 1u);
   EXPECT_EQ(config.scene.parameters[0].key, "integrator");
   EXPECT_EQ(config.scene.parameters[0].value, ParameterValue{std::string("exact")});
-  EXPECT_EQ(config.scene.parameters[0].where.to_string(), "<built-in default>:20:14");
+  EXPECT_EQ(config.scene.parameters[0].where.to_string(), "<built-in default>:22:14");
   EXPECT_DOUBLE_EQ(config.loop.period_s, 1e-3);
   EXPECT_EQ(config.recorder.ring_capacity(config.loop.period_s), 2000u);
 }

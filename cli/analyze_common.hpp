@@ -1,0 +1,31 @@
+#pragma once
+// Shared output helpers for the analyze subcommands.
+
+#include <CLI/CLI.hpp>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace hapticd::cli {
+
+/// Numbers with 6 significant digits, for humans (--json prints full precision).
+std::string fmt(double value);
+/// 0.001 -> "1 ms", 2.5e-4 -> "250 us".
+std::string fmt_duration(double seconds);
+
+/// "key: value" lines with the values aligned.
+class Table {
+ public:
+  void row(std::string key, std::string value) { rows_.emplace_back(std::move(key), std::move(value)); }
+  void print(std::ostream& out) const;
+
+ private:
+  std::vector<std::pair<std::string, std::string>> rows_;
+};
+
+void add_analyze_wall(CLI::App& analyze);
+void add_analyze_integrator(CLI::App& analyze);
+void add_analyze_critical_stiffness(CLI::App& analyze);
+
+}  // namespace hapticd::cli

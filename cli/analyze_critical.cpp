@@ -1,0 +1,123 @@
+// hapticctl analyze critical-stiffness: the gain margin of the sampled spring
+// loop on a rigid or two-mass device (Diaz & Gil eq. 21-28, 30).
+
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "analysis/critical_stiffness.hpp"
+#include "analysis/two_mass.hpp"
+#include "cli/analyze_common.hpp"
+#include "cli/arguments.hpp"
+#include "cli/usage_error.hpp"
+
+namespace hapticd::cli {
+
+namespace {
+
+struct CriticalArgs {
+  std::string plant = "rigid", period, delay = "0", sensor = "motor";
+  std::string mass, damping;
+  std::string motor_mass, body_mass, motor_damping, body_damping, cable_stiffness, cable_damping;
+  bool json = false;
+};
+
+double value_or(const std::string& flag, const std::string& text, double fallback, std::string_view unit,
+                bool positive) {
+  if (text.empty()) return fallback;
+  return positive ? positive_number(flag, text, unit) : non_negative_number(flag, text, unit);
+}
+
+void run_critical(const CriticalArgs& a) {
+  const double period = positive_duration("--period", a.period);
+  const double delay = non_negative_duration("--delay", a.delay);
+  const auto sensor = world::parse_sensor(a.sensor);
+  if (!sensor) throw UsageError("--sensor: '" + a.sensor + "' is not accepted; expected motor or body");
+  world::LinearPlant plant;
+  std::optional<world::TwoMassPlant> two_mass;
+  nlohmann::json out;
+  if (a.plant == "rigid") {
+    world::TwoMassPlant table1;  // its totals are Diaz & Gil's rigid model: m = 5.4 kg, b = 3.5 N s/m
+    const double m = value_or("--mass", a.mass, table1.total_mass(), "kg", true);
+    const double b = value_or("--damping", a.damping, table1.total_damping(), "N s/m", false);
+    plant = world::RigidPlant{m, b}.model();
+    out["mass"] = m;
+    out["damping"] = b;
+  } else if (a.plant == "two-mass") {
+    world::TwoMassPlant p;
+    p.motor_mass = value_or("--motor-mass", a.motor_mass, p.motor_mass, "kg", true);
+    p.body_mass = value_or("--body-mass", a.body_mass, p.body_mass, "kg", true);
+    p.motor_damping = value_or("--motor-damping", a.motor_damping, p.motor_damping, "N s/m", false);
+    p.body_damping = value_or("--body-damping", a.body_damping, p.body_damping, "N s/m", false);
+    p.cable_stiffness = value_or("--cable-stiffness", a.cable_stiffness, p.cable_stiffness, "N/m", true);
+    p.cable_damping = value_or("--cable-damping", a.cable_damping, p.cable_damping, "N s/m", false);
+    plant = p.model();
+    two_mass = p;
+    out["motor_mass"] = p.motor_mass;
+    out["body_mass"] = p.body_mass;
+    out["motor_damping"] = p.motor_damping;
+    out["body_damping"] = p.body_damping;
+    out["cable_stiffness"] = p.cable_stiffness;
+    out["cable_damping"] = p.cable_damping;
+  } else {
+    throw UsageError("--plant: '" + a.plant + "' is not accepted; expected rigid or two-mass");
+  }
+  const auto k = analysis::critical_stiffness(plant, *sensor, period, delay);
+  out["plant"] = a.plant;
+  out["sensor"] = world::to_string(*sensor);
+  out["period"] = period;
+  out["delay"] = delay;
+  out["k_cr"] = k.k_cr;
+  out["crossover_hz"] = k.crossover_hz;
+  out["crossover_rad_per_s"] = k.crossover_rad_per_s;
+  out["gain_margin_db"] = k.gain_margin_db;
+  std::optional<analysis::ResonanceParameters> modes;
+  if (two_mass) {
+    modes = analysis::resonance_parameters(*two_mass);
+    out["q"] = modes->q;
+    out["q_db"] = modes->q_db;
+    out["omega_n"] = modes->omega_n;
+    out["z_n"] = modes->z_n;
+    if (const auto peak = analysis::resonant_peak(*two_mass)) out["resonant_peak_distance_db"] = peak->distance_db;
+  }
+  if (a.json) {
+    std::cout << out.dump(2) << "\n";
+    return;
+  }
+  Table t;
+  t.row("plant", a.plant + ", " + std::string(world::to_string(*sensor)) + " sensing, T = " + fmt_duration(period) +
+                     ", delay " + fmt_duration(delay == 0.0 ? 0.0 : delay));
+  t.row("critical stiffness", fmt(k.k_cr) + " N/m (gain margin " + fmt(k.gain_margin_db) + " dB)");
+  t.row("phase crossover", fmt(k.crossover_hz) + " Hz (" + fmt(k.crossover_rad_per_s) + " rad/s)");
+  if (modes) {
+    t.row("cable mode", "w_n = " + fmt(modes->omega_n) + " rad/s, z_n = " + fmt(modes->z_n) + " 1/s (eq. 13, 16)");
+    t.row("Q ~ m_m z_n w_n", fmt(modes->q) + " N/m = " + fmt(modes->q_db) + " dB (eq. 24)");
+    t.row("verdict", modes->q >= k.k_cr ? "Q >= K_CR: the rigid model suffices at this delay"
+                                        : "Q < K_CR: the cable mode limits the stiffness");
+  }
+  t.print(std::cout);
+}
+
+}  // namespace
+
+void add_analyze_critical_stiffness(CLI::App& analyze) {
+  auto a = std::make_shared<CriticalArgs>();
+  auto* cmd = analyze.add_subcommand("critical-stiffness",
+                                     "K_CR = gain margin of Z[H(s) G(s) e^(-td s)] (Diaz & Gil eq. 21-30)");
+  cmd->add_option("--plant", a->plant, "rigid or two-mass (default rigid)");
+  cmd->add_option("--period", a->period, "sampling period (s, ms, us)")->required();
+  cmd->add_option("--delay", a->delay, "loop delay t_d (s, ms, us; fractions of T allowed; default 0)");
+  cmd->add_option("--sensor", a->sensor, "motor (G_m, eq. 23) or body (G_c, eq. 30); default motor");
+  cmd->add_option("--mass", a->mass, "rigid: mass m, kg (default 5.4, Table I)");
+  cmd->add_option("--damping", a->damping, "rigid: damping b, N s/m (default 3.5, Table I)");
+  cmd->add_option("--motor-mass", a->motor_mass, "two-mass: m_m, kg (default 0.3)");
+  cmd->add_option("--body-mass", a->body_mass, "two-mass: m_d, kg (default 5.1)");
+  cmd->add_option("--motor-damping", a->motor_damping, "two-mass: b_m, N s/m (default 0.1)");
+  cmd->add_option("--body-damping", a->body_damping, "two-mass: b_d, N s/m (default 3.4)");
+  cmd->add_option("--cable-stiffness", a->cable_stiffness, "two-mass: k_c, N/m (default 79500)");
+  cmd->add_option("--cable-damping", a->cable_damping, "two-mass: b_c, N s/m (default 15)");
+  cmd->add_flag("--json", a->json, "print one JSON object");
+  cmd->callback([a] { run_critical(*a); });
+}
+
+}  // namespace hapticd::cli

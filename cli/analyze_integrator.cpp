@@ -1,0 +1,86 @@
+// hapticctl analyze integrator: numerical stability of a spring scene's
+// discretization (Freudenberg 2.8-2.15).
+
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "analysis/integrator_stability.hpp"
+#include "cli/analyze_common.hpp"
+#include "cli/arguments.hpp"
+#include "cli/usage_error.hpp"
+
+namespace hapticd::cli {
+
+namespace {
+
+struct IntegratorArgs {
+  std::string scheme, stiffness, inertia, mass, period, damping;
+  bool json = false;
+};
+
+void run_integrator(const IntegratorArgs& a) {
+  const auto scheme = world::parse_integrator(a.scheme);
+  if (!scheme) {
+    throw UsageError("--scheme: '" + a.scheme + "' is not accepted; expected one of " +
+                     std::string(world::integrator_names()));
+  }
+  if (a.inertia.empty() == a.mass.empty()) {
+    throw UsageError("--inertia: give the virtual inertia (kg m^2), or --mass (kg) for a spring-mass, not both");
+  }
+  analysis::SpringScene scene;
+  scene.integrator = *scheme;
+  scene.stiffness = non_negative_number("--stiffness", a.stiffness, "N m/rad or N/m");
+  scene.inertia = a.inertia.empty() ? positive_number("--mass", a.mass, "kg")
+                                    : positive_number("--inertia", a.inertia, "kg m^2");
+  scene.damping = a.damping.empty() ? 0.0 : non_negative_number("--damping", a.damping, "N m s/rad or N s/m");
+  scene.period_s = positive_duration("--period", a.period);
+  const auto v = analysis::analyze_integrator(scene);
+  const double wn = std::sqrt(scene.stiffness / scene.inertia);
+  if (a.json) {
+    nlohmann::json eig = nlohmann::json::array();
+    for (const auto& e : v.eigenvalues) eig.push_back({e.real(), e.imag()});
+    std::cout << nlohmann::json{{"scheme", world::to_string(*scheme)},
+                                {"stiffness", scene.stiffness},
+                                {"inertia", scene.inertia},
+                                {"damping", scene.damping},
+                                {"period", scene.period_s},
+                                {"natural_frequency_hz", wn / (2.0 * M_PI)},
+                                {"eigenvalues", eig},
+                                {"eigenvalue_magnitude", v.eigenvalue_magnitude},
+                                {"stable", v.stable},
+                                {"marginal", v.marginal},
+                                {"growth_per_second", v.growth_per_second}}
+                     .dump(2)
+              << "\n";
+    return;
+  }
+  Table t;
+  t.row("scheme", std::string(world::to_string(*scheme)));
+  t.row("scene", "k = " + fmt(scene.stiffness) + ", J = " + fmt(scene.inertia) + ", b = " + fmt(scene.damping) +
+                     ", T = " + fmt_duration(scene.period_s) + " (f_n = " + fmt(wn / (2.0 * M_PI)) + " Hz)");
+  char mag[40];
+  std::snprintf(mag, sizeof mag, "%.12f", v.eigenvalue_magnitude);
+  t.row("|lambda| max", mag);
+  t.row("verdict", v.marginal ? "marginal (neither grows nor decays)" : (v.stable ? "stable" : "UNSTABLE"));
+  t.row("amplitude after 1 s", "x" + fmt(v.growth_per_second));
+  t.print(std::cout);
+}
+
+}  // namespace
+
+void add_analyze_integrator(CLI::App& analyze) {
+  auto args = std::make_shared<IntegratorArgs>();
+  auto* cmd = analyze.add_subcommand("integrator", "Eigenvalues of a discretized spring scene (Freudenberg 2.8-2.15)");
+  cmd->add_option("--scheme", args->scheme, "forward-euler, semi-implicit-euler, trapezoid, rk4, exact")->required();
+  cmd->add_option("--stiffness", args->stiffness, "spring k, N m/rad (or N/m)")->required();
+  cmd->add_option("--inertia", args->inertia, "virtual inertia J_w, kg m^2");
+  cmd->add_option("--mass", args->mass, "virtual mass m, kg (spring-mass)");
+  cmd->add_option("--period", args->period, "sampling period (s, ms, us)")->required();
+  cmd->add_option("--damping", args->damping, "damping b (default 0); Freudenberg's fix is b = T k");
+  cmd->add_flag("--json", args->json, "print one JSON object");
+  cmd->callback([args] { run_integrator(*args); });
+}
+
+}  // namespace hapticd::cli

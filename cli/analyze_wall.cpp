@@ -1,0 +1,120 @@
+// hapticctl analyze wall / boundary: Hulin's virtual-wall stability region.
+
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "analysis/wall_stability.hpp"
+#include "cli/analyze_common.hpp"
+#include "cli/arguments.hpp"
+
+namespace hapticd::cli {
+
+namespace {
+
+struct WallArgs {
+  std::string mass, period, delay, stiffness, damping;
+  bool json = false;
+};
+
+void run_wall(const WallArgs& a) {
+  const double mass = positive_number("--mass", a.mass, "kg");
+  const double period = positive_duration("--period", a.period);
+  const int delay = whole_number("--delay", a.delay, 0, 64);
+  const auto stiffness = optional_non_negative("--stiffness", a.stiffness, "N/m");
+  const auto damping = optional_non_negative("--damping", a.damping, "N s/m");
+  const analysis::WallVerdict v = analysis::analyze_wall(mass, period, delay, stiffness, damping);
+
+  nlohmann::json out{{"mass", mass},
+                     {"period", period},
+                     {"delay", delay},
+                     {"alpha", v.alpha},
+                     {"beta", v.beta},
+                     {"alpha_max", v.alpha_max},
+                     {"beta_at_alpha_max", v.beta_at_alpha_max},
+                     {"k_max", v.k_max},
+                     {"b_at_k_max", v.b_at_k_max},
+                     {"beta_max_at_zero_stiffness", v.beta_max_at_zero_stiffness},
+                     {"b_max_at_zero_stiffness", v.b_max_at_zero_stiffness}};
+  const bool have_point = stiffness.has_value() || damping.has_value();
+  if (have_point) {
+    out["stiffness"] = v.stiffness;
+    out["damping"] = v.damping;
+    out["stable"] = v.stable;
+    out["pole_radius"] = v.pole_radius;
+    out["alpha_max_for_damping"] = v.alpha_max_for_damping;
+    out["k_max_for_damping"] = v.k_max_for_damping;
+  } else {
+    out["stable"] = nullptr;
+  }
+  if (stiffness) {
+    out["damping_range"] = v.damping_range ? nlohmann::json::array({v.damping_range->lower, v.damping_range->upper})
+                                           : nlohmann::json::array();
+  }
+  if (a.json) {
+    std::cout << out.dump(2) << "\n";
+    return;
+  }
+  Table t;
+  t.row("device", fmt(mass) + " kg, T = " + fmt_duration(period) + ", d = " + std::to_string(delay));
+  if (have_point) {
+    t.row("wall", "K = " + fmt(v.stiffness) + " N/m, B = " + fmt(v.damping) + " N s/m");
+    t.row("normalized", "alpha = " + fmt(v.alpha) + ", beta = " + fmt(v.beta) + "  (Hulin eq. 2)");
+    t.row("verdict", v.stable ? "stable" : "UNSTABLE");
+    t.row("pole radius", fmt(v.pole_radius));
+    t.row("largest K at this B", fmt(v.k_max_for_damping) + " N/m (alpha = " + fmt(v.alpha_max_for_damping) + ")");
+  }
+  if (stiffness) {
+    t.row("stable B range", v.damping_range ? fmt(v.damping_range->lower) + " .. " +
+                                                  fmt(v.damping_range->upper) + " N s/m"
+                                            : std::string("none: no damping makes this K stable"));
+  }
+  t.row("largest K", fmt(v.k_max) + " N/m with B = " + fmt(v.b_at_k_max) + " N s/m (alpha = " +
+                         fmt(v.alpha_max) + ", beta = " + fmt(v.beta_at_alpha_max) + ")");
+  t.row("largest B at K = 0", fmt(v.b_max_at_zero_stiffness) + " N s/m (beta = " +
+                                  fmt(v.beta_max_at_zero_stiffness) + ")");
+  if (have_point && !v.stable) t.row("why", analysis::refusal_message(v));
+  t.print(std::cout);
+}
+
+struct BoundaryArgs {
+  std::string delay, points = "50";
+  bool json = false;
+};
+
+void run_boundary(const BoundaryArgs& a) {
+  const int delay = whole_number("--delay", a.delay, 0, 64);
+  const int points = whole_number("--points", a.points, 2, 100000);
+  const auto boundary = analysis::stability_boundary(delay, points);
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& p : boundary) list.push_back({p.beta, p.alpha});
+  if (a.json) {
+    std::cout << nlohmann::json{{"delay", delay}, {"points", list}}.dump(2) << "\n";
+    return;
+  }
+  std::cout << "# Hulin stability boundary, d = " << delay << ": beta alpha_max(beta)\n";
+  for (const auto& p : boundary) std::cout << fmt(p.beta) << " " << fmt(p.alpha) << "\n";
+}
+
+}  // namespace
+
+void add_analyze_wall(CLI::App& analyze) {
+  auto args = std::make_shared<WallArgs>();
+  auto* wall = analyze.add_subcommand("wall", "Virtual wall on a rigid mass (Hulin eq. 1-4): stability region, limits");
+  wall->add_option("--mass", args->mass, "device mass, kg")->required();
+  wall->add_option("--period", args->period, "sampling period (s, ms, us)")->required();
+  wall->add_option("--delay", args->delay, "output delay d, whole samples >= 0")->required();
+  wall->add_option("--stiffness", args->stiffness, "wall stiffness K, N/m");
+  wall->add_option("--damping", args->damping, "wall damping B, N s/m");
+  wall->add_flag("--json", args->json, "print one JSON object");
+  wall->callback([args] { run_wall(*args); });
+
+  auto bargs = std::make_shared<BoundaryArgs>();
+  auto* boundary = analyze.add_subcommand("boundary", "Points of the exact boundary alpha_max(beta) (Hulin Fig. 4-7)");
+  boundary->add_option("--delay", bargs->delay, "output delay d, whole samples >= 0")->required();
+  boundary->add_option("--points", bargs->points, "number of points (default 50)");
+  boundary->add_flag("--json", bargs->json, "print one JSON object");
+  boundary->callback([bargs] { run_boundary(*bargs); });
+}
+
+}  // namespace hapticd::cli

@@ -1,0 +1,156 @@
+#include "daemon/engine/engine.hpp"
+
+#include <cmath>
+
+namespace hapticd::daemon {
+
+namespace {
+void bump(std::atomic<std::uint64_t>& counter) noexcept { rt::single_writer_add(counter, std::uint64_t{1}); }
+}  // namespace
+
+Engine::Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock)
+    : options_(std::move(options)),
+      device_(device),
+      clock_(clock),
+      telemetry_(options_.telemetry_capacity),
+      read_error_streak_(options_.read_error_limit) {}
+
+Engine::~Engine() { stop(); }
+
+const rt::RtSetupReport& Engine::start() {
+  thread_ = std::thread([this] { thread_main(); });
+  started_.wait(false, std::memory_order_acquire);
+  return rt_report_;
+}
+
+void Engine::stop() noexcept {
+  stop_requested_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+}
+
+bool Engine::wait_finished(std::chrono::milliseconds timeout) const {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (!finished()) {
+    if (std::chrono::steady_clock::now() >= end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+std::optional<std::uint64_t> Engine::wait_applied(std::uint64_t seq, std::chrono::milliseconds timeout) const {
+  const auto applied = plans_.wait_applied(seq, timeout);
+  if (!applied || applied->seq != seq) return std::nullopt;
+  return applied->cycle;
+}
+
+EngineCounters Engine::counters() const noexcept {
+  return {read_errors_.load(std::memory_order_relaxed), write_errors_.load(std::memory_order_relaxed),
+          torque_limited_.load(std::memory_order_relaxed), telemetry_.dropped(),
+          faults_latched_.load(std::memory_order_relaxed)};
+}
+
+void Engine::thread_main() {
+  rt_report_ = rt::configure_realtime(options_.realtime);
+  const bool fatal = rt_report_.fatal;
+  started_.store(true, std::memory_order_release);
+  started_.notify_all();
+  if (fatal) {
+    finished_.store(true, std::memory_order_release);
+    return;
+  }
+  rt::PeriodicSchedule schedule(clock_, options_.period);
+  schedule.start();
+  t0_ = schedule.t0();
+  while (!stop_requested_.load(std::memory_order_acquire)) {
+    const rt::WakeUp wake = schedule.wait_next();
+    run_cycle(wake);
+    if (options_.duration && wake.deadline - t0_ >= *options_.duration) break;
+  }
+  finished_.store(true, std::memory_order_release);
+}
+
+void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
+  cycle_.store(wake.cycle, std::memory_order_relaxed);
+  TelemetrySample sample;
+  sample.cycle = wake.cycle;
+  sample.time_s = std::chrono::duration<double>(wake.deadline - t0_).count();
+  sample.latency_s = std::chrono::duration<double>(wake.latency).count();
+
+  // A new plan, or the end of a latched fault, restarts the scene at
+  // equilibrium with the last measured position: no torque step.
+  if (const LoopPlan* plan = plans_.acquire(wake.cycle); plan != plan_) {
+    plan_ = plan;
+    scene_ = plan->scene;
+    world::reset(scene_, last_position_);
+  }
+  const bool latched_before = latch_.latched();
+  if (was_latched_ && !latched_before && plan_ != nullptr) world::reset(scene_, last_position_);
+  was_latched_ = latched_before;
+
+  drivers::Reading reading;
+  const drivers::IoResult read = device_.read(reading);
+  bool position_valid = false;
+  if (read == drivers::IoResult::fault) {
+    if (latch_.latch(FaultReason::device_fault)) bump(faults_latched_);
+  } else if (read == drivers::IoResult::error) {
+    sample.flags |= flag_read_error;
+    bump(read_errors_);
+    if (read_error_streak_.record(true) && latch_.latch(FaultReason::read_error_streak)) bump(faults_latched_);
+  } else if (!std::isfinite(reading.position)) {
+    read_error_streak_.record(false);
+    if (latch_.latch(FaultReason::non_finite_position)) bump(faults_latched_);
+  } else {
+    read_error_streak_.record(false);
+    position_valid = true;
+    last_position_ = reading.position;
+  }
+  sample.position = last_position_;
+
+  double command = 0.0;
+  if (position_valid && plan_ != nullptr && !latch_.latched()) {
+    command = world::step(scene_, reading.position);
+    if (!std::isfinite(command)) {
+      if (latch_.latch(FaultReason::non_finite_command)) bump(faults_latched_);
+    }
+  }
+  double applied = 0.0;
+  if (position_valid && plan_ != nullptr && !latch_.latched()) {
+    applied = limit_output(command, plan_->torque_limit);
+    if (applied != command) {
+      sample.flags |= flag_torque_limited;
+      bump(torque_limited_);
+    }
+  }
+  const drivers::IoResult write = device_.write(applied);
+  if (write != drivers::IoResult::ok) {
+    bump(write_errors_);
+    const FaultReason reason =
+        write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error;
+    if (latch_.latch(reason)) bump(faults_latched_);
+  }
+
+  if (wake.overrun) sample.flags |= flag_overrun;
+  stats_.record(wake, clock_.now() - wake.woke);
+  if (options_.overrun_limit != 0 && stats_.overrun_streak() >= options_.overrun_limit) {
+    if (latch_.latch(FaultReason::overrun_streak)) bump(faults_latched_);
+  }
+  if (latch_.latched()) sample.flags |= flag_fault_latched;
+  if (plan_ != nullptr && plan_->unstable_forced) sample.flags |= flag_unstable_forced;
+
+  sample.command = command;
+  sample.applied = applied;
+  sample.compute_s = std::chrono::duration<double>(clock_.now() - wake.woke).count();
+  if (plan_ != nullptr) {
+    const std::size_t n = world::channel_count(scene_);
+    sample.channel_count = static_cast<std::uint32_t>(n);
+    world::channels(scene_, std::span<double>(sample.channels.data(), n));
+  }
+  if (options_.wait_for_telemetry_space) {
+    while (telemetry_.size() >= telemetry_.capacity() && !stop_requested_.load(std::memory_order_relaxed)) {
+      std::this_thread::yield();
+    }
+  }
+  telemetry_.try_push(sample);
+}
+
+}  // namespace hapticd::daemon

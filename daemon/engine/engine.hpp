@@ -1,0 +1,126 @@
+#pragma once
+/// \file
+/// The RT loop: one SCHED_FIFO thread per device that, every period, waits for
+/// its absolute deadline, installs a newly published plan, reads the device,
+/// steps the scene, applies the safety rules, writes the device and pushes one
+/// telemetry sample. Nothing else happens on that thread: no allocation, no
+/// lock, no text, no syscall but the device I/O and the sleep.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <thread>
+#include <utility>
+
+#include "daemon/engine/loop_plan.hpp"
+#include "daemon/engine/safety.hpp"
+#include "daemon/rt/clock.hpp"
+#include "daemon/rt/cycle_stats.hpp"
+#include "daemon/rt/mailbox.hpp"
+#include "daemon/rt/rt_setup.hpp"
+#include "daemon/rt/spsc_ring.hpp"
+#include "daemon/telemetry.hpp"
+#include "drivers/device.hpp"
+
+namespace hapticd::daemon {
+
+struct EngineOptions {
+  rt::Nanos period{1'000'000};
+  rt::RtOptions realtime;                     ///< applied on the loop thread at start
+  std::uint32_t overrun_limit = 10;           ///< consecutive overruns that latch a fault (0: never)
+  std::uint32_t read_error_limit = 10;        ///< consecutive read errors that latch a fault (0: never)
+  std::optional<rt::Nanos> duration;          ///< stop by itself after this much loop time
+  std::size_t telemetry_capacity = 1u << 14;  ///< samples; a power of two
+  /// Virtual clock only: wait for ring space instead of dropping a sample.
+  /// Simulated time is not real time, so a deterministic run that loses
+  /// nothing is worth more than speed; never set with the real clock.
+  bool wait_for_telemetry_space = false;
+};
+
+/// Counters the RT thread keeps besides CycleStats (relaxed, single writer).
+struct EngineCounters {
+  std::uint64_t read_errors = 0;
+  std::uint64_t write_errors = 0;
+  std::uint64_t torque_limited = 0;
+  std::uint64_t telemetry_dropped = 0;
+  std::uint64_t faults_latched = 0;
+};
+
+class Engine {
+ public:
+  /// The device and clock must outlive the engine. Allocates the ring.
+  Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock);
+  ~Engine();
+  Engine(const Engine&) = delete;
+  Engine& operator=(const Engine&) = delete;
+
+  /// Starts the loop thread and waits until it has configured itself.
+  /// Returns its real-time report (check `fatal`).
+  const rt::RtSetupReport& start();
+  /// Asks the loop to stop at the next period boundary and joins it.
+  void stop() noexcept;
+  /// True once the loop has ended (stopped, or reached its duration).
+  bool finished() const noexcept { return finished_.load(std::memory_order_acquire); }
+  /// Blocks until finished() or the timeout; returns finished().
+  bool wait_finished(std::chrono::milliseconds timeout) const;
+
+  // ---- control thread ----
+  /// Publishes a plan; it takes effect at the next period boundary.
+  rt::Mailbox<LoopPlan>::Publication publish(std::unique_ptr<LoopPlan> plan) {
+    return plans_.publish(std::move(plan));
+  }
+  /// Waits until publication `seq` is in effect; the cycle it took effect at.
+  std::optional<std::uint64_t> wait_applied(std::uint64_t seq, std::chrono::milliseconds timeout) const;
+  void estop() noexcept { latch_.latch(FaultReason::estop); }
+  /// Clears a latched fault; the scene restarts at equilibrium at the next period.
+  void clear_fault() noexcept { latch_.clear(); }
+  FaultReason fault() const noexcept { return latch_.reason(); }
+
+  // ---- statistics and telemetry (non-RT readers) ----
+  rt::CycleStats::Snapshot stats() const { return stats_.snapshot(); }
+  EngineCounters counters() const noexcept;
+  /// Telemetry consumer (exactly one thread): pops up to out.size() samples.
+  std::size_t drain(std::span<TelemetrySample> out) noexcept { return telemetry_.pop_bulk(out); }
+  std::uint64_t cycle() const noexcept { return cycle_.load(std::memory_order_relaxed); }
+  const EngineOptions& options() const noexcept { return options_; }
+
+  /// One period of work after the wake-up (public for tests that drive the
+  /// loop body directly, e.g. the allocation-counting test).
+  void run_cycle(const rt::WakeUp& wake) noexcept;
+
+ private:
+  void thread_main();
+
+  EngineOptions options_;
+  drivers::Device& device_;
+  rt::Clock& clock_;
+  rt::Mailbox<LoopPlan> plans_;
+  rt::SpscRing<TelemetrySample> telemetry_;
+  rt::CycleStats stats_;
+  FaultLatch latch_;
+
+  // RT thread state.
+  const LoopPlan* plan_ = nullptr;
+  world::AnyScene scene_{};
+  bool was_latched_ = false;
+  double last_position_ = 0.0;
+  StreakCounter read_error_streak_;
+  rt::Nanos t0_{0};
+
+  std::atomic<std::uint64_t> cycle_{0};
+  std::atomic<std::uint64_t> read_errors_{0};
+  std::atomic<std::uint64_t> write_errors_{0};
+  std::atomic<std::uint64_t> torque_limited_{0};
+  std::atomic<std::uint64_t> faults_latched_{0};
+
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<bool> finished_{false};
+  std::atomic<bool> started_{false};
+  rt::RtSetupReport rt_report_;
+  std::thread thread_;
+};
+
+}  // namespace hapticd::daemon

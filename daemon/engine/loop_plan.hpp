@@ -1,0 +1,21 @@
+#pragma once
+/// \file
+/// What the control thread hands the RT thread at a period boundary: an
+/// immutable, fully planned scene and the limits that go with it. The RT
+/// thread copies `scene` into its own storage (every scene alternative is a
+/// few doubles and fixed arrays: the copy does not allocate) and resets it at
+/// the measured position, so a switch never makes a torque step.
+
+#include <cstdint>
+
+#include "world/any_scene.hpp"
+
+namespace hapticd::daemon {
+
+struct LoopPlan {
+  world::AnyScene scene;
+  double torque_limit = 0.0;    ///< N or N m, applied after the scene, always
+  bool unstable_forced = false;  ///< loaded with force=true although analysis says unstable
+};
+
+}  // namespace hapticd::daemon

@@ -1,0 +1,17 @@
+# The daemon's own wiring (engine, planner, service) and the hapticd binary.
+add_library(hapticd_daemon_core STATIC
+  ${CMAKE_CURRENT_SOURCE_DIR}/engine/engine.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/engine/safety.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/planner.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/device_factory.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/service.cpp)
+target_include_directories(hapticd_daemon_core PUBLIC ${PROJECT_SOURCE_DIR})
+target_compile_definitions(hapticd_daemon_core PUBLIC HAPTICD_VERSION="${PROJECT_VERSION}")
+target_link_libraries(hapticd_daemon_core
+  PUBLIC hapticd_rt hapticd_analysis hapticd_world hapticd_driver_loopback hapticd_config hapticd_recorder
+         hapticd_control nlohmann_json::nlohmann_json
+  PRIVATE hapticd_warnings)
+
+add_executable(hapticd ${CMAKE_CURRENT_SOURCE_DIR}/main.cpp)
+target_link_libraries(hapticd PRIVATE hapticd_daemon_core CLI11::CLI11 hapticd_warnings)
+install(TARGETS hapticd RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})

@@ -1,0 +1,128 @@
+// hapticd: the real-time haptics daemon. See README.md and docs/.
+
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "daemon/config/config.hpp"
+#include "daemon/service.hpp"
+#include "daemon/version.hpp"
+#include "drivers/loopback/loopback_config.hpp"
+#include "world/scene_catalog.hpp"
+#include "world/units.hpp"
+
+namespace {
+
+void list_drivers() {
+  std::cout << "loopback: simulated plant (rigid or two-mass), scripted hand, fault injection\n";
+  for (const auto& p : hapticd::drivers::loopback::loopback_parameters()) {
+    std::cout << "  " << p.name << " (" << p.type << (p.unit.empty() ? "" : ", " + p.unit)
+              << ", default " << p.default_value << "): " << p.help << "\n";
+  }
+  std::cout << "usb-hid, canopen, modbus, gpio: not built in this version\n";
+}
+
+void list_scenes() {
+  for (const auto& s : hapticd::world::scene_catalog()) {
+    std::cout << s.name << ": " << s.summary << " [" << s.reference << "]\n";
+    for (const auto& p : s.parameters) {
+      std::cout << "  " << p.name << " (" << hapticd::world::to_string(p.type)
+                << (p.unit.empty() ? "" : ", " + p.unit) << "): " << p.help << "\n";
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"hapticd: real-time haptics daemon"};
+  std::string config_path;
+  bool require_rt = false;
+  bool check_config = false;
+  bool show_drivers = false;
+  bool show_scenes = false;
+  bool show_version = false;
+  std::string clock;
+  std::string duration;
+  std::string record;
+  std::string socket;
+  app.add_option("-c,--config", config_path, "TOML config file (default: the built-in loopback wheel)");
+  app.add_flag("--require-rt", require_rt, "exit if SCHED_FIFO cannot be had");
+  app.add_option("--clock", clock, "real or virtual (virtual: as fast as possible on simulated time)");
+  app.add_option("--duration", duration, "stop after this much loop time (s, ms, us)");
+  app.add_option("--record", record, "record from the first cycle to this file name in the recording directory");
+  app.add_option("--socket", socket, "control socket path");
+  app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
+  app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters");
+  app.add_flag("--list-scenes", show_scenes, "list scenes and their parameters");
+  app.add_flag("--version", show_version, "print the version");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::cerr << "hapticd: " << e.what() << " (see hapticd --help)\n";
+    return 2;
+  }
+  if (show_version) {
+    std::cout << "hapticd " << hapticd::version << "\n";
+    return 0;
+  }
+  if (show_drivers) {
+    list_drivers();
+    return 0;
+  }
+  if (show_scenes) {
+    list_scenes();
+    return 0;
+  }
+
+  // Block the stop signals before any thread starts: every thread inherits
+  // the mask and the main thread takes them with sigtimedwait.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+
+  try {
+    hapticd::daemon::ServiceOptions options;
+    options.config = config_path.empty() ? hapticd::config::default_config() : hapticd::config::load_config(config_path);
+    auto& loop = options.config.loop;
+    if (require_rt) loop.require_rt = true;
+    if (!clock.empty()) {
+      if (clock == "real") {
+        loop.clock = hapticd::config::ClockKind::real;
+      } else if (clock == "virtual") {
+        loop.clock = hapticd::config::ClockKind::virtual_clock;
+      } else {
+        std::cerr << "hapticd: --clock: '" << clock << "' is not accepted; accepted: real, virtual\n";
+        return 2;
+      }
+    }
+    if (!duration.empty()) {
+      const auto d = hapticd::units::parse_duration_s(duration);
+      if (!d || *d <= 0) {
+        std::cerr << "hapticd: --duration: '" << duration << "' is not accepted; expected a duration > 0 such as 10s or 500ms\n";
+        return 2;
+      }
+      loop.duration_s = *d;
+    }
+    if (!socket.empty()) options.config.control.socket = socket;
+    options.record_name = record;
+    hapticd::daemon::Service service(std::move(options));
+    if (check_config) {
+      std::cout << service.describe() << "\nconfig OK\n";
+      return 0;
+    }
+    return service.run();
+  } catch (const hapticd::config::ConfigError& e) {
+    std::cerr << "hapticd: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "hapticd: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,78 @@
+#pragma once
+/// \file
+/// Off-RT planning of a scene for the device at hand: validate the parameters
+/// (world/scene_catalog), then check numerical and closed-loop stability
+/// (analysis/) with the device's mass or inertia, period and delay, before
+/// anything reaches the RT thread. Unstable sets are refused with the limit
+/// that would have held, unless forced (to show an instability on purpose).
+
+#include <string>
+#include <string_view>
+#include <variant>
+
+#include <nlohmann/json.hpp>
+
+#include "drivers/device.hpp"
+#include "world/plant.hpp"
+#include "world/scene_catalog.hpp"
+
+namespace hapticd::drivers::loopback {
+class LoopbackDevice;
+}
+
+namespace hapticd::daemon {
+
+/// What the stability checks know about the device.
+struct DeviceModel {
+  drivers::DeviceInfo info;
+  world::LinearPlant plant;  ///< rigid from info, or the loopback's two-mass model
+  world::Sensor sensor = world::Sensor::motor;
+  double period_s = 1e-3;
+  world::Motion motion() const noexcept {
+    return info.motion == drivers::Motion::rotary ? world::Motion::rotary : world::Motion::linear;
+  }
+  /// "J = 0.01 kg m^2, b = 0 N m s/rad, T = 1 ms, d = 0" (or m = ... kg for a linear device).
+  std::string describe() const;
+};
+
+DeviceModel make_device_model(const drivers::Device& device, const drivers::loopback::LoopbackDevice* loopback,
+                              double period_s);
+
+/// The verdict that goes with a plan, reported to clients and recordings.
+struct StabilityVerdict {
+  bool checked = false;  ///< false for scenes without a linear model (relay, free)
+  bool stable = true;
+  double scene_radius = 0.0;        ///< largest |eigenvalue| of the scene alone (device held)
+  double closed_loop_radius = 0.0;  ///< largest |pole| with the device released (worst case, Hulin 2)
+  double growth_per_second = 1.0;   ///< amplitude factor per second of the worst mode
+  std::string summary;              ///< one sentence
+};
+nlohmann::json to_json(const StabilityVerdict& verdict);
+
+struct PlannedScene {
+  world::ScenePlan plan;
+  StabilityVerdict stability;
+  bool forced = false;  ///< unstable, loaded on purpose with force=true
+};
+
+struct PlanRefusal {
+  bool invalid = false;  ///< bad parameters (vs. valid but unstable)
+  std::string message;   ///< one line: what was wrong and what would be accepted or hold
+  nlohmann::json data;   ///< e.g. {"limit": {"stiffness": ...}}
+};
+
+using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
+
+/// Plans `scene` with `parameters` (missing ones take their defaults) for the device.
+PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters,
+                           const DeviceModel& device, bool force);
+
+/// Stability of an already validated plan on the device.
+StabilityVerdict check_stability(const world::ScenePlan& plan, const DeviceModel& device);
+
+nlohmann::json to_json(const world::ParameterSet& parameters);
+/// JSON object -> parameters (numbers, booleans, strings); throws std::invalid_argument otherwise.
+world::ParameterSet parameters_from_json(const nlohmann::json& object);
+std::string to_text(const world::ParameterValue& value);
+
+}  // namespace hapticd::daemon
