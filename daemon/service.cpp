@@ -80,7 +80,18 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
   device_ = build_device(cfg);
   model_ = make_device_model(*device_.device, device_.loopback, cfg.loop.period_s);
   initial_requested_ = to_parameter_set(cfg.scene.parameters);
-  auto outcome = plan_on_device(cfg.scene.name, initial_requested_, model_, false);
+  // `force = true` in [scene] is the config's explicit override for showing
+  // an instability on purpose (Freudenberg Fig. 8); it is not a scene parameter.
+  bool force = false;
+  if (const auto it = initial_requested_.find("force"); it != initial_requested_.end()) {
+    const auto* flag = std::get_if<bool>(&it->second);
+    if (flag == nullptr) {
+      throw config::ConfigError(blame(cfg.scene, "force"), "scene.force", "force must be true or false");
+    }
+    force = *flag;
+    initial_requested_.erase(it);
+  }
+  auto outcome = plan_on_device(cfg.scene.name, initial_requested_, model_, force);
   if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
     throw config::ConfigError(blame(cfg.scene, refusal->message), "scene", refusal->message);
   }
