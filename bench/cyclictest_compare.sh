@@ -8,7 +8,7 @@
 #
 # usage: bench/cyclictest_compare.sh [cycles=20000] [sequential|concurrent]
 #   env: INTERVAL_US (1000), PRIORITY (80), CPU (unset: not pinned),
-#        BENCH (build-rt/bench/loop_latency_bench)
+#        BENCH (build/bench/loop_latency_bench)
 # Needs root (or CAP_SYS_NICE) for SCHED_FIFO; runs anyway and says so.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -16,10 +16,10 @@ cycles="${1:-20000}"
 mode="${2:-sequential}"
 interval="${INTERVAL_US:-1000}"
 prio="${PRIORITY:-80}"
-bench="${BENCH:-$here/build-rt/bench/loop_latency_bench}"
+bench="${BENCH:-$here/build/bench/loop_latency_bench}"
 hist_us=50000  # cyclictest histogram range; larger latencies are overflows
 command -v cyclictest >/dev/null || { echo "cyclictest not found (apt install rt-tests)" >&2; exit 1; }
-[[ -x "$bench" ]] || { echo "$bench not built (ninja -C build-rt loop_latency_bench)" >&2; exit 1; }
+[[ -x "$bench" ]] || { echo "$bench not built (scripts/build.sh)" >&2; exit 1; }
 
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
