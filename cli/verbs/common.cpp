@@ -214,11 +214,16 @@ void print_params(std::ostream& out, const json& params) {
 void print_json(const json& result) { std::cout << result.dump(2) << '\n'; }
 
 void report_stability(const nlohmann::json& result) {
-  if (!result.is_object() || !result.contains("stable") || !result["stable"].is_boolean()) return;
-  if (result["stable"].get<bool>()) return;
+  if (!result.is_object()) return;
+  // The daemon reports {"stability": {"stable", "growth_per_second", ...}}; older replies: "stable" at the top.
+  const json& verdict = result.contains("stability") && result["stability"].is_object() ? result["stability"] : result;
+  if (!verdict.contains("stable") || !verdict["stable"].is_boolean()) return;
+  if (verdict["stable"].get<bool>()) return;
   std::cerr << "hapticctl: warning: this parameter set is UNSTABLE (loaded with --force)";
-  if (result.contains("growth_rate_per_s") && result["growth_rate_per_s"].is_number()) {
-    std::cerr << "; amplitude grows at " << result["growth_rate_per_s"].get<double>() << " 1/s";
+  if (verdict.contains("growth_rate_per_s") && verdict["growth_rate_per_s"].is_number()) {
+    std::cerr << "; amplitude grows at " << verdict["growth_rate_per_s"].get<double>() << " 1/s";
+  } else if (verdict.contains("growth_per_second") && verdict["growth_per_second"].is_number()) {
+    std::cerr << "; amplitude grows x" << verdict["growth_per_second"].get<double>() << " per second";
   }
   std::cerr << "; the torque limit still holds\n";
   if (result.contains("warning") && result["warning"].is_string()) {

@@ -24,7 +24,8 @@ void add_load_command(CLI::App& app, CommonOptions& opts) {
     auto result = detail::call(opts, "scene.load", params);
     if (opts.json) return detail::print_json(result);
     std::cout << "loaded " << result.value("scene", args->scene) << '\n';
-    if (result.contains("params")) detail::print_params(std::cout, result["params"]);
+    // The daemon sends the parameters as "parameters".
+    detail::print_params(std::cout, result.value("parameters", nlohmann::json::object()));
     detail::report_stability(result);
   });
 }

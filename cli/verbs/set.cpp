@@ -21,7 +21,8 @@ void add_set_command(CLI::App& app, CommonOptions& opts) {
     if (args->force) params["force"] = true;
     auto result = detail::call(opts, "param.set", params);
     if (opts.json) return detail::print_json(result);
-    detail::print_params(std::cout, result.value("params", nlohmann::json::object()));
+    // The daemon sends the parameters as "parameters".
+    detail::print_params(std::cout, result.value("parameters", nlohmann::json::object()));
     detail::report_stability(result);
   });
 }
