@@ -23,11 +23,12 @@ install(FILES ${CMAKE_CURRENT_LIST_DIR}/hapticd.sysusers DESTINATION ${HAPTICD_S
 # The installed configuration: never overwrite a file the administrator edited.
 set(_hapticd_config_src "${CMAKE_CURRENT_LIST_DIR}/../config/hapticd.toml")
 install(CODE "
+  # file(INSTALL) prefixes DESTDIR itself; only the existence check needs it.
   set(_dest \"\$ENV{DESTDIR}${HAPTICD_CONFIG_DIR}\")
   if(EXISTS \"\${_dest}/hapticd.toml\")
     message(STATUS \"Keeping existing: \${_dest}/hapticd.toml\")
   else()
-    file(INSTALL \"${_hapticd_config_src}\" DESTINATION \"\${_dest}\" FILE_PERMISSIONS OWNER_READ OWNER_WRITE GROUP_READ WORLD_READ)
+    file(INSTALL \"${_hapticd_config_src}\" DESTINATION \"${HAPTICD_CONFIG_DIR}\" FILE_PERMISSIONS OWNER_READ OWNER_WRITE GROUP_READ WORLD_READ)
   endif()
 " COMPONENT config)
 # Every example, for reference.
