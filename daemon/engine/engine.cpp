@@ -77,15 +77,21 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   sample.latency_s = std::chrono::duration<double>(wake.latency).count();
 
   // A new plan, or the end of a latched fault, restarts the scene at
-  // equilibrium with the last measured position: no torque step.
+  // equilibrium at the position measured in this very cycle (below, before
+  // the first step): no torque step, even before the first valid reading or
+  // when the device moved since the last one.
   if (const LoopPlan* plan = plans_.acquire(wake.cycle); plan != plan_) {
     plan_ = plan;
     scene_ = plan->scene;
-    world::reset(scene_, last_position_);
+    reset_pending_ = true;
   }
   const bool latched_before = latch_.latched();
-  if (was_latched_ && !latched_before && plan_ != nullptr) world::reset(scene_, last_position_);
+  if (was_latched_ && !latched_before) reset_pending_ = true;
   was_latched_ = latched_before;
+  // An overrun streak is known at the wake-up: zero this period's output.
+  if (options_.overrun_limit != 0 && wake.overrun && stats_.overrun_streak() + 1 >= options_.overrun_limit) {
+    if (latch_.latch(FaultReason::overrun_streak)) bump(faults_latched_);
+  }
 
   drivers::Reading reading;
   const drivers::IoResult read = device_.read(reading);
@@ -103,6 +109,10 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
     read_error_streak_.record(false);
     position_valid = true;
     last_position_ = reading.position;
+    if (reset_pending_ && plan_ != nullptr) {
+      world::reset(scene_, reading.position);
+      reset_pending_ = false;
+    }
   }
   sample.position = last_position_;
 
@@ -131,9 +141,6 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
 
   if (wake.overrun) sample.flags |= flag_overrun;
   stats_.record(wake, clock_.now() - wake.woke);
-  if (options_.overrun_limit != 0 && stats_.overrun_streak() >= options_.overrun_limit) {
-    if (latch_.latch(FaultReason::overrun_streak)) bump(faults_latched_);
-  }
   if (latch_.latched()) sample.flags |= flag_fault_latched;
   if (plan_ != nullptr && plan_->unstable_forced) sample.flags |= flag_unstable_forced;
 

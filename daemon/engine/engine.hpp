@@ -106,6 +106,7 @@ class Engine {
   const LoopPlan* plan_ = nullptr;
   world::AnyScene scene_{};
   bool was_latched_ = false;
+  bool reset_pending_ = false;  ///< reset the scene at the next valid reading
   double last_position_ = 0.0;
   StreakCounter read_error_streak_;
   rt::Nanos t0_{0};
