@@ -1,0 +1,214 @@
+// The stability-gated planner: make_device_model + plan_on_device on loopback
+// devices, against Hulin et al. 2006 (virtual wall) and Freudenberg (wheel).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <variant>
+
+#include "analysis/wall_stability.hpp"
+#include "daemon/planner.hpp"
+#include "drivers/loopback/loopback_device.hpp"
+#include "world/scene_catalog.hpp"
+
+namespace {
+
+using hapticd::daemon::DeviceModel;
+using hapticd::daemon::PlannedScene;
+using hapticd::daemon::PlanOutcome;
+using hapticd::daemon::PlanRefusal;
+namespace loopback = hapticd::drivers::loopback;
+namespace analysis = hapticd::analysis;
+namespace world = hapticd::world;
+using hapticd::drivers::Motion;
+
+constexpr double T = 1e-3;
+constexpr double hulin_mass = 0.1;
+
+loopback::LoopbackConfig hulin_config() {
+  auto config = loopback::LoopbackConfig::defaults(Motion::linear);
+  config.mass = hulin_mass;
+  config.delay = 0;
+  config.damping = 0.0;
+  return config;
+}
+
+loopback::LoopbackConfig wheel_config(double damping) {
+  auto config = loopback::LoopbackConfig::defaults(Motion::rotary);
+  config.damping = damping;
+  return config;
+}
+
+DeviceModel model_of(const loopback::LoopbackDevice& device) {
+  return hapticd::daemon::make_device_model(device, &device, T);
+}
+
+// By value: the outcome is usually a temporary.
+PlannedScene planned(const PlanOutcome& outcome) {
+  if (const auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
+    ADD_FAILURE() << "refused: " << refusal->message;
+    return {};
+  }
+  return std::get<PlannedScene>(outcome);
+}
+
+PlanRefusal refused(const PlanOutcome& outcome) {
+  if (const auto* plan = std::get_if<PlannedScene>(&outcome)) {
+    ADD_FAILURE() << "accepted: " << plan->stability.summary;
+    return {};
+  }
+  return std::get<PlanRefusal>(outcome);
+}
+
+PlanOutcome wall(const DeviceModel& model, double k, double b, bool force = false) {
+  return hapticd::daemon::plan_on_device("wall", {{"stiffness", k}, {"damping", b}, {"delay", 1.0}}, model, force);
+}
+
+}  // namespace
+
+TEST(Planner, DeviceModelOfTheHulinLoopback) {
+  const loopback::LoopbackDevice device(hulin_config());
+  const DeviceModel model = model_of(device);
+  EXPECT_EQ(model.motion(), world::Motion::linear);
+  EXPECT_DOUBLE_EQ(model.info.effective_mass, hulin_mass);
+  EXPECT_EQ(model.info.inherent_delay_samples, 0);
+  EXPECT_EQ(model.plant.dynamics.a.rows(), 2);
+  EXPECT_DOUBLE_EQ(model.period_s, T);
+  EXPECT_NE(model.describe().find("m = 0.1 kg"), std::string::npos) << model.describe();
+}
+
+TEST(Planner, HulinOptimumWallIsStable) {
+  const loopback::LoopbackDevice device(hulin_config());
+  const auto p = planned(wall(model_of(device), 9000.0, 46.0));
+  EXPECT_TRUE(p.stability.checked);
+  EXPECT_TRUE(p.stability.stable);
+  EXPECT_FALSE(p.forced);
+  EXPECT_LT(p.stability.closed_loop_radius, 1.0);
+  EXPECT_EQ(p.plan.scene, "wall");
+}
+
+TEST(Planner, StiffWallIsRefusedWithTheLargestStableStiffness) {
+  const loopback::LoopbackDevice device(hulin_config());
+  const PlanOutcome outcome = wall(model_of(device), 20000.0, 46.0);
+  ASSERT_TRUE(std::holds_alternative<PlanRefusal>(outcome));  // nothing to publish: no engine sees it
+  const auto r = refused(outcome);
+  EXPECT_FALSE(r.invalid);
+  EXPECT_NE(r.message.find("largest stable stiffness"), std::string::npos) << r.message;
+  const auto verdict = analysis::analyze_wall(hulin_mass, T, 1, 20000.0, 46.0);
+  EXPECT_FALSE(verdict.stable);
+  EXPECT_NE(r.message.find("Hulin: " + analysis::refusal_message(verdict)), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("force=true"), std::string::npos);
+
+  const double beta = analysis::normalized_damping(46.0, hulin_mass, T);
+  const double expected = analysis::alpha_max(beta, 1) * hulin_mass / (T * T);
+  ASSERT_TRUE(r.data["limit"].contains("stiffness"));
+  const double limit = r.data["limit"]["stiffness"].get<double>();
+  EXPECT_NEAR(limit, expected, 1e-3 * expected);
+  EXPECT_LT(limit, 20000.0);
+  EXPECT_GT(limit, 9000.0);
+  EXPECT_NEAR(r.data["limit"]["k_max"].get<double>(), verdict.k_max, 1e-9 * verdict.k_max);
+  EXPECT_FALSE(r.data["stability"]["stable"].get<bool>());
+}
+
+TEST(Planner, PapersMisprintedDampingIsRefused) {
+  // Hulin section 7 prints B = 4.6 N s/m; with K = 9000 N/m that is unstable.
+  const loopback::LoopbackDevice device(hulin_config());
+  const auto r = refused(wall(model_of(device), 9000.0, 4.6));
+  const double beta = analysis::normalized_damping(4.6, hulin_mass, T);
+  const double expected = analysis::alpha_max(beta, 1) * hulin_mass / (T * T);
+  const double limit = r.data["limit"]["stiffness"].get<double>();
+  EXPECT_NEAR(limit, expected, 1e-3 * expected);
+  EXPECT_NEAR(limit, 2909.0, 5.0);
+  EXPECT_NE(r.message.find("largest stable stiffness"), std::string::npos) << r.message;
+}
+
+TEST(Planner, ForceLoadsAnUnstableWallAndSaysSo) {
+  const loopback::LoopbackDevice device(hulin_config());
+  const auto p = planned(wall(model_of(device), 20000.0, 46.0, true));
+  EXPECT_TRUE(p.forced);
+  EXPECT_TRUE(p.stability.checked);
+  EXPECT_FALSE(p.stability.stable);
+  EXPECT_GT(p.stability.closed_loop_radius, 1.0);
+  EXPECT_GT(p.stability.growth_per_second, 1.0);
+  EXPECT_NE(p.stability.summary.find("unstable"), std::string::npos);
+  // A stable set is never marked forced, force or not.
+  EXPECT_FALSE(planned(wall(model_of(device), 9000.0, 46.0, true)).forced);
+}
+
+TEST(Planner, ForwardEulerWheelWithoutDampingIsRefusedAutoDampingAccepted) {
+  const loopback::LoopbackDevice device(wheel_config(0.0));
+  const DeviceModel model = model_of(device);
+  const auto r = refused(hapticd::daemon::plan_on_device(
+      "spring-wheel", {{"integrator", "forward-euler"}, {"damping", 0.0}}, model, false));
+  EXPECT_NE(r.message.find("no stiffness > 0 is stable"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("damping=auto"), std::string::npos) << r.message;
+  EXPECT_FALSE(r.data["limit"].contains("stiffness"));
+
+  const auto p = planned(hapticd::daemon::plan_on_device(
+      "spring-wheel", {{"integrator", "forward-euler"}, {"damping", "auto"}}, model, false));
+  EXPECT_TRUE(p.stability.checked);
+  EXPECT_TRUE(p.stability.stable);
+  EXPECT_FALSE(p.forced);
+  // b = T k makes forward Euler a lossless oscillator: marginal, radius 1.
+  EXPECT_NEAR(p.stability.scene_radius, 1.0, 1e-9);
+  const double k = std::get<double>(p.plan.parameters.at("stiffness"));
+  EXPECT_DOUBLE_EQ(std::get<double>(p.plan.parameters.at("damping")), T * k);
+}
+
+TEST(Planner, ExactWheelNeedsSomeDeviceDamping) {
+  {
+    const loopback::LoopbackDevice undamped(wheel_config(0.0));
+    const auto r = refused(hapticd::daemon::plan_on_device("spring-wheel", {{"integrator", "exact"}},
+                                                            model_of(undamped), false));
+    EXPECT_NE(r.message.find("unstable on this device"), std::string::npos) << r.message;
+  }
+  {
+    const loopback::LoopbackDevice damped(wheel_config(0.002));
+    const auto p = planned(hapticd::daemon::plan_on_device("spring-wheel", {{"integrator", "exact"}},
+                                                            model_of(damped), false));
+    EXPECT_TRUE(p.stability.stable);
+    EXPECT_LE(p.stability.closed_loop_radius, 1.0 + 1e-7);
+  }
+}
+
+TEST(Planner, TwoMassLoopbackUsesTheFourStateModel) {
+  auto config = loopback::LoopbackConfig::defaults(Motion::linear);
+  config.plant = loopback::PlantKind::two_mass;
+  const loopback::LoopbackDevice device(config);
+  const DeviceModel model = model_of(device);
+  EXPECT_EQ(model.plant.dynamics.a.rows(), 4);
+  EXPECT_NE(model.describe().find("two-mass"), std::string::npos) << model.describe();
+  // Without the loopback pointer only the rigid approximation is available.
+  const DeviceModel rigid = hapticd::daemon::make_device_model(device, nullptr, T);
+  EXPECT_EQ(rigid.plant.dynamics.a.rows(), 2);
+
+  const auto outcome = hapticd::daemon::plan_on_device("spring-mass", {}, model, false);
+  const auto stability = std::holds_alternative<PlannedScene>(outcome)
+                             ? std::get<PlannedScene>(outcome).stability
+                             : hapticd::daemon::StabilityVerdict{};
+  if (std::holds_alternative<PlannedScene>(outcome)) {
+    EXPECT_TRUE(stability.checked);
+  } else {
+    EXPECT_NE(std::get<PlanRefusal>(outcome).message.find("two-mass"), std::string::npos);
+  }
+}
+
+TEST(Planner, RelayAndFreeAreNotChecked) {
+  const loopback::LoopbackDevice device(wheel_config(0.0));
+  for (const char* scene : {"relay", "free"}) {
+    const auto p = planned(hapticd::daemon::plan_on_device(scene, {}, model_of(device), false));
+    EXPECT_FALSE(p.stability.checked) << scene;
+    EXPECT_TRUE(p.stability.stable) << scene;
+    EXPECT_FALSE(p.forced) << scene;
+  }
+}
+
+TEST(Planner, InvalidParametersAreRefusedAsInvalid) {
+  const loopback::LoopbackDevice device(hulin_config());
+  const auto r = refused(hapticd::daemon::plan_on_device("wall", {{"stiffness", -1.0}}, model_of(device), true));
+  EXPECT_TRUE(r.invalid);  // force does not override bad parameters
+  EXPECT_NE(r.message.find("stiffness"), std::string::npos);
+  const auto u = refused(hapticd::daemon::plan_on_device("wal", {}, model_of(device), false));
+  EXPECT_TRUE(u.invalid);
+}
