@@ -183,15 +183,23 @@ TEST(Planner, TwoMassLoopbackUsesTheFourStateModel) {
   const DeviceModel rigid = hapticd::daemon::make_device_model(device, nullptr, T);
   EXPECT_EQ(rigid.plant.dynamics.a.rows(), 2);
 
-  const auto outcome = hapticd::daemon::plan_on_device("spring-mass", {}, model, false);
-  const auto stability = std::holds_alternative<PlannedScene>(outcome)
-                             ? std::get<PlannedScene>(outcome).stability
-                             : hapticd::daemon::StabilityVerdict{};
-  if (std::holds_alternative<PlannedScene>(outcome)) {
-    EXPECT_TRUE(stability.checked);
-  } else {
-    EXPECT_NE(std::get<PlanRefusal>(outcome).message.find("two-mass"), std::string::npos);
-  }
+  EXPECT_TRUE(model.plant.dynamics.a.isApprox(device.plant_model().dynamics.a));
+  // The closed loop is computed with the 4-state plant: a stiff wall gives
+  // other poles than on the rigid approximation of the same total mass.
+  auto outcome = world::plan_scene("wall", {{"stiffness", 20000.0}, {"damping", 46.0}, {"delay", 1.0}}, T,
+                                   world::Motion::linear);
+  const auto& plan = std::get<world::ScenePlan>(outcome);
+  const auto four = hapticd::daemon::check_stability(plan, model);
+  const auto two = hapticd::daemon::check_stability(plan, rigid);
+  EXPECT_TRUE(four.checked);
+  EXPECT_GT(std::abs(four.closed_loop_radius - two.closed_loop_radius), 1e-6)
+      << four.closed_loop_radius << " vs " << two.closed_loop_radius;
+  const auto on_device = hapticd::daemon::plan_on_device(
+      "wall", {{"stiffness", 20000.0}, {"damping", 46.0}, {"delay", 1.0}}, model, false);
+  const double radius = std::holds_alternative<PlannedScene>(on_device)
+                            ? std::get<PlannedScene>(on_device).stability.closed_loop_radius
+                            : std::get<PlanRefusal>(on_device).data["stability"]["closed_loop_radius"].get<double>();
+  EXPECT_DOUBLE_EQ(radius, four.closed_loop_radius);
 }
 
 TEST(Planner, RelayAndFreeAreNotChecked) {
