@@ -1,0 +1,147 @@
+// End-to-end: the offline `hapticctl analyze` verbs, run as the real binary.
+// No daemon is involved; these check the JSON contract (keys), a few exact
+// values with closed forms, duration parsing, and one-line usage errors.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "support.hpp"
+
+namespace hapticd::e2e {
+namespace {
+
+using nlohmann::json;
+
+json analyze(const std::vector<std::string>& args) {
+  std::vector<std::string> full{"analyze"};
+  full.insert(full.end(), args.begin(), args.end());
+  full.push_back("--json");
+  const CommandResult r = run(hapticctl_binary(), full);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return json::parse(r.out);
+}
+
+void expect_keys(const json& object, const std::vector<std::string>& keys) {
+  ASSERT_TRUE(object.is_object()) << object.dump();
+  for (const auto& k : keys) EXPECT_TRUE(object.contains(k)) << "missing key '" << k << "' in " << object.dump();
+}
+
+std::string exact(double x) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%.17g", x);
+  return buffer;
+}
+
+std::size_t line_count(const std::string& text) {
+  std::size_t n = 0;
+  for (char c : text) n += c == '\n' ? 1 : 0;
+  if (!text.empty() && text.back() != '\n') ++n;
+  return n;
+}
+
+TEST(CliAnalyze, IntegratorForwardEulerOneHertzWheel) {
+  // Forward Euler on J = 1, k = (2 pi)^2 (f_n = 1 Hz): |lambda| = sqrt(1 + (w T)^2).
+  const double k = 4.0 * M_PI * M_PI;
+  const json out = analyze({"integrator", "--scheme", "forward-euler", "--stiffness", exact(k), "--inertia", "1", "--period", "1ms"});
+  expect_keys(out, {"eigenvalue_magnitude", "stable", "growth_per_second"});
+  const double magnitude = std::sqrt(1.0 + k * 1e-6);
+  EXPECT_NEAR(out["eigenvalue_magnitude"].get<double>(), magnitude, 1e-12);
+  EXPECT_FALSE(out["stable"].get<bool>());
+  EXPECT_NEAR(out["growth_per_second"].get<double>(), std::pow(magnitude, 1000.0), 1e-9);
+  EXPECT_GT(out["growth_per_second"].get<double>(), 1.0);
+}
+
+TEST(CliAnalyze, WallKeysAndHulinLimits) {
+  const json out = analyze({"wall", "--mass", "0.1", "--period", "1ms", "--delay", "1", "--stiffness", "9000",
+                            "--damping", "46"});
+  expect_keys(out, {"alpha", "beta", "stable", "pole_radius", "alpha_max", "beta_at_alpha_max", "k_max", "b_at_k_max",
+                    "beta_max_at_zero_stiffness", "damping_range"});
+  EXPECT_NEAR(out["alpha"].get<double>(), 0.09, 1e-12);
+  EXPECT_NEAR(out["beta"].get<double>(), 0.46, 1e-12);
+  EXPECT_TRUE(out["stable"].get<bool>());
+  EXPECT_LT(out["pole_radius"].get<double>(), 1.0);
+  const double alpha_max = out["alpha_max"].get<double>();
+  EXPECT_NEAR(alpha_max, 0.144469, 1e-6);
+  EXPECT_NEAR(out["k_max"].get<double>(), alpha_max * 0.1 / 1e-6, 1e-6 * alpha_max * 0.1 / 1e-6);
+  ASSERT_TRUE(out["damping_range"].is_array());
+  ASSERT_EQ(out["damping_range"].size(), 2u);
+  EXPECT_LT(out["damping_range"][0].get<double>(), 46.0);
+  EXPECT_GT(out["damping_range"][1].get<double>(), 46.0);
+
+  const json d0 = analyze({"wall", "--mass", "0.1", "--period", "1ms", "--delay", "0"});
+  EXPECT_NEAR(d0["alpha_max"].get<double>(), 12.0 - 8.0 * std::sqrt(2.0), 1e-9);
+}
+
+TEST(CliAnalyze, BoundaryIsAListOfBetaAlphaPairs) {
+  const json out = analyze({"boundary", "--delay", "1", "--points", "20"});
+  ASSERT_TRUE(out.contains("points"));
+  ASSERT_TRUE(out["points"].is_array());
+  ASSERT_EQ(out["points"].size(), 20u);
+  double best_alpha = 0.0;
+  for (const auto& p : out["points"]) {
+    ASSERT_TRUE(p.is_array());
+    ASSERT_EQ(p.size(), 2u);
+    EXPECT_GE(p[0].get<double>(), 0.0);  // beta
+    EXPECT_GE(p[1].get<double>(), 0.0);  // alpha
+    best_alpha = std::max(best_alpha, p[1].get<double>());
+  }
+  // No boundary point lies above the wall's largest alpha for d = 1.
+  EXPECT_LE(best_alpha, 0.144469 + 1e-6);
+  EXPECT_GT(best_alpha, 0.1);
+}
+
+TEST(CliAnalyze, CriticalStiffnessKeys) {
+  const json rigid = analyze({"critical-stiffness", "--plant", "rigid", "--period", "1ms", "--delay", "1ms"});
+  expect_keys(rigid, {"k_cr", "crossover_hz", "gain_margin_db"});
+  EXPECT_GT(rigid["k_cr"].get<double>(), 0.0);
+  EXPECT_NEAR(rigid["gain_margin_db"].get<double>(), 20.0 * std::log10(rigid["k_cr"].get<double>()), 1e-6);
+  const json two = analyze({"critical-stiffness", "--plant", "two-mass", "--period", "1ms", "--delay", "1ms"});
+  expect_keys(two, {"k_cr", "crossover_hz", "gain_margin_db", "q_db"});
+  EXPECT_GT(two["k_cr"].get<double>(), 0.0);
+}
+
+TEST(CliAnalyze, DurationSpellingsAgree) {
+  const json a = analyze({"wall", "--mass", "0.1", "--period", "1ms", "--delay", "1"});
+  const json b = analyze({"wall", "--mass", "0.1", "--period", "0.001", "--delay", "1"});
+  const json c = analyze({"wall", "--mass", "0.1", "--period", "1000us", "--delay", "1"});
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(a, c);
+  EXPECT_DOUBLE_EQ(a["period"].get<double>(), 0.001);
+}
+
+struct BadInput {
+  std::vector<std::string> args;
+  std::string flag;
+};
+
+TEST(CliAnalyze, InvalidInputsExitTwoWithOneLineNamingTheArgument) {
+  const std::vector<BadInput> cases{
+      {{"wall", "--mass", "0", "--period", "1ms", "--delay", "1"}, "--mass"},
+      {{"wall", "--mass", "-1", "--period", "1ms", "--delay", "1"}, "--mass"},
+      {{"wall", "--mass", "0.1", "--period", "nan", "--delay", "1"}, "--period"},
+      {{"wall", "--mass", "0.1", "--period", "0", "--delay", "1"}, "--period"},
+      {{"integrator", "--scheme", "bogus", "--stiffness", "1", "--inertia", "1", "--period", "1ms"}, "--scheme"},
+      {{"wall", "--mass", "0.1", "--period", "1ms", "--delay", "x"}, "--delay"},
+      {{"wall", "--mass", "0.1", "--period", "1ms", "--delay", "1.5"}, "--delay"},
+      {{"critical-stiffness", "--period", "1ms", "--delay", "-1ms"}, "--delay"},
+  };
+  for (const auto& c : cases) {
+    std::vector<std::string> args{"analyze"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const CommandResult r = run(hapticctl_binary(), args);
+    std::string joined;
+    for (const auto& a : c.args) joined += a + " ";
+    EXPECT_EQ(r.exit_code, 2) << joined << "\n" << r.err;
+    EXPECT_EQ(line_count(r.err), 1u) << joined << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.flag), std::string::npos) << joined << "\n" << r.err;
+    EXPECT_TRUE(r.out.empty()) << joined << "\n" << r.out;
+  }
+}
+
+}  // namespace
+}  // namespace hapticd::e2e
