@@ -486,7 +486,9 @@ void Service::register_methods(control::ControlServer& server) {
         engine_->estop();
         return json{{"fault", std::string(to_string(engine_->fault()))}, {"cycle", engine_->cycle()}};
       },
-      Access::write);
+      // Read access by design (docs/protocol.md): anyone who can connect may
+      // stop the device; only writers can clear it (fault.clear).
+      Access::read);
 
   server.set_stream_source([this](const std::vector<std::string>& channels) {
     std::optional<TelemetrySample> sample;
