@@ -519,7 +519,9 @@ void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
   json request;
   try {
     request = json::parse(line);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {
+    // parse_error, and also out_of_range for numbers like 1e999: both are
+    // lines that are not JSON we can represent.
     send_error(c, nullptr, RpcError(rpc::code::parse_error, std::string("parse error: ") + e.what()));
     return;
   }

@@ -153,7 +153,11 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
     world::channels(scene_, std::span<double>(sample.channels.data(), n));
   }
   if (options_.wait_for_telemetry_space) {
-    while (telemetry_.size() >= telemetry_.capacity() && !stop_requested_.load(std::memory_order_relaxed)) {
+    // The recorder keeps draining while the engine stops, so keep waiting a
+    // little even after a stop request: this cycle ran, its sample counts.
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (telemetry_.size() >= telemetry_.capacity()) {
+      if (stop_requested_.load(std::memory_order_relaxed) && std::chrono::steady_clock::now() > give_up) break;
       std::this_thread::yield();
     }
   }

@@ -590,7 +590,7 @@ name = "spring-mass"
 // dropped ("client N dropped: ... number overflow") instead of getting the
 // -32700 reply docs/protocol.md promises. The loop is not affected. Run with
 // --gtest_also_run_disabled_tests once server.cpp catches json::exception there.
-TEST(Safety, DISABLED_NumberOverflowGetsAParseErrorReply) {
+TEST(Safety, NumberOverflowGetsAParseErrorReply) {
   TempDir dir;
   Daemon d(dir, spring_mass_device);
   ASSERT_TRUE(d.running()) << d.log();
