@@ -53,7 +53,7 @@ ClosedLoopVerdict analyze_closed_loop(const world::LinearPlant& plant, world::Se
   ClosedLoopVerdict v;
   v.a = closed_loop_matrix(plant, sensor, scene, period_s, extra_delay_samples);
   const Eigen::EigenSolver<Eigen::MatrixXd> solver(v.a, false);
-  const Eigen::VectorXcd ev = solver.eigenvalues();
+  const Eigen::VectorXcd& ev = solver.eigenvalues();
   v.eigenvalues.assign(ev.data(), ev.data() + ev.size());
   for (const auto& z : v.eigenvalues) v.pole_radius = std::max(v.pole_radius, std::abs(z));
   v.stable = v.pole_radius < 1.0;

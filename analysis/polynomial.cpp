@@ -96,7 +96,7 @@ std::vector<std::complex<double>> roots(const Polynomial& p) {
   for (Eigen::Index i = 1; i < n; ++i) companion(i, i - 1) = 1.0;
   for (Eigen::Index i = 0; i < n; ++i) companion(i, n - 1) = -q[static_cast<std::size_t>(i)] / q.back();
   const Eigen::EigenSolver<Eigen::MatrixXd> solver(companion, false);
-  const Eigen::VectorXcd ev = solver.eigenvalues();
+  const Eigen::VectorXcd& ev = solver.eigenvalues();
   return {ev.data(), ev.data() + ev.size()};
 }
 
