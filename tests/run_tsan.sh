@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
-# Build the RT tests with ThreadSanitizer in build-tsan and run them.
+# Build the RT tests and the daemon tests (engine thread, plan hand-over,
+# telemetry) with ThreadSanitizer in build-tsan and run them.
 # Why setarch -R: TSan's shadow memory layout breaks with the high
 # mmap randomization (vm.mmap_rnd_bits > 28) of recent kernels ("FATAL:
 # ThreadSanitizer: unexpected memory mapping"); running the binary with ASLR
 # disabled avoids it without touching sysctls.
+# Arguments go to rt_tests; DAEMON_TSAN_FILTER selects daemon tests (all by default).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$here/build-tsan}"
 
 cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF >/dev/null
-ninja -C "$build" rt_tests
+ninja -C "$build" rt_tests daemon_tests
 
 run=()
 if setarch "$(uname -m)" -R true 2>/dev/null; then
@@ -18,4 +20,7 @@ if setarch "$(uname -m)" -R true 2>/dev/null; then
 fi
 export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1 second_deadlock_stack=1}"
 # The 10-million-item ring transfer is ~20x slower under TSan; it still runs.
-exec "${run[@]}" "$build/tests/rt_tests" "$@"
+"${run[@]}" "$build/tests/rt_tests" "$@"
+# The engine's loop thread against a publishing, estopping, clearing control
+# thread and a draining consumer (EngineThreads.*), plus every other daemon test.
+"${run[@]}" "$build/tests/daemon_tests" --gtest_filter="${DAEMON_TSAN_FILTER:-*}"
