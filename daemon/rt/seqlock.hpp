@@ -13,7 +13,9 @@
 /// two extra stores per update and never a locked instruction.
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
+#include <thread>
 #include <type_traits>
 
 namespace hapticd::rt {
@@ -46,17 +48,28 @@ class SeqlockVersion {
     version_.store(version_.load(std::memory_order_relaxed) + 1, std::memory_order_release);  // even
   }
 
-  /// Reader: runs copy() until it saw no concurrent write, at most max_tries
-  /// times. Returns true when the last copy is consistent.
+  /// Reader (non-RT): runs copy() until it saw no concurrent write. Spins a
+  /// few times, then yields: the writer is the RT thread, and if it is
+  /// preempted (or the host stalls its vCPU) between write_begin() and
+  /// write_end() the version stays odd for milliseconds, far longer than any
+  /// spin budget. Gives up only after `give_up_after` (a writer that never
+  /// finishes its two stores); returns whether the last copy is consistent.
   template <class Copy>
-  bool read(Copy&& copy, int max_tries = 10000) const {
-    for (int i = 0; i < max_tries; ++i) {
+  bool read(Copy&& copy, std::chrono::nanoseconds give_up_after = std::chrono::seconds(1)) const {
+    constexpr int spins_before_yield = 64;
+    std::chrono::steady_clock::time_point deadline{};
+    for (int attempt = 0;; ++attempt) {
       const std::uint64_t before = version_.load(std::memory_order_acquire);
-      if (before & 1u) continue;
-      copy();  // seq_load()s: acquire, so the next load cannot move above them
-      if (version_.load(std::memory_order_relaxed) == before) return true;
+      if ((before & 1U) == 0) {
+        copy();  // seq_load()s: acquire, so the next load cannot move above them
+        if (version_.load(std::memory_order_relaxed) == before) return true;
+      }
+      if (attempt < spins_before_yield) continue;
+      const auto now = std::chrono::steady_clock::now();
+      if (attempt == spins_before_yield) deadline = now + give_up_after;
+      if (now >= deadline) return false;
+      std::this_thread::yield();
     }
-    return false;
   }
 
  private:

@@ -383,10 +383,6 @@ IoResult LoopbackDevice::write(double force) noexcept {
 }
 
 void LoopbackDevice::publish_snapshot() noexcept {
-  const std::uint64_t seq = snapshot_seq_.load(std::memory_order_relaxed);
-  // Seqlock without fences (TSAN-clean, Boehm 2012): the data stores are
-  // releases after the odd sequence number, the reader's data loads acquires.
-  snapshot_seq_.store(seq + 1, std::memory_order_relaxed);
   const int sensed = config_.sensor == world::Sensor::motor ? pos_motor_ : pos_body_;
   const std::array<double, 10> values{static_cast<double>(period_) * config_.period_s,
                                       x_[pos_motor_],
@@ -398,36 +394,36 @@ void LoopbackDevice::publish_snapshot() noexcept {
                                       applied_,
                                       hand_force_,
                                       friction_};
-  cells_.period.store(period_, std::memory_order_release);
-  for (std::size_t i = 0; i < values.size(); ++i) cells_.values[i].store(values[i], std::memory_order_release);
-  cells_.stuck.store(stuck_, std::memory_order_release);
-  cells_.released.store(released_, std::memory_order_release);
-  snapshot_seq_.store(seq + 2, std::memory_order_release);
+  snapshot_version_.write_begin();
+  rt::seq_store(cells_.period, period_);
+  for (std::size_t i = 0; i < values.size(); ++i) rt::seq_store(cells_.values[i], values[i]);
+  rt::seq_store(cells_.stuck, stuck_);
+  rt::seq_store(cells_.released, released_);
+  snapshot_version_.write_end();
 }
 
 PlantSnapshot LoopbackDevice::snapshot() const noexcept {
-  for (;;) {
-    const std::uint64_t before = snapshot_seq_.load(std::memory_order_acquire);
-    if (before & 1U) continue;
-    PlantSnapshot s;
-    s.period = cells_.period.load(std::memory_order_acquire);
-    std::array<double, 10> v{};
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = cells_.values[i].load(std::memory_order_acquire);
-    s.stuck = cells_.stuck.load(std::memory_order_acquire);
-    s.hand_released = cells_.released.load(std::memory_order_acquire);
-    if (snapshot_seq_.load(std::memory_order_relaxed) != before) continue;
-    s.time_s = v[0];
-    s.motor_position = v[1];
-    s.body_position = v[2];
-    s.motor_velocity = v[3];
-    s.body_velocity = v[4];
-    s.sensed_position = v[5];
-    s.commanded_force = v[6];
-    s.applied_force = v[7];
-    s.hand_force = v[8];
-    s.friction_force = v[9];
-    return s;
-  }
+  PlantSnapshot s;
+  std::array<double, 10> v{};
+  // Consistent unless the plant's writer stopped mid-update for a second,
+  // which a running loop never does.
+  snapshot_version_.read([&] {
+    s.period = rt::seq_load(cells_.period);
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = rt::seq_load(cells_.values[i]);
+    s.stuck = rt::seq_load(cells_.stuck);
+    s.hand_released = rt::seq_load(cells_.released);
+  });
+  s.time_s = v[0];
+  s.motor_position = v[1];
+  s.body_position = v[2];
+  s.motor_velocity = v[3];
+  s.body_velocity = v[4];
+  s.sensed_position = v[5];
+  s.commanded_force = v[6];
+  s.applied_force = v[7];
+  s.hand_force = v[8];
+  s.friction_force = v[9];
+  return s;
 }
 
 void LoopbackDevice::set_initial_state(double position, double velocity) {

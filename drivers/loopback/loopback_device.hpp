@@ -24,6 +24,7 @@
 #include <string_view>
 #include <vector>
 
+#include "daemon/rt/seqlock.hpp"
 #include "drivers/device.hpp"
 #include "drivers/loopback/hand_script.hpp"
 #include "drivers/loopback/loopback_config.hpp"
@@ -156,7 +157,7 @@ class LoopbackDevice final : public Device {
     std::array<std::atomic<double>, 10> values{};
     std::atomic<bool> stuck{false}, released{false};
   };
-  std::atomic<std::uint64_t> snapshot_seq_{0};
+  rt::SeqlockVersion snapshot_version_;
   SnapshotCells cells_;
 
   // Non-RT ownership of hand scripts.
