@@ -38,7 +38,7 @@ Eigen::MatrixXd closed_loop_matrix(const world::LinearPlant& plant, world::Senso
     a.block(0, n, n, q) += zoh.bd * fs;
   } else {
     a.block(0, n + q + delay - 1, n, 1) = zoh.bd;  // u[n] = F[n - D]
-    a.block(n + q, 0, 1, n) = fx;                   // new F[n-1] slot <- F[n]
+    a.block(n + q, 0, 1, n) = fx;                  // new F[n-1] slot <- F[n]
     a.block(n + q, n, 1, q) = fs;
     for (Eigen::Index i = 1; i < delay; ++i) a(n + q + i, n + q + i - 1) = 1.0;
   }

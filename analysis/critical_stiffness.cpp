@@ -14,8 +14,8 @@ namespace {
 using cd = std::complex<double>;
 
 /// [e^{Ah}, int_0^h e^{As} ds b] from expm([A b; 0 0] h).
-std::pair<Eigen::MatrixXd, Eigen::VectorXd> exp_and_integral(const Eigen::MatrixXd& a, const Eigen::VectorXd& b,
-                                                             double h) {
+std::pair<Eigen::MatrixXd, Eigen::VectorXd> exp_and_integral(const Eigen::MatrixXd& a,
+                                                             const Eigen::VectorXd& b, double h) {
   const Eigen::Index n = a.rows();
   Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 1, n + 1);
   m.topLeftCorner(n, n) = a * h;
@@ -86,8 +86,16 @@ std::vector<PhaseCrossover> phase_crossovers(const DelayedZoh& sys, const Eigen:
         while (hi - lo > 1e-13 * hi) {
           const double mid = 0.5 * (lo + hi);
           const double im = h(mid).imag();
-          if (im == 0.0) { lo = hi = mid; break; }
-          if ((im > 0.0) == (ilo > 0.0)) { lo = mid; ilo = im; } else { hi = mid; }
+          if (im == 0.0) {
+            lo = hi = mid;
+            break;
+          }
+          if ((im > 0.0) == (ilo > 0.0)) {
+            lo = mid;
+            ilo = im;
+          } else {
+            hi = mid;
+          }
         }
       } else {
         lo = w;
@@ -111,7 +119,8 @@ CriticalStiffness critical_stiffness(const world::LinearPlant& plant, world::Sen
   const DelayedZoh sys = discretize_delayed_zoh(
       plant.dynamics.a, plant.dynamics.b.col(world::motor_force_input), period_s, delay_s);
   const auto crossovers = phase_crossovers(sys, plant.position(sensor));
-  if (crossovers.empty()) throw std::invalid_argument("no phase crossover: no finite critical stiffness found");
+  if (crossovers.empty())
+    throw std::invalid_argument("no phase crossover: no finite critical stiffness found");
   const PhaseCrossover* best = &crossovers.front();
   for (const auto& c : crossovers) {
     if (c.stiffness < best->stiffness) best = &c;

@@ -51,10 +51,10 @@ struct PhaseCrossover {
 std::vector<PhaseCrossover> phase_crossovers(const DelayedZoh& sys, const Eigen::RowVectorXd& c);
 
 struct CriticalStiffness {
-  double k_cr = 0.0;                ///< N/m: the spring is stable for 0 < K < k_cr
-  double crossover_rad_per_s = 0.0; ///< frequency of the oscillation at K = k_cr
+  double k_cr = 0.0;                 ///< N/m: the spring is stable for 0 < K < k_cr
+  double crossover_rad_per_s = 0.0;  ///< frequency of the oscillation at K = k_cr
   double crossover_hz = 0.0;
-  double gain_margin_db = 0.0;      ///< 20 log10(k_cr)
+  double gain_margin_db = 0.0;  ///< 20 log10(k_cr)
 };
 
 /// K_CR of a pure spring on `plant` (motor-force input, position from

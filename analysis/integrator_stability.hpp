@@ -27,11 +27,11 @@ struct SpringScene {
 inline constexpr double marginal_tolerance = 1e-12;
 
 struct IntegratorVerdict {
-  Eigen::Matrix2d ad;                              ///< discrete state matrix
-  std::vector<std::complex<double>> eigenvalues;   ///< of ad
-  double eigenvalue_magnitude = 0.0;               ///< max |lambda|
-  bool stable = false;    ///< max |lambda| <= 1 + marginal_tolerance
-  bool marginal = false;  ///< | max |lambda| - 1 | <= marginal_tolerance (neither grows nor decays)
+  Eigen::Matrix2d ad;                             ///< discrete state matrix
+  std::vector<std::complex<double>> eigenvalues;  ///< of ad
+  double eigenvalue_magnitude = 0.0;              ///< max |lambda|
+  bool stable = false;                            ///< max |lambda| <= 1 + marginal_tolerance
+  bool marginal = false;           ///< | max |lambda| - 1 | <= marginal_tolerance (neither grows nor decays)
   double growth_per_second = 0.0;  ///< max|lambda|^(1/T): free-oscillation amplitude factor per second
 };
 

@@ -127,8 +127,16 @@ std::vector<UnitCircleCrossing> unit_circle_crossings(const Polynomial& p0, cons
         const double mid = 0.5 * (lo + hi);
         if (mid <= lo || mid >= hi) break;
         const double gm = imag_cross(p0, p1, mid);
-        if (gm == 0.0) { lo = hi = mid; break; }
-        if ((gm > 0.0) == (glo > 0.0)) { lo = mid; glo = gm; } else { hi = mid; }
+        if (gm == 0.0) {
+          lo = hi = mid;
+          break;
+        }
+        if ((gm > 0.0) == (glo > 0.0)) {
+          lo = mid;
+          glo = gm;
+        } else {
+          hi = mid;
+        }
       }
       const double root_theta = 0.5 * (lo + hi);
       if (crossing_at(p0, p1, root_theta, t)) out.push_back({t, root_theta});

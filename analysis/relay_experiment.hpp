@@ -16,8 +16,8 @@ struct RelayEstimate {
   double gain_margin_db = 0.0;       ///< 20 log10(K_u)
   double frequency_rad_per_s = 0.0;  ///< oscillation frequency
   double frequency_hz = 0.0;
-  double amplitude = 0.0;            ///< a, first-harmonic position amplitude, m
-  int cycles = 0;                    ///< whole cycles used
+  double amplitude = 0.0;  ///< a, first-harmonic position amplitude, m
+  int cycles = 0;          ///< whole cycles used
 };
 
 /// From position samples (steady state, period T) and the relay amplitude h:

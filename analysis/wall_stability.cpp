@@ -126,8 +126,8 @@ std::vector<BoundaryPoint> stability_boundary(int delay_samples, int count) {
 BoundaryPoint max_stiffness_point(int delay_samples) {
   check_delay(delay_samples);
   const double top = beta_max_at_zero_stiffness(delay_samples);
-  const Minimum m = grid_then_golden([&](double b) { return -alpha_max(b, delay_samples); }, 0.0,
-                                     top, 16, 1e-10);
+  const Minimum m =
+      grid_then_golden([&](double b) { return -alpha_max(b, delay_samples); }, 0.0, top, 16, 1e-10);
   BoundaryPoint best{m.x, -m.value};
   // Polish on the exact curve: find the boundary crossing at this beta and
   // bisect d alpha / d theta = 0 around it.
@@ -143,7 +143,12 @@ BoundaryPoint max_stiffness_point(int delay_samples) {
         const double mid = 0.5 * (lo + hi);
         if (mid <= lo || mid >= hi) break;
         const double sm = slope(mid);
-        if ((sm > 0.0) == (slo > 0.0)) { lo = mid; slo = sm; } else { hi = mid; }
+        if ((sm > 0.0) == (slo > 0.0)) {
+          lo = mid;
+          slo = sm;
+        } else {
+          hi = mid;
+        }
       }
       const CurvePoint p = boundary_curve(0.5 * (lo + hi), delay_samples);
       if (p.alpha >= best.alpha - 1e-12 && std::abs(p.beta - best.beta) < 1e-6) best = {p.beta, p.alpha};
@@ -187,8 +192,7 @@ MinimumRadiusPoint minimum_radius_point(int delay_samples) {
 }
 
 WallVerdict analyze_wall(double mass_kg, double period_s, int delay_samples,
-                         std::optional<double> stiffness_n_per_m,
-                         std::optional<double> damping_n_s_per_m) {
+                         std::optional<double> stiffness_n_per_m, std::optional<double> damping_n_s_per_m) {
   const double k = stiffness_n_per_m.value_or(0.0);
   const double b = damping_n_s_per_m.value_or(0.0);
   if (!(mass_kg > 0.0) || !std::isfinite(mass_kg)) throw std::invalid_argument("mass must be > 0");

@@ -101,22 +101,21 @@ struct WallVerdict {
   double beta = 0.0;
   bool stable = false;
   double pole_radius = 0.0;
-  double alpha_max = 0.0;          ///< Remark 2 maximum over all damping
+  double alpha_max = 0.0;  ///< Remark 2 maximum over all damping
   double beta_at_alpha_max = 0.0;
-  double k_max = 0.0;              ///< N/m
-  double b_at_k_max = 0.0;         ///< N s/m
+  double k_max = 0.0;       ///< N/m
+  double b_at_k_max = 0.0;  ///< N s/m
   double beta_max_at_zero_stiffness = 0.0;
-  double b_max_at_zero_stiffness = 0.0;  ///< N s/m
-  double alpha_max_for_damping = 0.0;    ///< alpha_max(beta) at the requested damping
-  double k_max_for_damping = 0.0;        ///< N/m
-  std::optional<Interval> damping_range; ///< N s/m stable at the requested stiffness
+  double b_max_at_zero_stiffness = 0.0;   ///< N s/m
+  double alpha_max_for_damping = 0.0;     ///< alpha_max(beta) at the requested damping
+  double k_max_for_damping = 0.0;         ///< N/m
+  std::optional<Interval> damping_range;  ///< N s/m stable at the requested stiffness
 };
 
 /// Full verdict (a few ms). Throws std::invalid_argument on m <= 0, T <= 0,
 /// d < 0, K < 0, B < 0 or non-finite input.
 WallVerdict analyze_wall(double mass_kg, double period_s, int delay_samples,
-                         std::optional<double> stiffness_n_per_m,
-                         std::optional<double> damping_n_s_per_m);
+                         std::optional<double> stiffness_n_per_m, std::optional<double> damping_n_s_per_m);
 
 /// One sentence saying why the request is refused and what would hold;
 /// empty if the verdict is stable.

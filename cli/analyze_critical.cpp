@@ -78,19 +78,21 @@ void run_critical(const CriticalArgs& a) {
     out["q_db"] = modes->q_db;
     out["omega_n"] = modes->omega_n;
     out["z_n"] = modes->z_n;
-    if (const auto peak = analysis::resonant_peak(*two_mass)) out["resonant_peak_distance_db"] = peak->distance_db;
+    if (const auto peak = analysis::resonant_peak(*two_mass))
+      out["resonant_peak_distance_db"] = peak->distance_db;
   }
   if (a.json) {
     std::cout << out.dump(2) << "\n";
     return;
   }
   Table t;
-  t.row("plant", a.plant + ", " + std::string(world::to_string(*sensor)) + " sensing, T = " + fmt_duration(period) +
-                     ", delay " + fmt_duration(delay == 0.0 ? 0.0 : delay));
+  t.row("plant", a.plant + ", " + std::string(world::to_string(*sensor)) + " sensing, T = " +
+                     fmt_duration(period) + ", delay " + fmt_duration(delay == 0.0 ? 0.0 : delay));
   t.row("critical stiffness", fmt(k.k_cr) + " N/m (gain margin " + fmt(k.gain_margin_db) + " dB)");
   t.row("phase crossover", fmt(k.crossover_hz) + " Hz (" + fmt(k.crossover_rad_per_s) + " rad/s)");
   if (modes) {
-    t.row("cable mode", "w_n = " + fmt(modes->omega_n) + " rad/s, z_n = " + fmt(modes->z_n) + " 1/s (eq. 13, 16)");
+    t.row("cable mode",
+          "w_n = " + fmt(modes->omega_n) + " rad/s, z_n = " + fmt(modes->z_n) + " 1/s (eq. 13, 16)");
     t.row("Q ~ m_m z_n w_n", fmt(modes->q) + " N/m = " + fmt(modes->q_db) + " dB (eq. 24)");
     t.row("verdict", modes->q >= k.k_cr ? "Q >= K_CR: the rigid model suffices at this delay"
                                         : "Q < K_CR: the cable mode limits the stiffness");

@@ -27,7 +27,8 @@ void run_integrator(const IntegratorArgs& a) {
                      std::string(world::integrator_names()));
   }
   if (a.inertia.empty() == a.mass.empty()) {
-    throw UsageError("--inertia: give the virtual inertia (kg m^2), or --mass (kg) for a spring-mass, not both");
+    throw UsageError(
+        "--inertia: give the virtual inertia (kg m^2), or --mass (kg) for a spring-mass, not both");
   }
   analysis::SpringScene scene;
   scene.integrator = *scheme;
@@ -58,8 +59,9 @@ void run_integrator(const IntegratorArgs& a) {
   }
   Table t;
   t.row("scheme", std::string(world::to_string(*scheme)));
-  t.row("scene", "k = " + fmt(scene.stiffness) + ", J = " + fmt(scene.inertia) + ", b = " + fmt(scene.damping) +
-                     ", T = " + fmt_duration(scene.period_s) + " (f_n = " + fmt(wn / (2.0 * M_PI)) + " Hz)");
+  t.row("scene", "k = " + fmt(scene.stiffness) + ", J = " + fmt(scene.inertia) +
+                     ", b = " + fmt(scene.damping) + ", T = " + fmt_duration(scene.period_s) +
+                     " (f_n = " + fmt(wn / (2.0 * M_PI)) + " Hz)");
   char mag[40];
   std::snprintf(mag, sizeof mag, "%.12f", v.eigenvalue_magnitude);
   t.row("|lambda| max", mag);
@@ -72,8 +74,10 @@ void run_integrator(const IntegratorArgs& a) {
 
 void add_analyze_integrator(CLI::App& analyze) {
   auto args = std::make_shared<IntegratorArgs>();
-  auto* cmd = analyze.add_subcommand("integrator", "Eigenvalues of a discretized spring scene (Freudenberg 2.8-2.15)");
-  cmd->add_option("--scheme", args->scheme, "forward-euler, semi-implicit-euler, trapezoid, rk4, exact")->required();
+  auto* cmd = analyze.add_subcommand("integrator",
+                                     "Eigenvalues of a discretized spring scene (Freudenberg 2.8-2.15)");
+  cmd->add_option("--scheme", args->scheme, "forward-euler, semi-implicit-euler, trapezoid, rk4, exact")
+      ->required();
   cmd->add_option("--stiffness", args->stiffness, "spring k, N m/rad (or N/m)")->required();
   cmd->add_option("--inertia", args->inertia, "virtual inertia J_w, kg m^2");
   cmd->add_option("--mass", args->mass, "virtual mass m, kg (spring-mass)");

@@ -48,8 +48,9 @@ void run_wall(const WallArgs& a) {
     out["stable"] = nullptr;
   }
   if (stiffness) {
-    out["damping_range"] = v.damping_range ? nlohmann::json::array({v.damping_range->lower, v.damping_range->upper})
-                                           : nlohmann::json::array();
+    out["damping_range"] = v.damping_range
+                               ? nlohmann::json::array({v.damping_range->lower, v.damping_range->upper})
+                               : nlohmann::json::array();
   }
   if (a.json) {
     std::cout << out.dump(2) << "\n";
@@ -62,17 +63,18 @@ void run_wall(const WallArgs& a) {
     t.row("normalized", "alpha = " + fmt(v.alpha) + ", beta = " + fmt(v.beta) + "  (Hulin eq. 2)");
     t.row("verdict", v.stable ? "stable" : "UNSTABLE");
     t.row("pole radius", fmt(v.pole_radius));
-    t.row("largest K at this B", fmt(v.k_max_for_damping) + " N/m (alpha = " + fmt(v.alpha_max_for_damping) + ")");
+    t.row("largest K at this B",
+          fmt(v.k_max_for_damping) + " N/m (alpha = " + fmt(v.alpha_max_for_damping) + ")");
   }
   if (stiffness) {
-    t.row("stable B range", v.damping_range ? fmt(v.damping_range->lower) + " .. " +
-                                                  fmt(v.damping_range->upper) + " N s/m"
-                                            : std::string("none: no damping makes this K stable"));
+    t.row("stable B range",
+          v.damping_range ? fmt(v.damping_range->lower) + " .. " + fmt(v.damping_range->upper) + " N s/m"
+                          : std::string("none: no damping makes this K stable"));
   }
   t.row("largest K", fmt(v.k_max) + " N/m with B = " + fmt(v.b_at_k_max) + " N s/m (alpha = " +
                          fmt(v.alpha_max) + ", beta = " + fmt(v.beta_at_alpha_max) + ")");
-  t.row("largest B at K = 0", fmt(v.b_max_at_zero_stiffness) + " N s/m (beta = " +
-                                  fmt(v.beta_max_at_zero_stiffness) + ")");
+  t.row("largest B at K = 0",
+        fmt(v.b_max_at_zero_stiffness) + " N s/m (beta = " + fmt(v.beta_max_at_zero_stiffness) + ")");
   if (have_point && !v.stable) t.row("why", analysis::refusal_message(v));
   t.print(std::cout);
 }
@@ -100,7 +102,8 @@ void run_boundary(const BoundaryArgs& a) {
 
 void add_analyze_wall(CLI::App& analyze) {
   auto args = std::make_shared<WallArgs>();
-  auto* wall = analyze.add_subcommand("wall", "Virtual wall on a rigid mass (Hulin eq. 1-4): stability region, limits");
+  auto* wall = analyze.add_subcommand(
+      "wall", "Virtual wall on a rigid mass (Hulin eq. 1-4): stability region, limits");
   wall->add_option("--mass", args->mass, "device mass, kg")->required();
   wall->add_option("--period", args->period, "sampling period (s, ms, us)")->required();
   wall->add_option("--delay", args->delay, "output delay d, whole samples >= 0")->required();
@@ -110,7 +113,8 @@ void add_analyze_wall(CLI::App& analyze) {
   wall->callback([args] { run_wall(*args); });
 
   auto bargs = std::make_shared<BoundaryArgs>();
-  auto* boundary = analyze.add_subcommand("boundary", "Points of the exact boundary alpha_max(beta) (Hulin Fig. 4-7)");
+  auto* boundary =
+      analyze.add_subcommand("boundary", "Points of the exact boundary alpha_max(beta) (Hulin Fig. 4-7)");
   boundary->add_option("--delay", bargs->delay, "output delay d, whole samples >= 0")->required();
   boundary->add_option("--points", bargs->points, "number of points (default 50)");
   boundary->add_flag("--json", bargs->json, "print one JSON object");

@@ -49,7 +49,8 @@ int whole_number(std::string_view flag, const std::string& text, int min, int ma
   return static_cast<int>(*value);
 }
 
-std::optional<double> optional_positive(std::string_view flag, const std::string& text, std::string_view unit) {
+std::optional<double> optional_positive(std::string_view flag, const std::string& text,
+                                        std::string_view unit) {
   if (text.empty()) return std::nullopt;
   return positive_number(flag, text, unit);
 }

@@ -21,7 +21,8 @@ double non_negative_duration(std::string_view flag, const std::string& text);
 int whole_number(std::string_view flag, const std::string& text, int min, int max);
 
 /// The same for optional flags: nothing when the flag was not given (text empty).
-std::optional<double> optional_positive(std::string_view flag, const std::string& text, std::string_view unit);
+std::optional<double> optional_positive(std::string_view flag, const std::string& text,
+                                        std::string_view unit);
 std::optional<double> optional_non_negative(std::string_view flag, const std::string& text,
                                             std::string_view unit);
 

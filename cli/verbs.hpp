@@ -56,12 +56,15 @@ void add_scenes_command(CLI::App& app, CommonOptions& opts);  ///< scenes
 void add_load_command(CLI::App& app, CommonOptions& opts);    ///< load SCENE [name=value ...] [--force]
 void add_get_command(CLI::App& app, CommonOptions& opts);     ///< get [NAME ...]
 void add_set_command(CLI::App& app, CommonOptions& opts);     ///< set name=value ... [--force]
-void add_record_command(CLI::App& app, CommonOptions& opts);  ///< record start [--path P] [--channel C] | record stop
-void add_stream_command(CLI::App& app, CommonOptions& opts);  ///< stream [--rate HZ] [--count N] [CHANNEL ...]
-void add_hand_command(CLI::App& app, CommonOptions& opts);    ///< hand [MODE] [key=value ...]
-void add_fault_command(CLI::App& app, CommonOptions& opts);   ///< fault inject KIND [key=value ...] | fault clear
-void add_estop_command(CLI::App& app, CommonOptions& opts);   ///< estop
-void add_stats_command(CLI::App& app, CommonOptions& opts);   ///< stats
+void add_record_command(CLI::App& app,
+                        CommonOptions& opts);  ///< record start [--path P] [--channel C] | record stop
+void add_stream_command(CLI::App& app,
+                        CommonOptions& opts);               ///< stream [--rate HZ] [--count N] [CHANNEL ...]
+void add_hand_command(CLI::App& app, CommonOptions& opts);  ///< hand [MODE] [key=value ...]
+void add_fault_command(CLI::App& app,
+                       CommonOptions& opts);  ///< fault inject KIND [key=value ...] | fault clear
+void add_estop_command(CLI::App& app, CommonOptions& opts);  ///< estop
+void add_stats_command(CLI::App& app, CommonOptions& opts);  ///< stats
 
 /// All of the above, plus the common options on `app`, in one call.
 void add_daemon_commands(CLI::App& app, CommonOptions& opts);

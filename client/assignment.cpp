@@ -16,17 +16,26 @@ bool looks_numeric(std::string_view t) {
   std::size_t i = 0;
   if (t[i] == '+' || t[i] == '-') ++i;
   bool digits = false;
-  while (i < t.size() && t[i] >= '0' && t[i] <= '9') { ++i; digits = true; }
+  while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
+    ++i;
+    digits = true;
+  }
   if (i < t.size() && t[i] == '.') {
     ++i;
-    while (i < t.size() && t[i] >= '0' && t[i] <= '9') { ++i; digits = true; }
+    while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
+      ++i;
+      digits = true;
+    }
   }
   if (!digits) return false;
   if (i < t.size() && (t[i] == 'e' || t[i] == 'E')) {
     ++i;
     if (i < t.size() && (t[i] == '+' || t[i] == '-')) ++i;
     bool exp_digits = false;
-    while (i < t.size() && t[i] >= '0' && t[i] <= '9') { ++i; exp_digits = true; }
+    while (i < t.size() && t[i] >= '0' && t[i] <= '9') {
+      ++i;
+      exp_digits = true;
+    }
     if (!exp_digits) return false;
   }
   return i == t.size();
@@ -37,8 +46,8 @@ nlohmann::json parse_value(std::string_view text) {
   if (text == "true") return true;
   if (text == "false") return false;
   if (text == "null") return nullptr;
-  if (text.size() >= 2 && ((text.front() == '"' && text.back() == '"') ||
-                           (text.front() == '\'' && text.back() == '\''))) {
+  if (text.size() >= 2 &&
+      ((text.front() == '"' && text.back() == '"') || (text.front() == '\'' && text.back() == '\''))) {
     return std::string(text.substr(1, text.size() - 2));
   }
   if (looks_numeric(text)) {

@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <system_error>
 #include <utility>
 
 #include <fcntl.h>
@@ -21,7 +22,7 @@ int remaining_ms(Clock::time_point deadline) {
   return left > 60'000 ? 60'000 : static_cast<int>(left);
 }
 
-std::string errno_text(int e) { return std::strerror(e); }
+std::string errno_text(int e) { return std::generic_category().message(e); }
 
 /// Turns a JSON-RPC error object into the exception the caller sees.
 [[noreturn]] void throw_error_object(const nlohmann::json& err) {
@@ -29,8 +30,9 @@ std::string errno_text(int e) { return std::strerror(e); }
     throw ProtocolError("hapticd sent a malformed error object: " + err.dump().substr(0, 200));
   }
   int c = err["code"].get<int>();
-  std::string message = err.contains("message") && err["message"].is_string() ? err["message"].get<std::string>()
-                                                                               : std::string(rpc::code_name(c));
+  std::string message = err.contains("message") && err["message"].is_string()
+                            ? err["message"].get<std::string>()
+                            : std::string(rpc::code_name(c));
   throw RpcError(c, std::move(message), err.contains("data") ? err["data"] : nlohmann::json());
 }
 }  // namespace
@@ -117,13 +119,15 @@ void Client::send_line(const std::string& line) {
     if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
       pollfd p{fd_, POLLOUT, 0};
       int r = ::poll(&p, 1, remaining_ms(deadline));
-      if (r == 0) throw ConnectError("hapticd at " + path_ + " did not accept the request in time", path_, ETIMEDOUT);
+      if (r == 0)
+        throw ConnectError("hapticd at " + path_ + " did not accept the request in time", path_, ETIMEDOUT);
       continue;
     }
     int e = errno;
     // The daemon may have answered (e.g. busy) before closing: report that.
     try {
-      if (auto msg = next_message(Clock::now() + std::chrono::milliseconds(100)); msg && msg->contains("error")) {
+      if (auto msg = next_message(Clock::now() + std::chrono::milliseconds(100));
+          msg && msg->contains("error")) {
         throw_error_object((*msg)["error"]);
       }
     } catch (const ConnectError&) {
@@ -141,11 +145,13 @@ std::optional<nlohmann::json> Client::next_message(Clock::time_point deadline) {
       if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
       auto msg = nlohmann::json::parse(line, nullptr, false);
       if (msg.is_discarded() || !msg.is_object()) {
-        throw ProtocolError("hapticd at " + path_ + " sent a line that is not a JSON object: " + line.substr(0, 200));
+        throw ProtocolError("hapticd at " + path_ +
+                            " sent a line that is not a JSON object: " + line.substr(0, 200));
       }
       return msg;
     }
-    if (inbuf_.size() > max_line_bytes) throw ProtocolError("hapticd sent a line longer than the client accepts");
+    if (inbuf_.size() > max_line_bytes)
+      throw ProtocolError("hapticd sent a line longer than the client accepts");
     pollfd p{fd_, POLLIN, 0};
     int r = ::poll(&p, 1, remaining_ms(deadline));
     if (r < 0) {
@@ -195,7 +201,8 @@ nlohmann::json Client::call(const std::string& method, const nlohmann::json& par
       continue;  // an answer to an earlier request that timed out
     }
     if (msg_id != id) continue;
-    if (!msg->contains("result")) throw ProtocolError("hapticd sent a response with neither result nor error");
+    if (!msg->contains("result"))
+      throw ProtocolError("hapticd sent a response with neither result nor error");
     if ((*msg).value("jsonrpc", std::string()) != rpc::version) {
       throw ProtocolError("hapticd sent a response without \"jsonrpc\":\"2.0\"");
     }
@@ -226,7 +233,8 @@ std::optional<nlohmann::json> Client::read_notification(std::chrono::millisecond
     auto msg = next_message(deadline);
     if (!msg) return std::nullopt;
     if (msg->contains("method") && !msg->contains("id")) return msg;
-    if (msg->contains("error") && msg->contains("id") && (*msg)["id"].is_null()) throw_error_object((*msg)["error"]);
+    if (msg->contains("error") && msg->contains("id") && (*msg)["id"].is_null())
+      throw_error_object((*msg)["error"]);
     // A stray response (to a request that timed out): skip it.
   }
 }

@@ -1,13 +1,13 @@
 #include "client/socket_path.hpp"
 
-#include <cstdlib>
 #include <unistd.h>
+#include <cstdlib>
 
 namespace hapticd::client {
 
 namespace {
 std::string env_dir(const char* name) {
-  const char* value = std::getenv(name);
+  const char* value = std::getenv(name);  // NOLINT(concurrency-mt-unsafe): nothing here calls setenv
   if (value == nullptr) return {};
   std::string dir(value);
   // systemd joins several RuntimeDirectory= entries with ':'; the first is ours.

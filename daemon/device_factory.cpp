@@ -32,9 +32,9 @@ config::SourcePosition blame(const config::DeviceConfig& device, const std::stri
 BuiltDevice build_device(const config::DaemonConfig& config) {
   const auto& device = config.device;
   if (device.driver != "loopback") {
-    throw config::ConfigError(device.driver_where, "device.driver",
-                              "driver '" + device.driver +
-                                  "' is not built in this version of hapticd; accepted: loopback");
+    throw config::ConfigError(
+        device.driver_where, "device.driver",
+        "driver '" + device.driver + "' is not built in this version of hapticd; accepted: loopback");
   }
   std::vector<std::pair<std::string, std::string>> pairs;
   std::string hand_text;

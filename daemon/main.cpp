@@ -17,8 +17,8 @@ namespace {
 void list_drivers() {
   std::cout << "loopback: simulated plant (rigid or two-mass), scripted hand, fault injection\n";
   for (const auto& p : hapticd::drivers::loopback::loopback_parameters()) {
-    std::cout << "  " << p.name << " (" << p.type << (p.unit.empty() ? "" : ", " + p.unit)
-              << ", default " << p.default_value << "): " << p.help << "\n";
+    std::cout << "  " << p.name << " (" << p.type << (p.unit.empty() ? "" : ", " + p.unit) << ", default "
+              << p.default_value << "): " << p.help << "\n";
   }
   std::cout << "usb-hid, canopen, modbus, gpio: not built in this version\n";
 }
@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
   app.add_flag("--require-rt", require_rt, "exit if SCHED_FIFO cannot be had");
   app.add_option("--clock", clock, "real or virtual (virtual: as fast as possible on simulated time)");
   app.add_option("--duration", duration, "stop after this much loop time (s, ms, us)");
-  app.add_option("--record", record, "record from the first cycle to this file name in the recording directory");
+  app.add_option("--record", record,
+                 "record from the first cycle to this file name in the recording directory");
   app.add_option("--socket", socket, "control socket path");
   app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
   app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters");
@@ -89,7 +90,8 @@ int main(int argc, char** argv) {
 
   try {
     hapticd::daemon::ServiceOptions options;
-    options.config = config_path.empty() ? hapticd::config::default_config() : hapticd::config::load_config(config_path);
+    options.config =
+        config_path.empty() ? hapticd::config::default_config() : hapticd::config::load_config(config_path);
     auto& loop = options.config.loop;
     if (require_rt) loop.require_rt = true;
     if (!clock.empty()) {
@@ -105,7 +107,8 @@ int main(int argc, char** argv) {
     if (!duration.empty()) {
       const auto d = hapticd::units::parse_duration_s(duration);
       if (!d || *d <= 0) {
-        std::cerr << "hapticd: --duration: '" << duration << "' is not accepted; expected a duration > 0 such as 10s or 500ms\n";
+        std::cerr << "hapticd: --duration: '" << duration
+                  << "' is not accepted; expected a duration > 0 such as 10s or 500ms\n";
         return 2;
       }
       loop.duration_s = *d;

@@ -55,8 +55,8 @@ std::string stiffness_unit(const world::ScenePlan& plan) {
 
 std::string DeviceModel::describe() const {
   const bool rotary = info.motion == drivers::Motion::rotary;
-  std::string s = rotary ? "J = " + num(info.effective_mass) + " kg m^2"
-                         : "m = " + num(info.effective_mass) + " kg";
+  std::string s =
+      rotary ? "J = " + num(info.effective_mass) + " kg m^2" : "m = " + num(info.effective_mass) + " kg";
   if (info.viscous_damping > 0) {
     s += ", b = " + num(info.viscous_damping) + (rotary ? " N m s/rad" : " N s/m");
   }
@@ -65,8 +65,8 @@ std::string DeviceModel::describe() const {
   return s;
 }
 
-DeviceModel make_device_model(const drivers::Device& device, const drivers::loopback::LoopbackDevice* loopback,
-                              double period_s) {
+DeviceModel make_device_model(const drivers::Device& device,
+                              const drivers::loopback::LoopbackDevice* loopback, double period_s) {
   DeviceModel model;
   model.info = device.info();
   model.period_s = period_s;
@@ -87,8 +87,8 @@ StabilityVerdict check_stability(const world::ScenePlan& plan, const DeviceModel
   }
   v.checked = true;
   v.scene_radius = radius_of(plan.linear->a);
-  const auto closed = analysis::analyze_closed_loop(device.plant, device.sensor, *plan.linear, device.period_s,
-                                                    device.info.inherent_delay_samples);
+  const auto closed = analysis::analyze_closed_loop(device.plant, device.sensor, *plan.linear,
+                                                    device.period_s, device.info.inherent_delay_samples);
   v.closed_loop_radius = closed.pole_radius;
   const double worst = std::max(v.scene_radius, v.closed_loop_radius);
   v.growth_per_second = std::pow(worst, 1.0 / device.period_s);
@@ -129,8 +129,8 @@ std::optional<double> largest_stable_stiffness(std::string_view scene, world::Pa
 
 }  // namespace
 
-PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters, const DeviceModel& device,
-                           bool force) {
+PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters,
+                           const DeviceModel& device, bool force) {
   auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion());
   if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
     return PlanRefusal{true, error->message, nullptr};
@@ -172,7 +172,8 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
     refusal.message += ". Hulin: " + analysis::refusal_message(verdict);
     limit["k_max"] = verdict.k_max;
     limit["b_at_k_max"] = verdict.b_at_k_max;
-    if (verdict.damping_range) limit["damping_range"] = {verdict.damping_range->lower, verdict.damping_range->upper};
+    if (verdict.damping_range)
+      limit["damping_range"] = {verdict.damping_range->lower, verdict.damping_range->upper};
   }
   refusal.message += ". Send force=true (hapticctl --force) to load it anyway; the torque limit still holds";
   refusal.data = {{"limit", limit}, {"stability", to_json(planned.stability)}};

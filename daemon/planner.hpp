@@ -35,8 +35,8 @@ struct DeviceModel {
   std::string describe() const;
 };
 
-DeviceModel make_device_model(const drivers::Device& device, const drivers::loopback::LoopbackDevice* loopback,
-                              double period_s);
+DeviceModel make_device_model(const drivers::Device& device,
+                              const drivers::loopback::LoopbackDevice* loopback, double period_s);
 
 /// The verdict that goes with a plan, reported to clients and recordings.
 struct StabilityVerdict {

@@ -63,6 +63,7 @@ json histogram_json(const rt::HistogramSnapshot& h) {
 
 std::vector<std::string> names_of(const std::vector<world::ChannelDescription>& channels) {
   std::vector<std::string> names;
+  names.reserve(channels.size());
   for (const auto& c : channels) names.push_back(c.name);
   return names;
 }
@@ -104,8 +105,9 @@ std::string Service::describe() const {
   const auto& cfg = options_.config;
   std::ostringstream out;
   out << "device: " << device_label(model_.info, device_.loopback) << ", " << model_.describe()
-      << ", torque limit " << cfg.device.torque_limit << (model_.info.motion == drivers::Motion::rotary ? " N m" : " N")
-      << "\nloop: period " << cfg.loop.period_s * 1e3 << " ms, clock " << config::to_string(cfg.loop.clock)
+      << ", torque limit " << cfg.device.torque_limit
+      << (model_.info.motion == drivers::Motion::rotary ? " N m" : " N") << "\nloop: period "
+      << cfg.loop.period_s * 1e3 << " ms, clock " << config::to_string(cfg.loop.clock)
       << "\nscene: " << initial_.plan.scene;
   for (const auto& [k, v] : initial_.plan.parameters) out << " " << k << "=" << to_text(v);
   out << "\nstability: " << initial_.stability.summary;
@@ -165,7 +167,7 @@ void Service::adopt(CurrentScene next) {
   scene_ = std::move(next);
 }
 
-json Service::apply(PlannedScene planned, const world::ParameterSet& requested) {
+json Service::apply(const PlannedScene& planned, const world::ParameterSet& requested) {
   if (engine_->finished()) throw RpcError(code::busy, "the RT loop has stopped; nothing can take effect");
   const auto seq = publish(planned);
   const auto cycle = engine_->wait_applied(seq, 2000ms);
@@ -173,12 +175,9 @@ json Service::apply(PlannedScene planned, const world::ParameterSet& requested) 
   CurrentScene next = scene_from(planned, requested);
   next.effective_cycle = *cycle;
   recorder_->set_scene(header_for(next), *cycle);
-  json reply{{"scene", next.name},
-             {"parameters", to_json(next.resolved)},
-             {"effective_cycle", *cycle},
-             {"stability", to_json(next.stability)},
-             {"forced", next.forced},
-             {"notes", next.notes}};
+  json reply{{"scene", next.name},        {"parameters", to_json(next.resolved)},
+             {"effective_cycle", *cycle}, {"stability", to_json(next.stability)},
+             {"forced", next.forced},     {"notes", next.notes}};
   adopt(std::move(next));
   return reply;
 }
@@ -197,9 +196,9 @@ json Service::sample_json(const TelemetrySample& s, const std::vector<std::strin
     std::lock_guard lock(scene_mutex_);
     names = s.cycle >= scene_.effective_cycle ? names_of(scene_.channels) : previous_channels_;
   }
-  json all{{"cycle", s.cycle},          {"time_s", s.time_s},       {"position", s.position},
-           {"command", s.command},      {"applied", s.applied},     {"latency_s", s.latency_s},
-           {"compute_s", s.compute_s},  {"flags", s.flags}};
+  json all{{"cycle", s.cycle},         {"time_s", s.time_s},   {"position", s.position},
+           {"command", s.command},     {"applied", s.applied}, {"latency_s", s.latency_s},
+           {"compute_s", s.compute_s}, {"flags", s.flags}};
   for (std::size_t i = 0; i < names.size() && i < s.channel_count; ++i) all[names[i]] = s.channels[i];
   if (wanted.empty()) return all;
   json out{{"cycle", s.cycle}, {"time_s", s.time_s}};
@@ -285,7 +284,8 @@ json Service::stats() const {
              {"error", rec.error}}},
            {"control", control::to_json(server_->stats())}};
   const auto dev = device_.device->status();
-  out["device"] = {{"read_errors", dev.read_errors}, {"write_errors", dev.write_errors}, {"faults", dev.faults}};
+  out["device"] = {
+      {"read_errors", dev.read_errors}, {"write_errors", dev.write_errors}, {"faults", dev.faults}};
   return out;
 }
 
@@ -293,8 +293,10 @@ void Service::register_methods(control::ControlServer& server) {
   using control::Access;
   using control::PeerInfo;
 
-  server.register_method("status", [this](const json&, const PeerInfo&) { return status(); }, Access::read);
-  server.register_method("stats", [this](const json&, const PeerInfo&) { return stats(); }, Access::read);
+  server.register_method(
+      "status", [this](const json&, const PeerInfo&) { return status(); }, Access::read);
+  server.register_method(
+      "stats", [this](const json&, const PeerInfo&) { return stats(); }, Access::read);
 
   server.register_method(
       "scene.list",
@@ -314,7 +316,8 @@ void Service::register_methods(control::ControlServer& server) {
             if (p.maximum) entry["maximum"] = *p.maximum;
             params.push_back(entry);
           }
-          scenes.push_back({{"name", d.name}, {"reference", d.reference}, {"summary", d.summary}, {"parameters", params}});
+          scenes.push_back(
+              {{"name", d.name}, {"reference", d.reference}, {"summary", d.summary}, {"parameters", params}});
         }
         return json{{"scenes", scenes}};
       },
@@ -332,11 +335,13 @@ void Service::register_methods(control::ControlServer& server) {
         } catch (const std::invalid_argument& e) {
           throw RpcError(code::invalid_params, e.what());
         }
-        auto outcome = plan_on_device(params["scene"].get<std::string>(), requested, model_, get_force(params));
+        auto outcome =
+            plan_on_device(params["scene"].get<std::string>(), requested, model_, get_force(params));
         if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
-          throw RpcError(refusal->invalid ? code::invalid_params : code::refused, refusal->message, refusal->data);
+          throw RpcError(refusal->invalid ? code::invalid_params : code::refused, refusal->message,
+                         refusal->data);
         }
-        return apply(std::move(std::get<PlannedScene>(outcome)), requested);
+        return apply(std::get<PlannedScene>(outcome), requested);
       },
       Access::write);
 
@@ -351,7 +356,8 @@ void Service::register_methods(control::ControlServer& server) {
         json all = to_json(scene.resolved);
         json out = json::object();
         if (params.contains("names")) {
-          if (!params["names"].is_array()) throw RpcError(code::invalid_params, "names must be a list of strings");
+          if (!params["names"].is_array())
+            throw RpcError(code::invalid_params, "names must be a list of strings");
           for (const auto& n : params["names"]) {
             if (!n.is_string() || !all.contains(n.get<std::string>())) {
               std::string accepted;
@@ -377,7 +383,8 @@ void Service::register_methods(control::ControlServer& server) {
         } catch (const std::invalid_argument& e) {
           throw RpcError(code::invalid_params, e.what());
         }
-        if (changes.empty()) throw RpcError(code::invalid_params, "param.set needs \"params\": {name: value, ...}");
+        if (changes.empty())
+          throw RpcError(code::invalid_params, "param.set needs \"params\": {name: value, ...}");
         CurrentScene scene;
         {
           std::lock_guard lock(scene_mutex_);
@@ -387,9 +394,10 @@ void Service::register_methods(control::ControlServer& server) {
         for (auto& [k, v] : changes) requested[k] = v;
         auto outcome = plan_on_device(scene.name, requested, model_, get_force(params));
         if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
-          throw RpcError(refusal->invalid ? code::invalid_params : code::refused, refusal->message, refusal->data);
+          throw RpcError(refusal->invalid ? code::invalid_params : code::refused, refusal->message,
+                         refusal->data);
         }
-        return apply(std::move(std::get<PlannedScene>(outcome)), requested);
+        return apply(std::get<PlannedScene>(outcome), requested);
       },
       Access::write);
 
@@ -460,7 +468,8 @@ void Service::register_methods(control::ControlServer& server) {
         std::int64_t amount = -1;
         if (params.contains("amount")) {
           if (!params["amount"].is_number_integer()) {
-            throw RpcError(code::invalid_params, "amount must be a whole number (periods, or counts for encoder-jump)");
+            throw RpcError(code::invalid_params,
+                           "amount must be a whole number (periods, or counts for encoder-jump)");
           }
           amount = params["amount"].get<std::int64_t>();
         }
@@ -475,8 +484,9 @@ void Service::register_methods(control::ControlServer& server) {
         if (device_.loopback != nullptr) device_.loopback->clear_faults();
         const FaultReason before = engine_->fault();
         engine_->clear_fault();
-        return json{{"cleared", before == FaultReason::none ? json(nullptr) : json(std::string(to_string(before)))},
-                    {"cycle", engine_->cycle()}};
+        return json{
+            {"cleared", before == FaultReason::none ? json(nullptr) : json(std::string(to_string(before)))},
+            {"cycle", engine_->cycle()}};
       },
       Access::write);
 
@@ -528,7 +538,8 @@ int Service::run() {
   device_.device->start();
   engine_ = std::make_unique<Engine>(eo, *device_.device, *clock_);
 
-  const auto directory = config::resolve_recording_directory(cfg.recorder, std::getenv("STATE_DIRECTORY"));
+  const auto directory = config::resolve_recording_directory(
+      cfg.recorder, std::getenv("STATE_DIRECTORY"));  // NOLINT(concurrency-mt-unsafe): start-up, no setenv
   std::error_code ec;
   std::filesystem::create_directories(directory, ec);
   recorder::RecorderOptions ro;

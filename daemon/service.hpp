@@ -57,7 +57,7 @@ class Service {
   std::string describe() const;
 
  private:
-  nlohmann::json apply(PlannedScene planned, const world::ParameterSet& requested);
+  nlohmann::json apply(const PlannedScene& planned, const world::ParameterSet& requested);
   static CurrentScene scene_from(const PlannedScene& planned, const world::ParameterSet& requested);
   std::uint64_t publish(const PlannedScene& planned);  ///< returns the publication's sequence number
   void adopt(CurrentScene next);

@@ -17,21 +17,21 @@ inline constexpr std::size_t max_telemetry_channels = 10;
 
 /// Bits in TelemetrySample::flags.
 enum TelemetryFlag : std::uint32_t {
-  flag_fault_latched = 1u << 0,   ///< output held at zero by a latched fault
-  flag_torque_limited = 1u << 1,  ///< the torque limit clipped the scene's command
-  flag_read_error = 1u << 2,      ///< device read failed this period
-  flag_overrun = 1u << 3,         ///< this cycle woke past its deadline by more than a period
-  flag_unstable_forced = 1u << 4, ///< scene loaded with force=true although unstable
+  flag_fault_latched = 1u << 0,    ///< output held at zero by a latched fault
+  flag_torque_limited = 1u << 1,   ///< the torque limit clipped the scene's command
+  flag_read_error = 1u << 2,       ///< device read failed this period
+  flag_overrun = 1u << 3,          ///< this cycle woke past its deadline by more than a period
+  flag_unstable_forced = 1u << 4,  ///< scene loaded with force=true although unstable
 };
 
 struct TelemetrySample {
   std::uint64_t cycle = 0;
-  double time_s = 0.0;         ///< since loop start (simulated time with the virtual clock)
-  double position = 0.0;       ///< measured, m or rad
-  double command = 0.0;        ///< scene output before the limit, N or N m
-  double applied = 0.0;        ///< sent to the device, N or N m
-  double latency_s = 0.0;      ///< wake-up latency of this cycle
-  double compute_s = 0.0;      ///< read + step + write time of this cycle
+  double time_s = 0.0;     ///< since loop start (simulated time with the virtual clock)
+  double position = 0.0;   ///< measured, m or rad
+  double command = 0.0;    ///< scene output before the limit, N or N m
+  double applied = 0.0;    ///< sent to the device, N or N m
+  double latency_s = 0.0;  ///< wake-up latency of this cycle
+  double compute_s = 0.0;  ///< read + step + write time of this cycle
   std::uint32_t flags = 0;
   std::uint32_t channel_count = 0;
   std::array<double, max_telemetry_channels> channels{};  ///< scene then device channels

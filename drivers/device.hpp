@@ -28,7 +28,7 @@ struct Reading {
 
 /// What a driver says about itself; filled outside the RT loop.
 struct DeviceInfo {
-  std::string driver;                ///< "loopback", "usb-hid", ...
+  std::string driver;  ///< "loopback", "usb-hid", ...
   Motion motion = Motion::rotary;
   double effective_mass = 0.0;       ///< kg or kg m^2: what stability checks use
   double viscous_damping = 0.0;      ///< N s/m or N m s/rad

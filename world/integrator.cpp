@@ -6,8 +6,8 @@
 namespace hapticd::world {
 
 namespace {
-constexpr std::array<std::string_view, 5> names{"forward-euler", "semi-implicit-euler",
-                                                "trapezoid", "rk4", "exact"};
+constexpr std::array<std::string_view, 5> names{"forward-euler", "semi-implicit-euler", "trapezoid", "rk4",
+                                                "exact"};
 }
 
 std::string_view to_string(Integrator integrator) noexcept {

@@ -21,8 +21,8 @@ enum class Integrator {
 };
 
 inline constexpr std::array<Integrator, 5> all_integrators{
-    Integrator::forward_euler, Integrator::semi_implicit_euler, Integrator::trapezoid,
-    Integrator::rk4, Integrator::exact};
+    Integrator::forward_euler, Integrator::semi_implicit_euler, Integrator::trapezoid, Integrator::rk4,
+    Integrator::exact};
 
 /// CLI/config/protocol name: "forward-euler", "semi-implicit-euler", "trapezoid", "rk4", "exact".
 std::string_view to_string(Integrator integrator) noexcept;

@@ -52,7 +52,7 @@ struct TwoMassPlant {
   double cable_stiffness = 79.5e3;  ///< k_c, N/m
   double cable_damping = 15.0;      ///< b_c, N s/m
 
-  double total_mass() const noexcept { return motor_mass + body_mass; }          ///< m = m_m + m_d
+  double total_mass() const noexcept { return motor_mass + body_mass; }           ///< m = m_m + m_d
   double total_damping() const noexcept { return motor_damping + body_damping; }  ///< b = b_m + b_d
   LinearPlant model() const;  ///< state [x_m, x_d, v_m, v_d]
 };

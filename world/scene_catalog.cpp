@@ -12,6 +12,7 @@ namespace {
 
 std::vector<std::string> integrator_list() {
   std::vector<std::string> out;
+  out.reserve(all_integrators.size());
   for (const Integrator i : all_integrators) out.emplace_back(to_string(i));
   return out;
 }

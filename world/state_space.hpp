@@ -29,10 +29,10 @@ namespace hapticd::world {
 ///   s[n+1] = a s[n] + b y[n],   F[n] = c s[n] + d y[n].
 /// Built off the RT path; analysis/ closes the loop with a plant through it.
 struct DiscreteLinearScene {
-  Eigen::MatrixXd a;  ///< q x q (q may be 0)
-  Eigen::MatrixXd b;  ///< q x 1
-  Eigen::MatrixXd c;  ///< 1 x q
-  Eigen::MatrixXd d;  ///< 1 x 1
+  Eigen::MatrixXd a;             ///< q x q (q may be 0)
+  Eigen::MatrixXd b;             ///< q x 1
+  Eigen::MatrixXd c;             ///< 1 x q
+  Eigen::MatrixXd d;             ///< 1 x 1
   int output_delay_samples = 0;  ///< samples between computing F and applying it
 };
 

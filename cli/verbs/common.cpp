@@ -20,14 +20,14 @@ using nlohmann::json;
 
 void add_common_options(CLI::App& app, CommonOptions& opts) {
   if (app.get_option_no_throw("--socket") == nullptr) {
-    app.add_option("--socket", opts.socket, "hapticd control socket (default: $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR or /tmp)");
+    app.add_option("--socket", opts.socket,
+                   "hapticd control socket (default: $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR or /tmp)");
   }
   if (app.get_option_no_throw("--json") == nullptr) {
     app.add_flag("--json", opts.json, "print the daemon's result as JSON");
   }
   if (app.get_option_no_throw("--timeout") == nullptr) {
-    app.add_option("--timeout", opts.timeout_s, "seconds to wait for the daemon")
-        ->check(CLI::PositiveNumber);
+    app.add_option("--timeout", opts.timeout_s, "seconds to wait for the daemon")->check(CLI::PositiveNumber);
   }
 }
 
@@ -64,7 +64,8 @@ void exit_for_current_exception(const std::string& method) {
   try {
     throw;
   } catch (const hapticd::rpc::RpcError& e) {
-    std::cerr << "hapticctl: " << method << ": " << hapticd::rpc::code_name(e.code()) << ": " << e.what() << '\n';
+    std::cerr << "hapticctl: " << method << ": " << hapticd::rpc::code_name(e.code()) << ": " << e.what()
+              << '\n';
     if (e.data().is_object()) {
       print_fields(std::cerr, e.data(), 2);
     } else if (!e.data().is_null()) {
@@ -105,9 +106,9 @@ json assignments(const std::vector<std::string>& words) {
 namespace {
 // Unit suffixes of member names (docs/protocol.md, "Units"); longest first.
 const std::pair<const char*, const char*> unit_suffixes[] = {
-    {"_bytes", "B"}, {"_rad_s", "rad/s"}, {"_m_s", "m/s"}, {"_per_s", "1/s"}, {"_pct", "%"}, {"_rad", "rad"},
-    {"_us", "us"},   {"_ms", "ms"},       {"_hz", "Hz"},   {"_nm", "N m"},    {"_kg", "kg"}, {"_s", "s"},
-    {"_n", "N"},     {"_m", "m"},
+    {"_bytes", "B"}, {"_rad_s", "rad/s"}, {"_m_s", "m/s"}, {"_per_s", "1/s"}, {"_pct", "%"},
+    {"_rad", "rad"}, {"_us", "us"},       {"_ms", "ms"},   {"_hz", "Hz"},     {"_nm", "N m"},
+    {"_kg", "kg"},   {"_s", "s"},         {"_n", "N"},     {"_m", "m"},
 };
 
 const char* unit_of(const std::string& key, std::size_t* suffix_len) {
@@ -152,7 +153,9 @@ namespace {
 void print_fields_with_unit(std::ostream& out, const json& object, int indent, const std::string& unit_key);
 }  // namespace
 
-void print_fields(std::ostream& out, const json& object, int indent) { print_fields_with_unit(out, object, indent, ""); }
+void print_fields(std::ostream& out, const json& object, int indent) {
+  print_fields_with_unit(out, object, indent, "");
+}
 
 namespace {
 // unit_key: the parent's key when it carries a unit suffix ("latency_us":
@@ -171,7 +174,8 @@ void print_fields_with_unit(std::ostream& out, const json& object, int indent, c
     out << pad << name << ':';
     if (value.is_object() && !value.empty()) {
       out << '\n';
-      print_fields_with_unit(out, value, indent + 2, effective == key && name == key ? std::string() : effective);
+      print_fields_with_unit(out, value, indent + 2,
+                             effective == key && name == key ? std::string() : effective);
     } else if (value.is_array() && !value.empty() && value.front().is_object()) {
       out << '\n';
       for (const auto& item : value) print_fields_with_unit(out, item, indent + 2, "");
@@ -215,8 +219,10 @@ void print_json(const json& result) { std::cout << result.dump(2) << '\n'; }
 
 void report_stability(const nlohmann::json& result) {
   if (!result.is_object()) return;
-  // The daemon reports {"stability": {"stable", "growth_per_second", ...}}; older replies: "stable" at the top.
-  const json& verdict = result.contains("stability") && result["stability"].is_object() ? result["stability"] : result;
+  // The daemon reports {"stability": {"stable", "growth_per_second", ...}}; older replies: "stable" at the
+  // top.
+  const json& verdict =
+      result.contains("stability") && result["stability"].is_object() ? result["stability"] : result;
   if (!verdict.contains("stable") || !verdict["stable"].is_boolean()) return;
   if (verdict["stable"].get<bool>()) return;
   std::cerr << "hapticctl: warning: this parameter set is UNSTABLE (loaded with --force)";
@@ -230,7 +236,6 @@ void report_stability(const nlohmann::json& result) {
     std::cerr << "  " << result["warning"].get<std::string>() << '\n';
   }
 }
-
 
 }  // namespace detail
 }  // namespace hapticctl

@@ -9,9 +9,11 @@ namespace hapticctl {
 void add_hand_command(CLI::App& app, CommonOptions& opts) {
   auto words = std::make_shared<std::vector<std::string>>();
   auto* cmd = app.add_subcommand(
-      "hand", "script the loopback hand: [MODE] key=value ... (e.g. `hand sine amplitude_rad=0.1 freq_hz=1`)");
+      "hand",
+      "script the loopback hand: [MODE] key=value ... (e.g. `hand sine amplitude_rad=0.1 freq_hz=1`)");
   add_common_options(*cmd, opts);
-  cmd->add_option("args", *words, "a mode (free, hold, step, ramp, sine, force, impedance, release) and key=value")
+  cmd->add_option("args", *words,
+                  "a mode (free, hold, step, ramp, sine, force, impedance, release) and key=value")
       ->required();
   cmd->callback([&opts, words] {
     std::vector<std::string> rest = *words;

@@ -27,7 +27,8 @@ void add_scenes_command(CLI::App& app, CommonOptions& opts) {
         std::string line;
         for (const auto& p : s["params"]) {
           std::string item = p.is_object() ? p.value("name", std::string("?")) : p.dump();
-          if (p.is_object() && p.contains("unit") && p["unit"].is_string() && !p["unit"].get<std::string>().empty()) {
+          if (p.is_object() && p.contains("unit") && p["unit"].is_string() &&
+              !p["unit"].get<std::string>().empty()) {
             item += " [" + p["unit"].get<std::string>() + "]";
           }
           line += (line.empty() ? "" : ", ") + item;

@@ -50,7 +50,8 @@ void add_stream_command(CLI::App& app, CommonOptions& opts) {
     struct sigaction sa {};
     sa.sa_handler = on_interrupt;  // no SA_RESTART: poll() returns EINTR
     sigemptyset(&sa.sa_mask);
-    struct sigaction old_int {}, old_term {};
+    struct sigaction old_int {
+    }, old_term{};
     ::sigaction(SIGINT, &sa, &old_int);
     ::sigaction(SIGTERM, &sa, &old_term);
     const bool tty = ::isatty(STDOUT_FILENO) == 1 && !opts.json;

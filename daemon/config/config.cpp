@@ -18,7 +18,8 @@ namespace {
 constexpr std::string_view builtin_source = "<built-in default>";
 
 // Keep in sync with config/hapticd.toml (a test checks they parse equal).
-constexpr std::string_view default_text = R"toml(# hapticd: default configuration (built into the daemon; docs/config.md).
+constexpr std::string_view default_text =
+    R"toml(# hapticd: default configuration (built into the daemon; docs/config.md).
 [loop]
 period = "1ms"
 priority = 80
@@ -136,18 +137,23 @@ class Parser {
     throw ConfigError(position(region), std::move(key), message);
   }
 
-  [[noreturn]] void wrong_type(const toml::node& node, const std::string& key, std::string_view accepted) const {
-    fail(node.source(), key, key + " = " + render(node) + " has the wrong type; accepted: " + std::string(accepted));
+  [[noreturn]] void wrong_type(const toml::node& node, const std::string& key,
+                               std::string_view accepted) const {
+    fail(node.source(), key,
+         key + " = " + render(node) + " has the wrong type; accepted: " + std::string(accepted));
   }
 
-  [[noreturn]] void out_of_range(const toml::node& node, const std::string& key, std::string_view accepted) const {
-    fail(node.source(), key, key + " = " + render(node) + " is out of range; accepted: " + std::string(accepted));
+  [[noreturn]] void out_of_range(const toml::node& node, const std::string& key,
+                                 std::string_view accepted) const {
+    fail(node.source(), key,
+         key + " = " + render(node) + " is out of range; accepted: " + std::string(accepted));
   }
 
-  [[noreturn]] void unknown_key(const toml::key& key, std::string_view section, std::string_view accepted) const {
+  [[noreturn]] void unknown_key(const toml::key& key, std::string_view section,
+                                std::string_view accepted) const {
     fail(key.source(), std::string(section) + "." + std::string(key.str()),
-         "unknown key '" + std::string(key.str()) + "' in [" + std::string(section) + "]; accepted: " +
-             std::string(accepted));
+         "unknown key '" + std::string(key.str()) + "' in [" + std::string(section) +
+             "]; accepted: " + std::string(accepted));
   }
 
   std::string get_string(const toml::node& node, const std::string& key, std::string_view accepted) const {
@@ -210,7 +216,8 @@ class Parser {
                ParameterList& out, std::string_view skip = {}) const {
     for (const auto& [key, node] : in_file_order(table)) {
       if (!skip.empty() && key->str() == skip) continue;
-      const std::string name = prefix.empty() ? std::string(key->str()) : prefix + "." + std::string(key->str());
+      const std::string name =
+          prefix.empty() ? std::string(key->str()) : prefix + "." + std::string(key->str());
       const std::string dotted = section + "." + name;
       if (const auto* sub = node->as_table()) {
         collect(*sub, name, section, out);
@@ -233,8 +240,9 @@ class Parser {
   const toml::table& section_table(const toml::key& key, const toml::node& node) const {
     const auto* table = node.as_table();
     if (!table) {
-      fail(key.source(), std::string(key.str()),
-           "'" + std::string(key.str()) + "' must be a section [" + std::string(key.str()) + "], not a value");
+      fail(
+          key.source(), std::string(key.str()),
+          "'" + std::string(key.str()) + "' must be a section [" + std::string(key.str()) + "], not a value");
     }
     return *table;
   }
@@ -261,7 +269,8 @@ class Parser {
         } else if (value == "virtual") {
           loop.clock = ClockKind::virtual_clock;
         } else {
-          fail(node->source(), dotted, dotted + " = " + render(*node) + " is not a clock; accepted: \"real\" or \"virtual\"");
+          fail(node->source(), dotted,
+               dotted + " = " + render(*node) + " is not a clock; accepted: \"real\" or \"virtual\"");
         }
       } else if (name == "overrun_limit") {
         loop.overrun_limit = static_cast<std::uint32_t>(
@@ -270,7 +279,8 @@ class Parser {
         if (const auto* s = node->as_string(); s && s->get().empty()) {
           loop.duration_s.reset();
         } else {
-          loop.duration_s = get_duration(*node, dotted, 1e-9, 1e9, "\"\" (run until signalled) or more than 0s");
+          loop.duration_s =
+              get_duration(*node, dotted, 1e-9, 1e9, "\"\" (run until signalled) or more than 0s");
         }
       } else {
         unknown_key(*key, "loop", accepted);
@@ -303,8 +313,8 @@ class Parser {
       } else if (const auto* sub = node->as_table(); sub && is_driver_kind(name)) {
         if (name != device.driver) {
           fail(key->source(), dotted,
-               "[" + dotted + "] does not match device.driver = " + quote(device.driver) + "; accepted: [device." +
-                   device.driver + "]");
+               "[" + dotted + "] does not match device.driver = " + quote(device.driver) +
+                   "; accepted: [device." + device.driver + "]");
         }
         collect(*sub, "", dotted, device.parameters);
       } else {
@@ -357,7 +367,8 @@ class Parser {
       const std::string_view name = key->str();
       const std::string dotted = "recorder." + std::string(name);
       if (name == "directory") {
-        recorder.directory = get_string(*node, dotted, "\"\" ($STATE_DIRECTORY/recordings or .) or a directory");
+        recorder.directory =
+            get_string(*node, dotted, "\"\" ($STATE_DIRECTORY/recordings or .) or a directory");
       } else if (name == "ring_seconds") {
         const std::string range = "a number of seconds from 0.1 to 60";
         recorder.ring_seconds = get_number(*node, dotted, range);
@@ -429,9 +440,7 @@ std::string to_toml(const ParameterValue& value) {
   return quote(std::get<std::string>(value));
 }
 
-std::string_view to_string(ClockKind clock) noexcept {
-  return clock == ClockKind::real ? "real" : "virtual";
-}
+std::string_view to_string(ClockKind clock) noexcept { return clock == ClockKind::real ? "real" : "virtual"; }
 
 std::size_t RecorderConfig::ring_capacity(double period_s) const noexcept {
   if (!(period_s > 0.0)) return 2;
@@ -453,7 +462,8 @@ DaemonConfig load_config(const std::filesystem::path& path) {
   }
   std::ostringstream text;
   text << in.rdbuf();
-  if (in.bad()) throw ConfigError(SourcePosition{path.string(), 0, 0}, "", "error reading the configuration file");
+  if (in.bad())
+    throw ConfigError(SourcePosition{path.string(), 0, 0}, "", "error reading the configuration file");
   return parse_config(text.str(), path.string());
 }
 
@@ -464,7 +474,8 @@ DaemonConfig default_config() {
 
 std::string_view default_config_text() noexcept { return default_text; }
 
-std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder, const char* state_directory_env) {
+std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder,
+                                                  const char* state_directory_env) {
   if (!recorder.directory.empty()) return recorder.directory;
   if (state_directory_env != nullptr && *state_directory_env != '\0') {
     const std::string_view all(state_directory_env);

@@ -58,13 +58,13 @@ enum class ClockKind { real, virtual_clock };
 std::string_view to_string(ClockKind clock) noexcept;
 
 struct LoopConfig {
-  double period_s = 1e-3;         ///< 100e-6 .. 10e-3
-  int priority = 80;              ///< SCHED_FIFO priority, 1..99
-  int cpu = -1;                   ///< -1: no pinning, else CPU index (0..1023)
-  bool require_rt = false;        ///< refuse to run without SCHED_FIFO
+  double period_s = 1e-3;   ///< 100e-6 .. 10e-3
+  int priority = 80;        ///< SCHED_FIFO priority, 1..99
+  int cpu = -1;             ///< -1: no pinning, else CPU index (0..1023)
+  bool require_rt = false;  ///< refuse to run without SCHED_FIFO
   ClockKind clock = ClockKind::real;
-  std::uint32_t overrun_limit = 10;   ///< consecutive overruns that latch a fault; 0 = never
-  std::optional<double> duration_s;   ///< stop after this much loop time; nullopt = until signalled
+  std::uint32_t overrun_limit = 10;  ///< consecutive overruns that latch a fault; 0 = never
+  std::optional<double> duration_s;  ///< stop after this much loop time; nullopt = until signalled
   bool operator==(const LoopConfig&) const = default;
 };
 
@@ -74,9 +74,9 @@ inline constexpr std::string_view driver_kinds[] = {"loopback", "usb-hid", "cano
 
 struct DeviceConfig {
   std::string driver = "loopback";
-  double torque_limit = 1.0;   ///< N (linear) or N m (rotary), > 0
-  ParameterList parameters;    ///< the [device.<driver>] table, unvalidated
-  SourcePosition driver_where; ///< position of device.driver (or of [device])
+  double torque_limit = 1.0;    ///< N (linear) or N m (rotary), > 0
+  ParameterList parameters;     ///< the [device.<driver>] table, unvalidated
+  SourcePosition driver_where;  ///< position of device.driver (or of [device])
   bool operator==(const DeviceConfig&) const = default;
 };
 
@@ -88,11 +88,11 @@ struct SceneConfig {
 };
 
 struct ControlConfig {
-  std::string socket;               ///< empty: default path resolution (daemon's business)
-  std::string group;                ///< group allowed to change things; empty: owner only
-  std::uint32_t max_clients = 16;   ///< 1..1024
+  std::string socket;                       ///< empty: default path resolution (daemon's business)
+  std::string group;                        ///< group allowed to change things; empty: owner only
+  std::uint32_t max_clients = 16;           ///< 1..1024
   std::uint32_t max_message_bytes = 65536;  ///< 1 KiB .. 16 MiB
-  double idle_timeout_s = 300.0;    ///< 0 = never
+  double idle_timeout_s = 300.0;            ///< 0 = never
   bool operator==(const ControlConfig&) const = default;
 };
 
@@ -100,8 +100,8 @@ struct RecorderConfig {
   /// Empty: $STATE_DIRECTORY/recordings under systemd, else "." (see
   /// resolve_recording_directory).
   std::string directory;
-  double ring_seconds = 2.0;        ///< telemetry ring capacity, seconds of samples; 0.1..60
-  double flush_interval_s = 0.1;    ///< 1ms..10s
+  double ring_seconds = 2.0;      ///< telemetry ring capacity, seconds of samples; 0.1..60
+  double flush_interval_s = 0.1;  ///< 1ms..10s
   /// Ring capacity in samples for a loop period: ceil(ring_seconds / period), at least 2.
   std::size_t ring_capacity(double period_s) const noexcept;
   bool operator==(const RecorderConfig&) const = default;

@@ -23,27 +23,40 @@ inline constexpr int invalid_request = -32600;   ///< JSON, but not a request ob
 inline constexpr int method_not_found = -32601;  ///< no such method
 inline constexpr int invalid_params = -32602;    ///< params missing, of the wrong type, or not an object
 inline constexpr int internal_error = -32603;    ///< a handler failed unexpectedly
-inline constexpr int refused = -32000;           ///< the daemon refuses (e.g. unstable parameters); data carries the limit
-inline constexpr int not_permitted = -32001;     ///< the peer's credentials do not allow this method
-inline constexpr int busy = -32002;              ///< too many clients, or the daemon cannot take the request now
-inline constexpr int message_too_large = -32003; ///< a request line exceeded the size limit; the connection closes
-inline constexpr int fault_latched = -32004;     ///< a device fault is latched; clear it first (fault.clear)
+inline constexpr int refused =
+    -32000;  ///< the daemon refuses (e.g. unstable parameters); data carries the limit
+inline constexpr int not_permitted = -32001;  ///< the peer's credentials do not allow this method
+inline constexpr int busy = -32002;           ///< too many clients, or the daemon cannot take the request now
+inline constexpr int message_too_large =
+    -32003;  ///< a request line exceeded the size limit; the connection closes
+inline constexpr int fault_latched = -32004;  ///< a device fault is latched; clear it first (fault.clear)
 }  // namespace code
 
 /// Short name of a code for messages and the CLI ("refused", "parse error", ...).
 constexpr std::string_view code_name(int c) noexcept {
   switch (c) {
-    case code::parse_error: return "parse error";
-    case code::invalid_request: return "invalid request";
-    case code::method_not_found: return "method not found";
-    case code::invalid_params: return "invalid params";
-    case code::internal_error: return "internal error";
-    case code::refused: return "refused";
-    case code::not_permitted: return "not permitted";
-    case code::busy: return "busy";
-    case code::message_too_large: return "message too large";
-    case code::fault_latched: return "fault latched";
-    default: return "error";
+    case code::parse_error:
+      return "parse error";
+    case code::invalid_request:
+      return "invalid request";
+    case code::method_not_found:
+      return "method not found";
+    case code::invalid_params:
+      return "invalid params";
+    case code::internal_error:
+      return "internal error";
+    case code::refused:
+      return "refused";
+    case code::not_permitted:
+      return "not permitted";
+    case code::busy:
+      return "busy";
+    case code::message_too_large:
+      return "message too large";
+    case code::fault_latched:
+      return "fault latched";
+    default:
+      return "error";
   }
 }
 

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <optional>
 #include <sstream>
+#include <system_error>
 #include <thread>
 #include <unordered_map>
 
@@ -34,7 +35,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
-std::string errno_text(int e) { return std::strerror(e); }
+std::string errno_text(int e) { return std::generic_category().message(e); }
 
 /// The group's gid; throws ServerError if it does not exist.
 gid_t lookup_group(const std::string& name) {
@@ -213,7 +214,8 @@ void ControlServer::Impl::open_socket() {
     int e = errno;
     ::close(probe);
     if (rc == 0) {
-      throw ServerError("another hapticd is already running on " + path + " (it answered a connect); stop it first");
+      throw ServerError("another hapticd is already running on " + path +
+                        " (it answered a connect); stop it first");
     }
     if (e != ECONNREFUSED) {
       throw ServerError("cannot tell whether " + path + " is in use (connect: " + errno_text(e) + ")");
@@ -237,7 +239,8 @@ void ControlServer::Impl::open_socket() {
     throw ServerError("cannot chmod control socket " + path + ": " + errno_text(errno));
   }
   if (has_group && ::chown(path.c_str(), static_cast<uid_t>(-1), group_gid) != 0) {
-    throw ServerError("cannot give control socket " + path + " to group '" + opts.group + "': " + errno_text(errno));
+    throw ServerError("cannot give control socket " + path + " to group '" + opts.group +
+                      "': " + errno_text(errno));
   }
   if (::listen(listen_fd, 64) != 0) throw ServerError("listen on " + path + ": " + errno_text(errno));
 
@@ -249,7 +252,8 @@ void ControlServer::Impl::open_socket() {
     epoll_event ev{};
     ev.events = EPOLLIN;
     ev.data.fd = fd;
-    if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0) throw ServerError("epoll_ctl: " + errno_text(errno));
+    if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0)
+      throw ServerError("epoll_ctl: " + errno_text(errno));
   }
 }
 
@@ -310,7 +314,8 @@ void ControlServer::Impl::run() {
     int n = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), idle_wait_ms());
     if (n < 0) {
       if (errno == EINTR) continue;
-      std::fprintf(stderr, "hapticd: control: epoll_wait: %s; control plane stopped\n", errno_text(errno).c_str());
+      std::fprintf(stderr, "hapticd: control: epoll_wait: %s; control plane stopped\n",
+                   errno_text(errno).c_str());
       return;
     }
     for (int i = 0; i < n; ++i) {
@@ -490,8 +495,10 @@ void ControlServer::Impl::process_lines(Connection& c) {
     }
     auto nl = c.in.find('\n', start);
     if (nl == std::string::npos) {
-      if (c.in.size() - start > opts.max_message_bytes) nl = c.in.size();  // too large: handled below
-      else break;
+      if (c.in.size() - start > opts.max_message_bytes)
+        nl = c.in.size();  // too large: handled below
+      else
+        break;
     }
     if (nl - start > opts.max_message_bytes) {
       send_error(c, nullptr,
@@ -512,7 +519,8 @@ void ControlServer::Impl::process_lines(Connection& c) {
 }
 
 void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
-  while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t'))
+    line.remove_suffix(1);
   if (line.find_first_not_of(" \t") == std::string_view::npos) return;
   count([](ServerStats& s) { ++s.requests; });
 
@@ -552,7 +560,8 @@ void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
   json params = json::object();
   if (auto p = request.find("params"); p != request.end() && !p->is_null()) {
     if (!p->is_object()) {
-      send_error(c, id, RpcError(rpc::code::invalid_params, "\"params\" must be an object (parameters by name)"));
+      send_error(c, id,
+                 RpcError(rpc::code::invalid_params, "\"params\" must be an object (parameters by name)"));
       return;
     }
     params = std::move(*p);
@@ -565,7 +574,8 @@ void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
     if (!is_notification) send_error(c, id, e);
     return;
   } catch (const json::exception& e) {
-    if (!is_notification) send_error(c, id, RpcError(rpc::code::invalid_params, std::string("invalid params: ") + e.what()));
+    if (!is_notification)
+      send_error(c, id, RpcError(rpc::code::invalid_params, std::string("invalid params: ") + e.what()));
     return;
   } catch (const std::exception& e) {
     if (!is_notification) send_error(c, id, RpcError(rpc::code::internal_error, e.what()));
@@ -603,9 +613,11 @@ json ControlServer::Impl::stream_start(Connection& c, const json& params) {
   }
   std::vector<std::string> channels;
   if (auto ch = params.find("channels"); ch != params.end() && !ch->is_null()) {
-    if (!ch->is_array()) throw RpcError(rpc::code::invalid_params, "\"channels\" must be an array of strings");
+    if (!ch->is_array())
+      throw RpcError(rpc::code::invalid_params, "\"channels\" must be an array of strings");
     for (const auto& name : *ch) {
-      if (!name.is_string()) throw RpcError(rpc::code::invalid_params, "\"channels\" must be an array of strings");
+      if (!name.is_string())
+        throw RpcError(rpc::code::invalid_params, "\"channels\" must be an array of strings");
       channels.push_back(name.get<std::string>());
     }
   }
@@ -658,7 +670,8 @@ void ControlServer::Impl::end_stream(Connection& c) {
 
 void ControlServer::Impl::on_timer(Connection& c) {
   std::uint64_t expirations = 0;
-  if (::read(c.timer_fd, &expirations, sizeof(expirations)) != static_cast<ssize_t>(sizeof(expirations))) return;
+  if (::read(c.timer_fd, &expirations, sizeof(expirations)) != static_cast<ssize_t>(sizeof(expirations)))
+    return;
   if (expirations == 0) return;
   // Ticks this thread slept through are samples the client did not get.
   std::uint64_t lost = expirations - 1;
@@ -765,7 +778,8 @@ void ControlServer::Impl::kill(Connection& c) {
 ControlServer::ControlServer(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   impl_->opts = std::move(options);
   impl_->path = client::resolve_socket_path(impl_->opts.socket_path);
-  if (impl_->opts.max_message_bytes == 0 || impl_->opts.max_clients == 0 || impl_->opts.max_output_bytes == 0) {
+  if (impl_->opts.max_message_bytes == 0 || impl_->opts.max_clients == 0 ||
+      impl_->opts.max_output_bytes == 0) {
     throw ServerError("control server limits must be positive");
   }
 }

@@ -82,16 +82,16 @@ using StreamSource = std::function<nlohmann::json(const std::vector<std::string>
 
 /// Counters since start(), for `stats`.
 struct ServerStats {
-  std::uint64_t connections = 0;           ///< accepted (including refused as busy)
-  std::uint64_t refused_busy = 0;          ///< closed at once: too many clients
-  std::uint64_t requests = 0;              ///< request lines handled
-  std::uint64_t errors = 0;                ///< error replies sent
+  std::uint64_t connections = 0;   ///< accepted (including refused as busy)
+  std::uint64_t refused_busy = 0;  ///< closed at once: too many clients
+  std::uint64_t requests = 0;      ///< request lines handled
+  std::uint64_t errors = 0;        ///< error replies sent
   std::uint64_t idle_disconnects = 0;
-  std::uint64_t slow_disconnects = 0;      ///< output queue overflow
+  std::uint64_t slow_disconnects = 0;  ///< output queue overflow
   std::uint64_t notifications_sent = 0;
   std::uint64_t notifications_dropped = 0;
-  std::size_t clients = 0;                 ///< connected now
-  std::size_t subscribers = 0;             ///< with an active stream now
+  std::size_t clients = 0;      ///< connected now
+  std::size_t subscribers = 0;  ///< with an active stream now
 };
 nlohmann::json to_json(const ServerStats& stats);
 

@@ -37,7 +37,8 @@ bool Engine::wait_finished(std::chrono::milliseconds timeout) const {
   return true;
 }
 
-std::optional<std::uint64_t> Engine::wait_applied(std::uint64_t seq, std::chrono::milliseconds timeout) const {
+std::optional<std::uint64_t> Engine::wait_applied(std::uint64_t seq,
+                                                  std::chrono::milliseconds timeout) const {
   const auto applied = plans_.wait_applied(seq, timeout);
   if (!applied || applied->seq != seq) return std::nullopt;
   return applied->cycle;
@@ -101,7 +102,8 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   } else if (read == drivers::IoResult::error) {
     sample.flags |= flag_read_error;
     bump(read_errors_);
-    if (read_error_streak_.record(true) && latch_.latch(FaultReason::read_error_streak)) bump(faults_latched_);
+    if (read_error_streak_.record(true) && latch_.latch(FaultReason::read_error_streak))
+      bump(faults_latched_);
   } else if (!std::isfinite(reading.position)) {
     read_error_streak_.record(false);
     if (latch_.latch(FaultReason::non_finite_position)) bump(faults_latched_);
@@ -157,7 +159,8 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
     // little even after a stop request: this cycle ran, its sample counts.
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(2);
     while (telemetry_.size() >= telemetry_.capacity()) {
-      if (stop_requested_.load(std::memory_order_relaxed) && std::chrono::steady_clock::now() > give_up) break;
+      if (stop_requested_.load(std::memory_order_relaxed) && std::chrono::steady_clock::now() > give_up)
+        break;
       std::this_thread::yield();
     }
   }

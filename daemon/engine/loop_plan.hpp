@@ -14,7 +14,7 @@ namespace hapticd::daemon {
 
 struct LoopPlan {
   world::AnyScene scene;
-  double torque_limit = 0.0;    ///< N or N m, applied after the scene, always
+  double torque_limit = 0.0;     ///< N or N m, applied after the scene, always
   bool unstable_forced = false;  ///< loaded with force=true although analysis says unstable
 };
 

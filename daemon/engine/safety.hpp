@@ -43,8 +43,12 @@ class FaultLatch {
     return state_.compare_exchange_strong(expected, static_cast<std::uint8_t>(reason),
                                           std::memory_order_acq_rel);
   }
-  void clear() noexcept { state_.store(static_cast<std::uint8_t>(FaultReason::none), std::memory_order_release); }
-  FaultReason reason() const noexcept { return static_cast<FaultReason>(state_.load(std::memory_order_acquire)); }
+  void clear() noexcept {
+    state_.store(static_cast<std::uint8_t>(FaultReason::none), std::memory_order_release);
+  }
+  FaultReason reason() const noexcept {
+    return static_cast<FaultReason>(state_.load(std::memory_order_acquire));
+  }
   bool latched() const noexcept { return reason() != FaultReason::none; }
 
  private:

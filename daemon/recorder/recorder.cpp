@@ -9,6 +9,7 @@
 #include <cstring>
 #include <ctime>
 #include <deque>
+#include <system_error>
 
 #ifndef HAPTICD_VERSION
 #define HAPTICD_VERSION "unknown"
@@ -18,7 +19,7 @@ namespace hapticd::recorder {
 
 namespace {
 
-std::string errno_text(int error) { return std::strerror(error); }
+std::string errno_text(int error) { return std::generic_category().message(error); }
 
 void append_double(std::string& out, double value) {
   char buffer[32];
@@ -57,8 +58,8 @@ std::string compact_utc_now() {
 std::string sanitize(std::string_view name) {
   std::string out;
   for (const char c : name) {
-    const bool keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                      c == '-' || c == '.';
+    const bool keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '_' || c == '-' || c == '.';
     out += keep ? c : '_';
   }
   return out;
@@ -176,7 +177,8 @@ struct Recorder::Recording {
     if (sections == 1) {
       b += "# hapticd recording\n";
     } else {
-      b += "# section " + std::to_string(sections) + ": scene changed at cycle " + std::to_string(first_cycle) + "\n";
+      b += "# section " + std::to_string(sections) + ": scene changed at cycle " +
+           std::to_string(first_cycle) + "\n";
     }
     b += "# hapticd_version: " HAPTICD_VERSION "\n";
     b += "# section: " + std::to_string(sections) + "\n";
@@ -198,8 +200,8 @@ struct Recorder::Recording {
       b += "; " + names[3 + i] + " " + (header.channels[i].unit.empty() ? "1" : header.channels[i].unit);
     }
     const std::size_t k = 3 + header.channels.size();
-    b += "; " + names[k] + " " + std::string(force_unit) + " (scene output before the limit); " + names[k + 1] + " " +
-         std::string(force_unit) + " (sent to the device); latency_s s; compute_s s\n";
+    b += "; " + names[k] + " " + std::string(force_unit) + " (scene output before the limit); " +
+         names[k + 1] + " " + std::string(force_unit) + " (sent to the device); latency_s s; compute_s s\n";
     b += "# flags: bits 1 fault_latched, 2 torque_limited, 4 read_error, 8 overrun, 16 unstable_forced\n";
     for (std::size_t i = 0; i < names.size(); ++i) {
       if (i > 0) b += ',';
@@ -267,11 +269,14 @@ struct Recorder::Recording {
 
 // ---------------------------------------------------------------- Recorder
 
-Recorder::Recorder(DrainFn drain, RecorderOptions options) : drain_(std::move(drain)), options_(std::move(options)) {
+Recorder::Recorder(DrainFn drain, RecorderOptions options)
+    : drain_(std::move(drain)), options_(std::move(options)) {
   if (!drain_) throw RecorderError("recorder: no drain callback");
   if (options_.batch_samples == 0) options_.batch_samples = 1;
   if (!options_.sink_factory) {
-    options_.sink_factory = [](const std::filesystem::path& path) { return std::make_unique<FileSink>(path); };
+    options_.sink_factory = [](const std::filesystem::path& path) {
+      return std::make_unique<FileSink>(path);
+    };
   }
   thread_ = std::thread([this] { run(); });
 }
@@ -316,9 +321,12 @@ std::filesystem::path Recorder::start(const std::string& name, RecordingHeader h
     std::lock_guard lock(mutex_);
     if (active_) throw RecorderError("a recording is already active: " + status_.path.string());
   }
-  std::string file = name.empty() ? "hapticd-" + sanitize(header.scene) + "-" + compact_utc_now() + ".csv" : name;
-  if (file.find('/') != std::string::npos || file == "." || file == ".." || file.find('\0') != std::string::npos) {
-    throw RecorderError("recording name '" + name + "' is not a file name; accepted: a file name without '/', created in " +
+  std::string file =
+      name.empty() ? "hapticd-" + sanitize(header.scene) + "-" + compact_utc_now() + ".csv" : name;
+  if (file.find('/') != std::string::npos || file == "." || file == ".." ||
+      file.find('\0') != std::string::npos) {
+    throw RecorderError("recording name '" + name +
+                        "' is not a file name; accepted: a file name without '/', created in " +
                         options_.directory.string());
   }
   if (!std::filesystem::path(file).has_extension()) file += ".csv";
@@ -340,13 +348,14 @@ std::filesystem::path Recorder::start(const std::string& name, RecordingHeader h
       continue;
     }
   }
-  if (!rec->sink) throw RecorderError("cannot create " + wanted.string() + ": it and its -1 .. -999 variants exist");
+  if (!rec->sink)
+    throw RecorderError("cannot create " + wanted.string() + ": it and its -1 .. -999 variants exist");
 
   rec->buffer.reserve(options_.buffer_bytes + 65536);
   rec->header = std::move(header);
   rec->append_header(0);
   rec->ring_baseline = ring_drops_now();
-  const std::filesystem::path path = rec->path;
+  std::filesystem::path path = rec->path;
   {
     std::lock_guard lock(mutex_);
     if (active_) throw RecorderError("a recording is already active: " + status_.path.string());
@@ -451,8 +460,9 @@ void Recorder::finish() {
   std::string tail = "# stop_utc: " + iso + "\n# stop_clock_realtime_s: " + seconds + "\n";
   tail += "# samples_written: " + std::to_string(rec.samples_written) + "\n";
   tail += "# cycle_gaps: " + std::to_string(rec.cycle_gaps) + "\n";
-  tail += "# dropped " + std::to_string(rec.ring_drops + rec.dropped_write) + " samples (ring full: " +
-          std::to_string(rec.ring_drops) + ", write failed: " + std::to_string(rec.dropped_write) + ")\n";
+  tail += "# dropped " + std::to_string(rec.ring_drops + rec.dropped_write) +
+          " samples (ring full: " + std::to_string(rec.ring_drops) +
+          ", write failed: " + std::to_string(rec.dropped_write) + ")\n";
   rec.buffer = tail;
   rec.buffered_samples = 0;
   rec.write_out();
@@ -503,7 +513,8 @@ void Recorder::run() {
     } while (--rounds > 0 && n == batch.size());
 
     if (recording_) {
-      if (std::chrono::steady_clock::now() - recording_->last_write >= flush_interval) recording_->write_out();
+      if (std::chrono::steady_clock::now() - recording_->last_write >= flush_interval)
+        recording_->write_out();
       recording_->ring_drops = ring_drops_now() - recording_->ring_baseline;
       if (stop_now) {
         finish();
@@ -523,7 +534,8 @@ void Recorder::run() {
     if (quit) return;
     if (n < batch.size()) {
       std::unique_lock lock(mutex_);
-      wake_.wait_for(lock, idle_wait, [this] { return quit_ || stop_requested_ || pending_start_ != nullptr; });
+      wake_.wait_for(lock, idle_wait,
+                     [this] { return quit_ || stop_requested_ || pending_start_ != nullptr; });
     }
   }
 }

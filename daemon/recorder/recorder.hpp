@@ -94,13 +94,14 @@ using SinkFactory = std::function<std::unique_ptr<Sink>(const std::filesystem::p
 
 /// What the header block says about a recording (or a section of it).
 struct RecordingHeader {
-  std::string scene;                                              ///< scene name
-  std::vector<std::pair<std::string, std::string>> parameters;    ///< name, value with unit (rendered by the daemon)
+  std::string scene;  ///< scene name
+  std::vector<std::pair<std::string, std::string>>
+      parameters;                            ///< name, value with unit (rendered by the daemon)
   std::vector<ChannelDescription> channels;  ///< names/units of TelemetrySample::channels for this scene
-  bool rotary = true;          ///< position in rad and torque in N m; else m and N
+  bool rotary = true;                        ///< position in rad and torque in N m; else m and N
   double period_s = 1e-3;
-  std::string clock = "real";  ///< "real" or "virtual"
-  std::string device;          ///< e.g. "loopback (rotary, rigid)"
+  std::string clock = "real";      ///< "real" or "virtual"
+  std::string device;              ///< e.g. "loopback (rotary, rigid)"
   std::vector<std::string> notes;  ///< extra '# note: ' lines (e.g. "unstable, forced: grows x1.3/s")
 };
 
@@ -114,21 +115,21 @@ struct RecorderOptions {
   /// Relative recording names are created here (RecorderConfig via
   /// config::resolve_recording_directory). Created if missing.
   std::filesystem::path directory = ".";
-  double flush_interval_s = 0.1;        ///< write buffered lines at least this often
-  std::size_t batch_samples = 4096;     ///< drain at most this many per call
-  std::size_t buffer_bytes = 1 << 20;   ///< write to the sink when the buffer exceeds this
-  double idle_wait_s = 1e-3;            ///< sleep when the ring was empty
-  SinkFactory sink_factory;             ///< default: FileSink
+  double flush_interval_s = 0.1;       ///< write buffered lines at least this often
+  std::size_t batch_samples = 4096;    ///< drain at most this many per call
+  std::size_t buffer_bytes = 1 << 20;  ///< write to the sink when the buffer exceeds this
+  double idle_wait_s = 1e-3;           ///< sleep when the ring was empty
+  SinkFactory sink_factory;            ///< default: FileSink
 };
 
 struct RecorderStatus {
   bool recording = false;
   std::filesystem::path path;
-  std::uint64_t sections = 0;            ///< header blocks in the current/last recording
-  std::uint64_t samples_written = 0;     ///< lines written in the current/last recording
-  std::uint64_t dropped_ring = 0;        ///< RT push failures during the current/last recording
-  std::uint64_t dropped_write = 0;       ///< drained but not written (the sink failed)
-  std::uint64_t cycle_gaps = 0;          ///< cycles missing between consecutive written samples
+  std::uint64_t sections = 0;         ///< header blocks in the current/last recording
+  std::uint64_t samples_written = 0;  ///< lines written in the current/last recording
+  std::uint64_t dropped_ring = 0;     ///< RT push failures during the current/last recording
+  std::uint64_t dropped_write = 0;    ///< drained but not written (the sink failed)
+  std::uint64_t cycle_gaps = 0;       ///< cycles missing between consecutive written samples
   std::uint64_t bytes_written = 0;
   std::uint64_t samples_drained = 0;     ///< since the recorder started, recording or not
   std::uint64_t dropped_ring_total = 0;  ///< RT push failures since the daemon started
@@ -189,7 +190,7 @@ class Recorder {
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   std::condition_variable done_;
-  bool active_ = false;                      ///< between start() and the end of stop()
+  bool active_ = false;  ///< between start() and the end of stop()
   std::unique_ptr<Recording> pending_start_;
   std::vector<std::pair<RecordingHeader, std::uint64_t>> pending_scenes_;
   bool stop_requested_ = false;

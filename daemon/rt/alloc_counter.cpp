@@ -62,9 +62,15 @@ constexpr std::size_t default_align = alignof(std::max_align_t);
 void* operator new(std::size_t n) { return counted_alloc_or_throw(n, default_align); }
 void* operator new[](std::size_t n) { return counted_alloc_or_throw(n, default_align); }
 void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return counted_alloc(n, default_align); }
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return counted_alloc(n, default_align); }
-void* operator new(std::size_t n, std::align_val_t a) { return counted_alloc_or_throw(n, static_cast<std::size_t>(a)); }
-void* operator new[](std::size_t n, std::align_val_t a) { return counted_alloc_or_throw(n, static_cast<std::size_t>(a)); }
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
+  return counted_alloc(n, default_align);
+}
+void* operator new(std::size_t n, std::align_val_t a) {
+  return counted_alloc_or_throw(n, static_cast<std::size_t>(a));
+}
+void* operator new[](std::size_t n, std::align_val_t a) {
+  return counted_alloc_or_throw(n, static_cast<std::size_t>(a));
+}
 void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
   return counted_alloc(n, static_cast<std::size_t>(a));
 }

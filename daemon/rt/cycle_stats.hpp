@@ -24,7 +24,7 @@ class CycleStats {
     std::uint64_t cycles = 0;
     std::uint64_t overruns = 0;
     std::uint64_t missed_periods = 0;
-    std::uint64_t overrun_streak = 0;      ///< consecutive overruns ending at the last cycle
+    std::uint64_t overrun_streak = 0;  ///< consecutive overruns ending at the last cycle
     std::uint64_t max_overrun_streak = 0;
     HistogramSnapshot latency;
     HistogramSnapshot compute;

@@ -5,6 +5,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <system_error>
 
 namespace hapticd::rt {
 
@@ -14,13 +15,14 @@ CpuDmaLatencyRequest CpuDmaLatencyRequest::open(std::int32_t max_latency_us, std
   const int fd = ::open(path, O_RDWR | O_CLOEXEC);
   if (fd < 0) {
     if (error)
-      *error = std::string("cannot open ") + path + ": " + std::strerror(errno) +
+      *error = std::string("cannot open ") + path + ": " + std::generic_category().message(errno) +
                " (needs root or write access to it; without it deep idle states raise p99 wake-up latency)";
     return r;
   }
   const ssize_t n = ::write(fd, &max_latency_us, sizeof max_latency_us);
   if (n != static_cast<ssize_t>(sizeof max_latency_us)) {
-    if (error) *error = std::string("cannot write to ") + path + ": " + std::strerror(errno);
+    if (error)
+      *error = std::string("cannot write to ") + path + ": " + std::generic_category().message(errno);
     ::close(fd);
     return r;
   }

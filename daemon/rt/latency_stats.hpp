@@ -26,9 +26,9 @@ namespace hapticd::rt {
 /// Bucket boundaries, shared by the histogram and its snapshots.
 class HistogramLayout {
  public:
-  static constexpr std::int64_t linear_width_ns = 1'000;        // 1 us
-  static constexpr std::int64_t linear_limit_ns = 2'000'000;    // 2 ms
-  static constexpr std::int64_t log_limit_ns = 100'000'000;     // 100 ms
+  static constexpr std::int64_t linear_width_ns = 1'000;      // 1 us
+  static constexpr std::int64_t linear_limit_ns = 2'000'000;  // 2 ms
+  static constexpr std::int64_t log_limit_ns = 100'000'000;   // 100 ms
   static constexpr std::size_t log_per_octave = 8;
   static constexpr std::size_t linear_buckets = linear_limit_ns / linear_width_ns;  // 2000
   static constexpr std::size_t log_buckets = 46;  // 2 ms * 2^(46/8) > 100 ms; last edge clamped

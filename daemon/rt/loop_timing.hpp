@@ -22,10 +22,10 @@ struct WakeUp {
   std::uint64_t cycle = 0;         ///< 1, 2, ... cycles actually run
   std::uint64_t period_index = 0;  ///< n of the deadline t0 + n T this cycle served
   Nanos deadline{0};
-  Nanos woke{0};                   ///< clock time after the sleep returned
-  Nanos latency{0};                ///< woke - deadline (>= 0 with a sane clock)
-  std::uint64_t missed = 0;        ///< deadlines skipped after this cycle (0 normally)
-  bool overrun = false;            ///< latency >= one period: at least one deadline missed
+  Nanos woke{0};             ///< clock time after the sleep returned
+  Nanos latency{0};          ///< woke - deadline (>= 0 with a sane clock)
+  std::uint64_t missed = 0;  ///< deadlines skipped after this cycle (0 normally)
+  bool overrun = false;      ///< latency >= one period: at least one deadline missed
 };
 
 class PeriodicSchedule {
@@ -71,9 +71,7 @@ class PeriodicSchedule {
 
   Nanos period() const noexcept { return period_; }
   Nanos t0() const noexcept { return t0_; }
-  Nanos deadline_of(std::uint64_t n) const noexcept {
-    return t0_ + period_ * static_cast<std::int64_t>(n);
-  }
+  Nanos deadline_of(std::uint64_t n) const noexcept { return t0_ + period_ * static_cast<std::int64_t>(n); }
   /// Index of the deadline the next wait_next() will sleep to.
   std::uint64_t next_index() const noexcept { return next_index_; }
   std::uint64_t cycles() const noexcept { return cycles_; }

@@ -126,8 +126,7 @@ class Mailbox {
     // need exclusive ownership of the cache line as an exchange would.
     if (pending_.load(std::memory_order_relaxed) != nullptr) {
       if (Node* fresh = pending_.exchange(nullptr, std::memory_order_acq_rel)) {
-        if (current_ && !retired_.try_push(current_))
-          single_writer_add(retire_failures_, std::uint64_t{1});
+        if (current_ && !retired_.try_push(current_)) single_writer_add(retire_failures_, std::uint64_t{1});
         current_ = fresh;
         applied_version_.write_begin();
         seq_store(applied_seq_, fresh->seq);

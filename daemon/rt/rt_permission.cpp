@@ -8,6 +8,7 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <system_error>
 #include <vector>
 
 namespace hapticd::rt {
@@ -72,7 +73,8 @@ std::optional<std::string> find_cgroup_rt_runtime_file(std::string_view cgroup_t
     for (std::string_view c : split(controllers, ','))
       if (c == "cpu") has_cpu = true;
     if (!has_cpu) continue;
-    candidates.insert(candidates.begin(), fs::path(root) / std::string(controllers) / path / "cpu.rt_runtime_us");
+    candidates.insert(candidates.begin(),
+                      fs::path(root) / std::string(controllers) / path / "cpu.rt_runtime_us");
     candidates.insert(candidates.begin() + 1, fs::path(root) / "cpu" / path / "cpu.rt_runtime_us");
   }
   candidates.push_back(fs::path(root) / "cpu" / "cpu.rt_runtime_us");
@@ -105,25 +107,29 @@ SchedPermissionFacts probe_sched_permission(int error, int requested_priority) {
 std::string explain_sched_failure(const SchedPermissionFacts& f) {
   std::ostringstream m;
   m << "SCHED_FIFO priority " << f.requested_priority << " refused ("
-    << (f.error == EPERM ? "EPERM" : f.error == EINVAL ? "EINVAL" : std::strerror(f.error)) << "): ";
+    << (f.error == EPERM    ? "EPERM"
+        : f.error == EINVAL ? "EINVAL"
+                            : std::generic_category().message(f.error))
+    << "): ";
   if (f.error == EINVAL) {
     m << "the priority must be within 1..99.";
     return m.str();
   }
   if (f.error != EPERM) {
-    m << std::strerror(f.error) << '.';
+    m << std::generic_category().message(f.error) << '.';
     return m.str();
   }
   const bool rlimit_ok = f.rtprio_soft >= static_cast<std::uint64_t>(f.requested_priority) ||
                          f.rtprio_hard >= static_cast<std::uint64_t>(f.requested_priority);
   if (!f.has_cap_sys_nice && !rlimit_ok) {
-    m << "this process has no CAP_SYS_NICE and RLIMIT_RTPRIO is " << limit_text(f.rtprio_soft)
-      << " (hard " << limit_text(f.rtprio_hard) << "), below the requested priority. Grant with: "
+    m << "this process has no CAP_SYS_NICE and RLIMIT_RTPRIO is " << limit_text(f.rtprio_soft) << " (hard "
+      << limit_text(f.rtprio_hard) << "), below the requested priority. Grant with: "
       << "setcap cap_sys_nice+ep <hapticd binary>, or LimitRTPRIO=95 in the systemd unit, "
       << "or '@group - rtprio 95' in /etc/security/limits.d/ (then log in again).";
     return m.str();
   }
-  m << (f.has_cap_sys_nice ? "the process has CAP_SYS_NICE" : "RLIMIT_RTPRIO (" + limit_text(f.rtprio_soft) + ") allows it");
+  m << (f.has_cap_sys_nice ? "the process has CAP_SYS_NICE"
+                           : "RLIMIT_RTPRIO (" + limit_text(f.rtprio_soft) + ") allows it");
   if (f.cgroup_rt_runtime_us && *f.cgroup_rt_runtime_us == 0) {
     m << ", but its cgroup has no real-time budget: " << f.cgroup_rt_runtime_file
       << " is cpu.rt_runtime_us = 0, so the kernel refuses every RT task in it. Fix: give the cgroup "
@@ -134,7 +140,8 @@ std::string explain_sched_failure(const SchedPermissionFacts& f) {
   }
   m << ", and ";
   if (f.cgroup_rt_runtime_us)
-    m << "the cgroup RT budget (" << f.cgroup_rt_runtime_file << " = " << *f.cgroup_rt_runtime_us << ") is not 0";
+    m << "the cgroup RT budget (" << f.cgroup_rt_runtime_file << " = " << *f.cgroup_rt_runtime_us
+      << ") is not 0";
   else
     m << "no cgroup cpu.rt_runtime_us was found";
   m << "; something else forbids it (a container runtime dropping CAP_SYS_NICE, seccomp, SELinux, "

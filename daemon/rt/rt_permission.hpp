@@ -15,12 +15,12 @@
 namespace hapticd::rt {
 
 struct SchedPermissionFacts {
-  int error = 0;                      ///< errno of the failed sched call
+  int error = 0;  ///< errno of the failed sched call
   int requested_priority = 0;
   bool has_cap_sys_nice = false;
-  std::uint64_t rtprio_soft = 0;      ///< RLIMIT_RTPRIO (RLIM_INFINITY mapped to UINT64_MAX)
+  std::uint64_t rtprio_soft = 0;  ///< RLIMIT_RTPRIO (RLIM_INFINITY mapped to UINT64_MAX)
   std::uint64_t rtprio_hard = 0;
-  std::string cgroup_rt_runtime_file; ///< empty if not found
+  std::string cgroup_rt_runtime_file;  ///< empty if not found
   std::optional<std::int64_t> cgroup_rt_runtime_us;
 };
 

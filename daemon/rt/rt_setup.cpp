@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <system_error>
 
 #include "daemon/rt/rt_permission.hpp"
 
@@ -16,7 +17,7 @@ namespace hapticd::rt {
 namespace {
 
 constexpr std::size_t page = 4096;
-constexpr std::size_t stack_margin = 64 * 1024;
+constexpr std::size_t stack_margin = std::size_t{64} * 1024;
 
 std::size_t thread_stack_size() noexcept {
   pthread_attr_t attr;
@@ -34,7 +35,8 @@ void raise_soft_rtprio(int priority) noexcept {
   rlimit rl{};
   if (::getrlimit(RLIMIT_RTPRIO, &rl) != 0) return;
   const auto want = static_cast<rlim_t>(priority);
-  if (rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < want && (rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= want)) {
+  if (rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < want &&
+      (rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= want)) {
     rl.rlim_cur = want;
     ::setrlimit(RLIMIT_RTPRIO, &rl);
   }
@@ -69,7 +71,7 @@ RtSetupReport configure_realtime(const RtOptions& o) {
       r.memory_locked = true;
     } else {
       const int e = errno;
-      r.problems.push_back(std::string("mlockall failed (") + std::strerror(e) +
+      r.problems.push_back(std::string("mlockall failed (") + std::generic_category().message(e) +
                            "): page faults may stall the RT thread. Grant with: LimitMEMLOCK=infinity in the "
                            "systemd unit, '@group - memlock unlimited' in /etc/security/limits.d/, or "
                            "setcap cap_ipc_lock+ep <hapticd binary>.");
@@ -81,8 +83,10 @@ RtSetupReport configure_realtime(const RtOptions& o) {
     CPU_ZERO(&set);
     bool valid = true;
     for (int c : o.cpus) {
-      if (c < 0 || c >= CPU_SETSIZE) valid = false;
-      else CPU_SET(static_cast<std::size_t>(c), &set);
+      if (c < 0 || c >= CPU_SETSIZE)
+        valid = false;
+      else
+        CPU_SET(static_cast<std::size_t>(c), &set);
     }
     const int e = valid ? pthread_setaffinity_np(pthread_self(), sizeof set, &set) : EINVAL;
     if (e == 0) {
@@ -90,7 +94,7 @@ RtSetupReport configure_realtime(const RtOptions& o) {
     } else {
       std::string list;
       for (int c : o.cpus) list += (list.empty() ? "" : ",") + std::to_string(c);
-      r.problems.push_back("CPU affinity {" + list + "} not set (" + std::strerror(e) +
+      r.problems.push_back("CPU affinity {" + list + "} not set (" + std::generic_category().message(e) +
                            "): the CPUs must exist and be in this process's allowed set (see taskset -p, "
                            "the cgroup's cpuset.cpus, or AllowedCPUs= in the unit).");
     }

@@ -16,25 +16,25 @@
 namespace hapticd::rt {
 
 struct RtOptions {
-  int priority = 80;                         ///< SCHED_FIFO 1..99; 0 = leave the scheduler alone
-  std::vector<int> cpus;                     ///< affinity; empty = leave unchanged
-  bool lock_memory = true;                   ///< mlockall(MCL_CURRENT | MCL_FUTURE), process-wide
+  int priority = 80;        ///< SCHED_FIFO 1..99; 0 = leave the scheduler alone
+  std::vector<int> cpus;    ///< affinity; empty = leave unchanged
+  bool lock_memory = true;  ///< mlockall(MCL_CURRENT | MCL_FUTURE), process-wide
   std::size_t prefault_stack_bytes = 256 * 1024;
-  bool hold_dma_latency = true;              ///< /dev/cpu_dma_latency = 0 while the report lives
-  bool require_rt = false;                   ///< SCHED_FIFO failure is fatal (caller exits non-zero)
+  bool hold_dma_latency = true;  ///< /dev/cpu_dma_latency = 0 while the report lives
+  bool require_rt = false;       ///< SCHED_FIFO failure is fatal (caller exits non-zero)
 };
 
 /// What configure_realtime() achieved. Keep it alive as long as the loop
 /// runs: it owns the /dev/cpu_dma_latency request.
 struct RtSetupReport {
-  bool scheduler_set = false;     ///< SCHED_FIFO at `priority` on the calling thread
+  bool scheduler_set = false;  ///< SCHED_FIFO at `priority` on the calling thread
   int priority = 0;
   bool affinity_set = false;
   bool memory_locked = false;
   bool stack_prefaulted = false;
   std::size_t stack_prefaulted_bytes = 0;
   bool dma_latency_held = false;
-  bool fatal = false;             ///< require_rt and SCHED_FIFO failed
+  bool fatal = false;                 ///< require_rt and SCHED_FIFO failed
   std::vector<std::string> problems;  ///< one self-contained message per failed step
   CpuDmaLatencyRequest dma_latency;
 

@@ -33,8 +33,7 @@ class SpscRing {
  public:
   /// capacity: a power of two >= 2. Throws std::invalid_argument otherwise.
   explicit SpscRing(std::size_t capacity)
-      : capacity_(checked_capacity(capacity)), mask_(capacity - 1),
-        slots_(std::make_unique<T[]>(capacity)) {}
+      : capacity_(checked_capacity(capacity)), mask_(capacity - 1), slots_(std::make_unique<T[]>(capacity)) {}
 
   SpscRing(const SpscRing&) = delete;
   SpscRing& operator=(const SpscRing&) = delete;

@@ -10,7 +10,7 @@
 namespace hapticd::rt {
 
 SystemdNotifier::SystemdNotifier() {
-  const char* socket = std::getenv("NOTIFY_SOCKET");
+  const char* socket = std::getenv("NOTIFY_SOCKET");  // NOLINT(concurrency-mt-unsafe): no setenv anywhere
   enabled_ = socket != nullptr && *socket != '\0';
   std::uint64_t usec = 0;
   if (sd_watchdog_enabled(0, &usec) > 0 && usec > 0)

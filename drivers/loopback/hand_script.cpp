@@ -39,7 +39,9 @@ std::string number_text(double value) {
 }  // namespace
 
 std::string_view to_string(HandMode mode) noexcept { return mode_names[static_cast<std::size_t>(mode)]; }
-std::string_view to_string(TrajectoryKind kind) noexcept { return trajectory_names[static_cast<std::size_t>(kind)]; }
+std::string_view to_string(TrajectoryKind kind) noexcept {
+  return trajectory_names[static_cast<std::size_t>(kind)];
+}
 
 Trajectory::Sample Trajectory::at_time(double t) const noexcept {
   switch (kind) {
@@ -149,7 +151,8 @@ HandScript parse_hand_script(std::string_view text) {
     accepted.push_back("trajectory");
     if (const std::string* kind = find("trajectory")) {
       const auto it = std::find(trajectory_names.begin(), trajectory_names.end(), *kind);
-      if (it == trajectory_names.end()) fail("trajectory=" + *kind + " is not one of constant, step, ramp, sine");
+      if (it == trajectory_names.end())
+        fail("trajectory=" + *kind + " is not one of constant, step, ramp, sine");
       script.trajectory.kind = static_cast<TrajectoryKind>(it - trajectory_names.begin());
     }
     switch (script.trajectory.kind) {
@@ -196,19 +199,32 @@ HandScript parse_hand_script(std::string_view text) {
   for (const auto& [key, value] : pairs) {
     if (key == "mode" || key == "trajectory" || key == "ideal") continue;
     const double x = number(key, value);
-    if (key == "position" || key == "offset") r.position = x;
-    else if (key == "amplitude") r.amplitude = x;
-    else if (key == "at" && script.mode == HandMode::force) script.force_at = x;
-    else if (key == "at") r.at = x;
-    else if (key == "rate") r.rate = x;
-    else if (key == "from") r.from = x;
-    else if (key == "to") r.to = x;
-    else if (key == "frequency") r.frequency = x;
-    else if (key == "phase") r.phase = x;
-    else if (key == "stiffness") script.stiffness = x;
-    else if (key == "damping") script.damping = x;
-    else if (key == "force") script.force = x;
-    else if (key == "release_at") script.release_at = x;
+    if (key == "position" || key == "offset")
+      r.position = x;
+    else if (key == "amplitude")
+      r.amplitude = x;
+    else if (key == "at" && script.mode == HandMode::force)
+      script.force_at = x;
+    else if (key == "at")
+      r.at = x;
+    else if (key == "rate")
+      r.rate = x;
+    else if (key == "from")
+      r.from = x;
+    else if (key == "to")
+      r.to = x;
+    else if (key == "frequency")
+      r.frequency = x;
+    else if (key == "phase")
+      r.phase = x;
+    else if (key == "stiffness")
+      script.stiffness = x;
+    else if (key == "damping")
+      script.damping = x;
+    else if (key == "force")
+      script.force = x;
+    else if (key == "release_at")
+      script.release_at = x;
   }
 
   // Required keys and ranges.
@@ -237,7 +253,9 @@ HandScript parse_hand_script(std::string_view text) {
   if (script.mode == HandMode::force) require("force");
   if (script.mode == HandMode::impedance) require("stiffness");
   if (script.mode == HandMode::hold && script.ideal && (script.stiffness || script.damping)) {
-    fail("stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position exactly)");
+    fail(
+        "stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position "
+        "exactly)");
   }
   if (script.stiffness && !(*script.stiffness > 0.0)) {
     fail("stiffness must be > 0 (got " + number_text(*script.stiffness) + ")");

@@ -56,11 +56,11 @@ struct HandScript {
   /// false holds it through a stiff spring-damper (stiffness/damping, or by
   /// default a critically damped 30 Hz impedance on the total mass).
   bool ideal = true;
-  std::optional<double> stiffness;  ///< impedance (required), hold ideal=false (optional): N/m or N m/rad
-  std::optional<double> damping;    ///< impedance/hold ideal=false: N s/m or N m s/rad (impedance default 0)
-  double force = 0.0;               ///< force mode: N or N m
-  double force_at = 0.0;            ///< force mode: the force is 0 before this time ("at")
-  std::optional<double> release_at; ///< from this time on the hand lets go (mode free)
+  std::optional<double> stiffness;   ///< impedance (required), hold ideal=false (optional): N/m or N m/rad
+  std::optional<double> damping;     ///< impedance/hold ideal=false: N s/m or N m s/rad (impedance default 0)
+  double force = 0.0;                ///< force mode: N or N m
+  double force_at = 0.0;             ///< force mode: the force is 0 before this time ("at")
+  std::optional<double> release_at;  ///< from this time on the hand lets go (mode free)
 
   /// Hand force for mode = force at script time t (ignores release_at).
   double force_at_time(double t) const noexcept { return t >= force_at ? force : 0.0; }

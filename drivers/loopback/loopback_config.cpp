@@ -14,9 +14,7 @@ namespace {
 
 constexpr double linear_default_counts = 1.0 / 3.14e-6;  // LHifAM: 3.14 um per count
 
-[[noreturn]] void fail(const std::string& message) {
-  throw std::invalid_argument("loopback: " + message);
-}
+[[noreturn]] void fail(const std::string& message) { throw std::invalid_argument("loopback: " + message); }
 
 std::string number_text(double value) {
   std::ostringstream out;
@@ -33,7 +31,9 @@ double parse_number(std::string_view key, std::string_view value) {
 
 }  // namespace
 
-std::string_view to_string(PlantKind kind) noexcept { return kind == PlantKind::rigid ? "rigid" : "two-mass"; }
+std::string_view to_string(PlantKind kind) noexcept {
+  return kind == PlantKind::rigid ? "rigid" : "two-mass";
+}
 std::string_view to_string(Motion motion) noexcept { return motion == Motion::rotary ? "rotary" : "linear"; }
 
 LoopbackConfig LoopbackConfig::defaults(Motion motion) {
@@ -61,10 +61,12 @@ double LoopbackConfig::total_damping() const noexcept {
 
 void LoopbackConfig::validate() const {
   auto positive = [](std::string_view key, double value) {
-    if (!(value > 0.0) || !std::isfinite(value)) fail(std::string(key) + " must be > 0 (got " + number_text(value) + ")");
+    if (!(value > 0.0) || !std::isfinite(value))
+      fail(std::string(key) + " must be > 0 (got " + number_text(value) + ")");
   };
   auto non_negative = [](std::string_view key, double value) {
-    if (!(value >= 0.0) || !std::isfinite(value)) fail(std::string(key) + " must be >= 0 (got " + number_text(value) + ")");
+    if (!(value >= 0.0) || !std::isfinite(value))
+      fail(std::string(key) + " must be >= 0 (got " + number_text(value) + ")");
   };
   if (plant == PlantKind::rigid) {
     positive("mass", mass);
@@ -82,7 +84,8 @@ void LoopbackConfig::validate() const {
   positive("max_force", max_force);
   positive("period", period_s);
   if (delay < 0 || delay > max_delay_periods) {
-    fail("delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " + std::to_string(delay) + ")");
+    fail("delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " +
+         std::to_string(delay) + ")");
   }
 }
 
@@ -91,26 +94,34 @@ std::vector<DriverParameter> loopback_parameters() {
   const LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
   const world::TwoMassPlant tm{};
   return {
-      {"motion", "string", "rotary", "", "rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below"},
-      {"plant", "string", "rigid", "", "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)"},
+      {"motion", "string", "rotary", "",
+       "rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below"},
+      {"plant", "string", "rigid", "",
+       "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)"},
       {"mass", "number", number_text(rotary.mass), "kg m^2 | kg",
-       "rigid plant: moving inertia (rotary default " + number_text(rotary.mass) + " kg m^2) or mass (linear default " +
-           number_text(linear.mass) + " kg)"},
+       "rigid plant: moving inertia (rotary default " + number_text(rotary.mass) +
+           " kg m^2) or mass (linear default " + number_text(linear.mass) + " kg)"},
       {"damping", "number", "0", "N m s/rad | N s/m", "rigid plant: viscous damping to ground"},
       {"coulomb", "number", "0", "N m | N",
        "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables"},
       {"motor_mass", "number", number_text(tm.motor_mass), "kg", "two-mass: motor-side mass m_m (Table I)"},
       {"body_mass", "number", number_text(tm.body_mass), "kg", "two-mass: body (handle) mass m_d (Table I)"},
-      {"motor_damping", "number", number_text(tm.motor_damping), "N s/m", "two-mass: motor damping b_m (Table I)"},
-      {"body_damping", "number", number_text(tm.body_damping), "N s/m", "two-mass: body damping b_d (Table I)"},
-      {"cable_stiffness", "number", number_text(tm.cable_stiffness), "N/m", "two-mass: cable stiffness k_c (Table I)"},
-      {"cable_damping", "number", number_text(tm.cable_damping), "N s/m", "two-mass: cable damping b_c (Table I)"},
-      {"sensor", "string", "motor", "", "two-mass: position read() returns: motor (collocated) or body (non-collocated)"},
+      {"motor_damping", "number", number_text(tm.motor_damping), "N s/m",
+       "two-mass: motor damping b_m (Table I)"},
+      {"body_damping", "number", number_text(tm.body_damping), "N s/m",
+       "two-mass: body damping b_d (Table I)"},
+      {"cable_stiffness", "number", number_text(tm.cable_stiffness), "N/m",
+       "two-mass: cable stiffness k_c (Table I)"},
+      {"cable_damping", "number", number_text(tm.cable_damping), "N s/m",
+       "two-mass: cable damping b_c (Table I)"},
+      {"sensor", "string", "motor", "",
+       "two-mass: position read() returns: motor (collocated) or body (non-collocated)"},
       {"counts", "number", number_text(rotary.counts), "1/rev | 1/m",
        "encoder counts per revolution (rotary, default 4096*4) or per metre (linear, default " +
            number_text(linear.counts) + " = 1/3.14 um)"},
       {"max_force", "number", number_text(rotary.max_force), "N m | N",
-       "actuator saturation |force| (rotary default 0.8 N m, linear default " + number_text(linear.max_force) + " N)"},
+       "actuator saturation |force| (rotary default 0.8 N m, linear default " +
+           number_text(linear.max_force) + " N)"},
       {"delay", "integer", "0", "periods",
        "extra output delay: a force written in period n is applied in period n+delay (0.." +
            std::to_string(max_delay_periods) + ")"},

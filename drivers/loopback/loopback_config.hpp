@@ -29,9 +29,9 @@ struct LoopbackConfig {
   /// Rigid plant: moving mass (kg) or inertia (kg m^2). Rotary default 0.01
   /// kg m^2 (a ~1 kg, 0.15 m radius wheel); linear default 0.1 kg (Hulin's PHANToM).
   double mass = 0.01;
-  double damping = 0.0;   ///< rigid plant: viscous damping to ground, N s/m or N m s/rad
-  double coulomb = 0.0;   ///< Coulomb friction level, N or N m (rigid: on the mass; two-mass: on the body)
-  world::TwoMassPlant two_mass{};  ///< two-mass plant parameters (Diaz & Gil Table I defaults)
+  double damping = 0.0;  ///< rigid plant: viscous damping to ground, N s/m or N m s/rad
+  double coulomb = 0.0;  ///< Coulomb friction level, N or N m (rigid: on the mass; two-mass: on the body)
+  world::TwoMassPlant two_mass{};               ///< two-mass plant parameters (Diaz & Gil Table I defaults)
   world::Sensor sensor = world::Sensor::motor;  ///< two-mass: which position read() returns
   /// Encoder counts per revolution (rotary, default 4096*4) or per metre
   /// (linear, default 1/3.14e-6: the LHifAM encoder).

@@ -33,7 +33,8 @@ using detail::HandKind;
 using detail::PreparedHand;
 using detail::StepModel;
 
-constexpr std::array<std::string_view, 5> fault_name_list{"read-error", "stall", "nan", "encoder-jump", "fault"};
+constexpr std::array<std::string_view, 5> fault_name_list{"read-error", "stall", "nan", "encoder-jump",
+                                                          "fault"};
 
 /// Hold ideal=false default: critically damped at this natural frequency on the total mass.
 constexpr double default_hold_frequency_hz = 30.0;
@@ -185,9 +186,9 @@ const PreparedHand* LoopbackDevice::acquire_hand() noexcept {
 
 void LoopbackDevice::release_hand() noexcept { hazard_.store(nullptr, std::memory_order_release); }
 
-double LoopbackDevice::friction_mass_load(const std::array<double, 4>& x, double motor_force, double body_force,
-                                          double stiffness, double damping, double reference,
-                                          double reference_rate) const noexcept {
+double LoopbackDevice::friction_mass_load(const std::array<double, 4>& x, double motor_force,
+                                          double body_force, double stiffness, double damping,
+                                          double reference, double reference_rate) const noexcept {
   // Every force on the friction mass except friction, with that mass at rest
   // (viscous damping to ground is then zero).
   double load = body_force + stiffness * (reference - x[pos_body_]) + damping * reference_rate;
@@ -486,8 +487,9 @@ DeviceStatus LoopbackDevice::status() const {
   auto describe = [&s](std::string_view name, std::int64_t left) {
     if (left == 0) return;
     if (!s.last_error.empty()) s.last_error += "; ";
-    s.last_error += "injected " + std::string(name) +
-                    (left < 0 ? std::string(" (until cleared)") : " (" + std::to_string(left) + " periods left)");
+    s.last_error +=
+        "injected " + std::string(name) +
+        (left < 0 ? std::string(" (until cleared)") : " (" + std::to_string(left) + " periods left)");
   };
   describe("fault", fault_left_.load(std::memory_order_relaxed));
   describe("stall", stall_left_.load(std::memory_order_relaxed));

@@ -46,10 +46,10 @@ std::string_view fault_names() noexcept;  ///< for error messages
 
 /// A consistent copy of the simulated state, taken at a period boundary.
 struct PlantSnapshot {
-  std::uint64_t period = 0;      ///< number of write() calls that advanced the plant
-  double time_s = 0.0;           ///< period * T
-  double motor_position = 0.0;   ///< m or rad (rigid: the mass)
-  double body_position = 0.0;    ///< m or rad (rigid: the mass)
+  std::uint64_t period = 0;     ///< number of write() calls that advanced the plant
+  double time_s = 0.0;          ///< period * T
+  double motor_position = 0.0;  ///< m or rad (rigid: the mass)
+  double body_position = 0.0;   ///< m or rad (rigid: the mass)
   double motor_velocity = 0.0;
   double body_velocity = 0.0;
   double sensed_position = 0.0;  ///< true (unquantized) position at the configured sensor

@@ -42,9 +42,9 @@ TEST(ClosedLoop, WallPolesAreTheRootsOfHulinEq1) {
     for (const auto& [k, b] : {std::pair{9000.0, 46.0}, std::pair{2000.0, 10.0}, std::pair{20000.0, 4.6}}) {
       const auto v = analyze_closed_loop(plant, world::Sensor::motor, wall_scene(k, b, t, d), t);
       auto poles = v.eigenvalues;
-      const Polynomial eq1 = add_scaled(
-          add_scaled(Polynomial(static_cast<std::size_t>(d) + 4, 0.0), k * t * t, {0.0, 1.0, 1.0}), b * t,
-          {-1.0, 0.0, 1.0});
+      const Polynomial eq1 =
+          add_scaled(add_scaled(Polynomial(static_cast<std::size_t>(d) + 4, 0.0), k * t * t, {0.0, 1.0, 1.0}),
+                     b * t, {-1.0, 0.0, 1.0});
       Polynomial p = eq1;
       p[static_cast<std::size_t>(d) + 1] += 2 * m;
       p[static_cast<std::size_t>(d) + 2] -= 4 * m;

@@ -114,17 +114,21 @@ struct Case {
 // Time domain: K = 0.97 K_CR decays and 1.03 K_CR grows.
 TEST(CriticalStiffness, TimeDomainAgreesAroundKcr) {
   const Case cases[] = {
-      {&rigid, Sensor::motor, 0.0, "rigid td=0"},          {&rigid, Sensor::motor, 1.5e-3, "rigid td=1.5T"},
-      {&rigid, Sensor::motor, 4e-3, "rigid td=4T"},        {&two_mass, Sensor::motor, 0.0, "motor td=0"},
-      {&two_mass, Sensor::motor, 1.5e-3, "motor td=1.5T"}, {&two_mass, Sensor::body, 0.0, "body td=0"},
-      {&two_mass, Sensor::body, 1.5e-3, "body td=1.5T"},   {&two_mass, Sensor::motor, 0.25e-3, "motor td=0.25T"},
+      {&rigid, Sensor::motor, 0.0, "rigid td=0"},
+      {&rigid, Sensor::motor, 1.5e-3, "rigid td=1.5T"},
+      {&rigid, Sensor::motor, 4e-3, "rigid td=4T"},
+      {&two_mass, Sensor::motor, 0.0, "motor td=0"},
+      {&two_mass, Sensor::motor, 1.5e-3, "motor td=1.5T"},
+      {&two_mass, Sensor::body, 0.0, "body td=0"},
+      {&two_mass, Sensor::body, 1.5e-3, "body td=1.5T"},
+      {&two_mass, Sensor::motor, 0.25e-3, "motor td=0.25T"},
   };
   for (const Case& c : cases) {
     const double kcr = critical_stiffness(*c.plant, c.sensor, T, c.delay_s).k_cr;
-    const double below = envelope_ratio(simulate(*c.plant, c.sensor, c.delay_s, 300000,
-                                                 [&](double y) { return -0.97 * kcr * y; }));
-    const double above = envelope_ratio(simulate(*c.plant, c.sensor, c.delay_s, 300000,
-                                                 [&](double y) { return -1.03 * kcr * y; }));
+    const double below = envelope_ratio(
+        simulate(*c.plant, c.sensor, c.delay_s, 300000, [&](double y) { return -0.97 * kcr * y; }));
+    const double above = envelope_ratio(
+        simulate(*c.plant, c.sensor, c.delay_s, 300000, [&](double y) { return -1.03 * kcr * y; }));
     EXPECT_LT(below, 0.9) << c.name;
     EXPECT_GT(above, 1.1) << c.name;
   }
@@ -187,9 +191,8 @@ TEST(TwoMass, FactorizationEq10IsApproximateInOneCoefficient) {
   const std::complex<double> s(0.0, 300.0);
   const Eigen::MatrixXcd resolvent =
       (s * Eigen::MatrixXcd::Identity(4, 4) - two_mass.dynamics.a.cast<std::complex<double>>()).inverse();
-  const std::complex<double> gm =
-      (two_mass.motor_position.cast<std::complex<double>>() * resolvent *
-       two_mass.dynamics.b.col(0).cast<std::complex<double>>())(0);
+  const std::complex<double> gm = (two_mass.motor_position.cast<std::complex<double>>() * resolvent *
+                                   two_mass.dynamics.b.col(0).cast<std::complex<double>>())(0);
   EXPECT_NEAR(std::abs(gm - motor_transfer(p, s)), 0.0, 1e-9 * std::abs(gm));
 }
 
@@ -235,7 +238,7 @@ TEST(RelayExperiment, RigidPlantAgreesWithCriticalStiffness) {
   // ignores the harmonics -- moves the frequency by ~10 % and
   // K_u ~ m w^2 twice as much. The estimate errs low (conservative).
   const RelayCase cases[] = {{3.5, 0.0, 0.24, 0.13},  {3.5, 1.5e-3, 0.22, 0.12}, {3.5, 2e-3, 0.18, 0.10},
-                             {3.5, 5e-3, 0.16, 0.09}, {35.0, 0.0, 0.27, 0.15}, {35.0, 2e-3, 0.19, 0.10}};
+                             {3.5, 5e-3, 0.16, 0.09}, {35.0, 0.0, 0.27, 0.15},   {35.0, 2e-3, 0.19, 0.10}};
   for (const RelayCase& c : cases) {
     const world::LinearPlant plant = world::RigidPlant{5.4, c.damping}.model();
     const auto y = simulate(plant, Sensor::motor, c.td, 40000, [&](double p) { return p > 0.0 ? -h : h; });
@@ -243,9 +246,10 @@ TEST(RelayExperiment, RigidPlantAgreesWithCriticalStiffness) {
     const auto e = estimate_relay(steady, T, h);
     ASSERT_TRUE(e) << c.td;
     const CriticalStiffness k = critical_stiffness(plant, Sensor::motor, T, c.td);
-    std::printf("relay b %.1f td %.1f ms: K_u %.1f (K_CR %.1f, %+.2f%%), f %.3f Hz (%.3f, %+.2f%%), %d cycles\n",
-                c.damping, c.td * 1e3, e->ultimate_gain, k.k_cr, 100 * (e->ultimate_gain / k.k_cr - 1),
-                e->frequency_hz, k.crossover_hz, 100 * (e->frequency_hz / k.crossover_hz - 1), e->cycles);
+    std::printf(
+        "relay b %.1f td %.1f ms: K_u %.1f (K_CR %.1f, %+.2f%%), f %.3f Hz (%.3f, %+.2f%%), %d cycles\n",
+        c.damping, c.td * 1e3, e->ultimate_gain, k.k_cr, 100 * (e->ultimate_gain / k.k_cr - 1),
+        e->frequency_hz, k.crossover_hz, 100 * (e->frequency_hz / k.crossover_hz - 1), e->cycles);
     EXPECT_NEAR(e->ultimate_gain, k.k_cr, c.gain_tol * k.k_cr) << c.damping << " " << c.td;
     EXPECT_LT(e->ultimate_gain, k.k_cr);
     EXPECT_NEAR(e->frequency_hz, k.crossover_hz, c.freq_tol * k.crossover_hz) << c.damping << " " << c.td;
@@ -255,7 +259,8 @@ TEST(RelayExperiment, RigidPlantAgreesWithCriticalStiffness) {
 TEST(RelayExperiment, RecoversAKnownSinusoid) {
   std::vector<double> y;
   const double w = 2 * std::numbers::pi * 7.3, a = 0.004;
-  for (int n = 0; n < 5000; ++n) y.push_back(0.01 + a * std::sin(w * n * T + 0.3) + 0.0004 * std::sin(3 * w * n * T));
+  for (int n = 0; n < 5000; ++n)
+    y.push_back(0.01 + a * std::sin(w * n * T + 0.3) + 0.0004 * std::sin(3 * w * n * T));
   const auto e = estimate_relay(y, T, 1.5);
   ASSERT_TRUE(e);
   EXPECT_NEAR(e->frequency_rad_per_s, w, 1e-3 * w);

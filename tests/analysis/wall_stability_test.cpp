@@ -5,8 +5,8 @@
 #include "analysis/wall_stability.hpp"
 
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 
 #include <gtest/gtest.h>
@@ -129,9 +129,10 @@ bool all_real(double alpha, double beta, int d) {
 }
 
 // Footnote 2 prints alpha in [0, 0.702] for the real-pole part of the d = 0
-// path; the minimum (0.0703) is where the poles stop being real, so 0.702 is
-// a misplaced decimal point: at alpha = 0.1 .. 0.6 the optimal poles are complex.
-TEST(WallStability, Footnote2RealPolesEndAt0_0703NotAt0_702) {
+// path; the minimum is a triple root z = 4^(1/3) - 1, alpha = 6 z^2 - 2 =
+// 0.0702, where the poles stop being real, so 0.702 is a misplaced decimal
+// point: at alpha = 0.1 .. 0.6 the optimal poles are complex.
+TEST(WallStability, Footnote2RealPolesEndAt0_0702NotAt0_702) {
   for (double a : {0.02, 0.04, 0.06, 0.069}) {
     const auto p = minimum_radius_damping(a, 0);
     ASSERT_TRUE(p);

@@ -168,14 +168,18 @@ TEST(ConfigDurations, SuffixesNumbersAndRangeEdges) {
   EXPECT_DOUBLE_EQ(parse_config("[control]\nidle_timeout = 60", "t").control.idle_timeout_s, 60.0);
   EXPECT_DOUBLE_EQ(*parse_config("[loop]\nduration = \"1.5s\"", "t").loop.duration_s, 1.5);
   EXPECT_FALSE(parse_config("[loop]\nduration = \"\"", "t").loop.duration_s.has_value());
-  EXPECT_EQ(error_of("[loop]\nperiod = \"99us\""), "t.toml:2:10: loop.period = \"99us\" is out of range; accepted: 100us to 10ms");
-  EXPECT_EQ(error_of("[loop]\nperiod = \"11ms\""), "t.toml:2:10: loop.period = \"11ms\" is out of range; accepted: 100us to 10ms");
-  EXPECT_EQ(error_of("[loop]\nperiod = 1"), "t.toml:2:10: loop.period = 1 is out of range; accepted: 100us to 10ms");
+  EXPECT_EQ(error_of("[loop]\nperiod = \"99us\""),
+            "t.toml:2:10: loop.period = \"99us\" is out of range; accepted: 100us to 10ms");
+  EXPECT_EQ(error_of("[loop]\nperiod = \"11ms\""),
+            "t.toml:2:10: loop.period = \"11ms\" is out of range; accepted: 100us to 10ms");
+  EXPECT_EQ(error_of("[loop]\nperiod = 1"),
+            "t.toml:2:10: loop.period = 1 is out of range; accepted: 100us to 10ms");
   EXPECT_EQ(error_of("[loop]\nperiod = \"1 kHz\""),
             "t.toml:2:10: loop.period = \"1 kHz\" is not a duration; accepted: 100us to 10ms (a string with "
             "suffix s, ms or us, or a number of seconds)");
   EXPECT_EQ(error_of("[loop]\nduration = \"0s\""),
-            "t.toml:2:12: loop.duration = \"0s\" is out of range; accepted: \"\" (run until signalled) or more than 0s");
+            "t.toml:2:12: loop.duration = \"0s\" is out of range; accepted: \"\" (run until signalled) or "
+            "more than 0s");
   EXPECT_EQ(error_of("[recorder]\nflush_interval = \"20s\""),
             "t.toml:2:18: recorder.flush_interval = \"20s\" is out of range; accepted: 1ms to 10s");
   EXPECT_EQ(error_of("[control]\nidle_timeout = \"-1s\""),
@@ -188,7 +192,9 @@ TEST(ConfigErrors, OutOfRangeExampleFromTheBrief) {
     parse_config(text, "/etc/hapticd/hapticd.toml");
     FAIL() << "no error";
   } catch (const ConfigError& error) {
-    EXPECT_STREQ(error.what(), "/etc/hapticd/hapticd.toml:4:10: loop.period = \"5s\" is out of range; accepted: 100us to 10ms");
+    EXPECT_STREQ(
+        error.what(),
+        "/etc/hapticd/hapticd.toml:4:10: loop.period = \"5s\" is out of range; accepted: 100us to 10ms");
     EXPECT_EQ(error.key(), "loop.period");
     EXPECT_EQ(error.where().line, 4u);
     EXPECT_EQ(error.where().column, 10u);
@@ -228,43 +234,55 @@ TEST(ConfigErrors, WrongTypesAndRanges) {
             "t.toml:2:12: loop.priority = 100 is out of range; accepted: an integer from 1 to 99");
   EXPECT_EQ(error_of("[loop]\npriority = 80.0"),
             "t.toml:2:12: loop.priority = 80.0 has the wrong type; accepted: an integer from 1 to 99");
-  EXPECT_EQ(error_of("[loop]\ncpu = -2"),
-            "t.toml:2:7: loop.cpu = -2 is out of range; accepted: -1 (no pinning) or a CPU index from 0 to 1023");
-  EXPECT_EQ(error_of("[loop]\nrequire_rt = 1"), "t.toml:2:14: loop.require_rt = 1 has the wrong type; accepted: true or false");
+  EXPECT_EQ(
+      error_of("[loop]\ncpu = -2"),
+      "t.toml:2:7: loop.cpu = -2 is out of range; accepted: -1 (no pinning) or a CPU index from 0 to 1023");
+  EXPECT_EQ(error_of("[loop]\nrequire_rt = 1"),
+            "t.toml:2:14: loop.require_rt = 1 has the wrong type; accepted: true or false");
   EXPECT_EQ(error_of("[loop]\nclock = \"wall\""),
             "t.toml:2:9: loop.clock = \"wall\" is not a clock; accepted: \"real\" or \"virtual\"");
-  EXPECT_EQ(error_of("[loop]\noverrun_limit = -1"),
-            "t.toml:2:17: loop.overrun_limit = -1 is out of range; accepted: an integer from 0 (never) to 1000000");
-  EXPECT_EQ(error_of("[device]\ntorque_limit = 0"),
-            "t.toml:2:16: device.torque_limit = 0 is out of range; accepted: a number greater than 0 (N or N m)");
-  EXPECT_EQ(error_of("[device]\ntorque_limit = nan"),
-            "t.toml:2:16: device.torque_limit = nan is out of range; accepted: a number greater than 0 (N or N m)");
+  EXPECT_EQ(
+      error_of("[loop]\noverrun_limit = -1"),
+      "t.toml:2:17: loop.overrun_limit = -1 is out of range; accepted: an integer from 0 (never) to 1000000");
+  EXPECT_EQ(
+      error_of("[device]\ntorque_limit = 0"),
+      "t.toml:2:16: device.torque_limit = 0 is out of range; accepted: a number greater than 0 (N or N m)");
+  EXPECT_EQ(
+      error_of("[device]\ntorque_limit = nan"),
+      "t.toml:2:16: device.torque_limit = nan is out of range; accepted: a number greater than 0 (N or N m)");
   EXPECT_EQ(error_of("[device]\ntorque_limit = \"1 N\""),
-            "t.toml:2:16: device.torque_limit = \"1 N\" has the wrong type; accepted: a number greater than 0 (N or N m)");
+            "t.toml:2:16: device.torque_limit = \"1 N\" has the wrong type; accepted: a number greater than "
+            "0 (N or N m)");
   EXPECT_EQ(error_of("[control]\nmax_clients = 0"),
             "t.toml:2:15: control.max_clients = 0 is out of range; accepted: an integer from 1 to 1024");
   EXPECT_EQ(error_of("[control]\nmax_message_bytes = 100"),
-            "t.toml:2:21: control.max_message_bytes = 100 is out of range; accepted: an integer from 1024 to 16777216");
+            "t.toml:2:21: control.max_message_bytes = 100 is out of range; accepted: an integer from 1024 to "
+            "16777216");
   EXPECT_EQ(error_of("[control]\nsocket = \"/" + std::string(107, 'x') + "\""),
             "t.toml:2:10: control.socket = \"/" + std::string(107, 'x') +
                 "\" is out of range; accepted: \"\" (default path) or a path of at most 107 bytes");
-  EXPECT_EQ(parse_config("[control]\nsocket = \"/" + std::string(106, 'x') + "\"", "t").control.socket.size(), 107u);
+  EXPECT_EQ(parse_config("[control]\nsocket = \"/" + std::string(106, 'x') + "\"", "t").control.socket.size(),
+            107u);
   EXPECT_EQ(error_of("[recorder]\nring_seconds = 0.01"),
-            "t.toml:2:16: recorder.ring_seconds = 0.01 is out of range; accepted: a number of seconds from 0.1 to 60");
+            "t.toml:2:16: recorder.ring_seconds = 0.01 is out of range; accepted: a number of seconds from "
+            "0.1 to 60");
   EXPECT_EQ(error_of("[scene]\nname = \"\""),
             "t.toml:2:8: scene.name = \"\" is out of range; accepted: a non-empty scene name (spring-wheel, "
             "spring-mass, wall, relay, free, ...)");
 }
 
 TEST(ConfigErrors, DriversAndDriverTables) {
-  EXPECT_EQ(error_of("[device]\ndriver = \"serial\""),
-            "t.toml:2:10: device.driver = \"serial\" is not a known driver; accepted: loopback, usb-hid, canopen, "
-            "modbus, gpio");
+  EXPECT_EQ(
+      error_of("[device]\ndriver = \"serial\""),
+      "t.toml:2:10: device.driver = \"serial\" is not a known driver; accepted: loopback, usb-hid, canopen, "
+      "modbus, gpio");
   // The table must match the selected driver, wherever driver is written.
   EXPECT_EQ(error_of("[device.canopen]\nnode_id = 5\n[device]\ndriver = \"loopback\""),
-            "t.toml:1:9: [device.canopen] does not match device.driver = \"loopback\"; accepted: [device.loopback]");
+            "t.toml:1:9: [device.canopen] does not match device.driver = \"loopback\"; accepted: "
+            "[device.loopback]");
   // Drivers not built yet still parse: the daemon refuses them, not the config.
-  const DaemonConfig config = parse_config("[device]\ndriver = \"canopen\"\n[device.canopen]\nnode_id = 5\n", "t");
+  const DaemonConfig config =
+      parse_config("[device]\ndriver = \"canopen\"\n[device.canopen]\nnode_id = 5\n", "t");
   EXPECT_EQ(config.device.driver, "canopen");
   ASSERT_EQ(config.device.parameters.size(), 1u);
   EXPECT_EQ(config.device.parameters[0].value, ParameterValue{5.0});
@@ -273,9 +291,10 @@ TEST(ConfigErrors, DriversAndDriverTables) {
 TEST(ConfigErrors, FreeFormValuesMustBeScalars) {
   EXPECT_EQ(error_of("[scene]\nk = [1, 2]"),
             "t.toml:2:5: scene.k = [...] has the wrong type; accepted: a number, a boolean or a string");
-  EXPECT_EQ(error_of("[device.loopback]\nhand.start = 1979-05-27"),
-            "t.toml:2:14: device.loopback.hand.start = (a date/time) has the wrong type; accepted: a number, a "
-            "boolean or a string");
+  EXPECT_EQ(
+      error_of("[device.loopback]\nhand.start = 1979-05-27"),
+      "t.toml:2:14: device.loopback.hand.start = (a date/time) has the wrong type; accepted: a number, a "
+      "boolean or a string");
   EXPECT_EQ(error_of("[scene]\nk = inf"),
             "t.toml:2:5: scene.k = inf is out of range; accepted: a finite number, a boolean or a string");
 }

@@ -63,7 +63,8 @@ class ServerTest : public ::testing::Test {
         },
         Access::read);
     server->register_method(
-        "param.set", [this](const json& params, const PeerInfo&) {
+        "param.set",
+        [this](const json& params, const PeerInfo&) {
           ++writes;
           return json{{"set", params.at("params")}};
         },
@@ -74,7 +75,8 @@ class ServerTest : public ::testing::Test {
     server->register_method(
         "refuse",
         [](const json&, const PeerInfo&) -> json {
-          throw RpcError(code::refused, "K = 20000 N/m is outside the stable region", json{{"limit", 4500.0}});
+          throw RpcError(code::refused, "K = 20000 N/m is outside the stable region",
+                         json{{"limit", 4500.0}});
         },
         Access::read);
     server->register_method(
@@ -200,8 +202,14 @@ TEST_F(ServerTest, ThousandMalformedRequestsLeaveServerResponsive) {
   start();
   RawPeer p(path);
   std::string junk;
-  const char* kinds[] = {"{", "]", "nul", "{\"jsonrpc\":\"2.0\",\"id\":1}", "\"str\"", "{\"a\":[1,2,{\"b\":}]}",
-                         "[[[[[[[[[[[[", "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"echo\",\"params\":5}"};
+  const char* kinds[] = {"{",
+                         "]",
+                         "nul",
+                         "{\"jsonrpc\":\"2.0\",\"id\":1}",
+                         "\"str\"",
+                         "{\"a\":[1,2,{\"b\":}]}",
+                         "[[[[[[[[[[[[",
+                         "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"echo\",\"params\":5}"};
   for (int i = 0; i < 1000; ++i) junk += std::string(kinds[i % 8]) + "\n";
   ASSERT_TRUE(p.send(junk));
   int errors = 0;
@@ -336,7 +344,10 @@ TEST_F(ServerTest, StreamValidatesItsParams) {
   EXPECT_EQ(code_of([&] { c.call("stream", json::object()); }), code::invalid_params);
   EXPECT_EQ(code_of([&] { c.call("stream", {{"rate_hz", -1}}); }), code::invalid_params);
   EXPECT_EQ(code_of([&] { c.call("stream", {{"rate_hz", 1e6}}); }), code::invalid_params);
-  EXPECT_EQ(code_of([&] { c.call("stream", {{"rate_hz", 10}, {"channels", "position"}}); }), code::invalid_params);
+  EXPECT_EQ(code_of([&] {
+              c.call("stream", {{"rate_hz", 10}, {"channels", "position"}});
+            }),
+            code::invalid_params);
   EXPECT_EQ(code_of([&] { c.subscribe(10, {"nonsense"}); }), code::invalid_params);
   EXPECT_FALSE(c.read_notification(300ms).has_value());
   EXPECT_EQ(c.unsubscribe()["subscription"], nullptr);
@@ -438,7 +449,8 @@ TEST_F(ServerTest, UnknownGroupRefusesToStart) {
 /// A group that exists and is not root's primary group, for ownership tests.
 std::optional<std::pair<std::string, gid_t>> test_group() {
   for (const char* name : {"adm", "daemon", "users", "nogroup"}) {
-    if (group* g = ::getgrnam(name); g != nullptr && g->gr_gid != 0) return std::make_pair(std::string(name), g->gr_gid);
+    if (group* g = ::getgrnam(name); g != nullptr && g->gr_gid != 0)
+      return std::make_pair(std::string(name), g->gr_gid);
   }
   return std::nullopt;
 }
@@ -461,9 +473,9 @@ TEST_F(ServerTest, SocketModeAndGroupOwnership) {
 }
 
 struct ChildResult {
-  int read_code = -1;    // 0: read method succeeded, else RpcError code
-  int write_code = -1;   // 0: write method succeeded, else RpcError code
-  std::string message;   // message of the write refusal
+  int read_code = -1;   // 0: read method succeeded, else RpcError code
+  int write_code = -1;  // 0: write method succeeded, else RpcError code
+  std::string message;  // message of the write refusal
 };
 
 /// Forks, drops to `nobody` with the given primary and supplementary groups,
@@ -542,7 +554,8 @@ TEST_F(PermissionTest, StrangerMayReadButNotWrite) {
   auto r = call_as_nobody(path, nogroup, {});
   EXPECT_EQ(r.read_code, 0) << r.message;
   EXPECT_EQ(r.write_code, code::not_permitted) << r.message;
-  EXPECT_NE(r.message.find("uid " + std::to_string(::getpwnam("nobody")->pw_uid)), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("uid " + std::to_string(::getpwnam("nobody")->pw_uid)), std::string::npos)
+      << r.message;
   EXPECT_NE(r.message.find("'" + group.first + "'"), std::string::npos) << r.message;
   EXPECT_EQ(writes.load(), 0);
 }

@@ -82,21 +82,22 @@ std::vector<NamedPlan> every_scene_plan() {
   for (const auto& integrator : integrators) {
     out.push_back({"spring-wheel b=0 " + integrator,
                    make_plan("spring-wheel", {{"integrator", integrator}, {"damping", 0.0}}, 0.5)});
-    out.push_back({"spring-wheel b=0.5 absolute " + integrator,
-                   make_plan("spring-wheel",
-                             {{"integrator", integrator}, {"damping", 0.5}, {"damping_reference", "absolute"}},
-                             0.5)});
-    out.push_back({"spring-wheel b=0.5 relative " + integrator,
-                   make_plan("spring-wheel",
-                             {{"integrator", integrator}, {"damping", 0.5}, {"damping_reference", "relative"}},
-                             0.5)});
+    out.push_back(
+        {"spring-wheel b=0.5 absolute " + integrator,
+         make_plan("spring-wheel",
+                   {{"integrator", integrator}, {"damping", 0.5}, {"damping_reference", "absolute"}}, 0.5)});
+    out.push_back(
+        {"spring-wheel b=0.5 relative " + integrator,
+         make_plan("spring-wheel",
+                   {{"integrator", integrator}, {"damping", 0.5}, {"damping_reference", "relative"}}, 0.5)});
   }
   for (const double damping : {0.0, 0.2}) {
     for (const double delay : {0.0, 2.0}) {
-      out.push_back({"wall B=" + std::to_string(damping) + " d=" + std::to_string(delay),
-                     make_plan("wall",
-                               {{"stiffness", 50.0}, {"damping", damping}, {"delay", delay}, {"position", 0.02}},
-                               0.5, world::Motion::linear)});
+      out.push_back(
+          {"wall B=" + std::to_string(damping) + " d=" + std::to_string(delay),
+           make_plan("wall",
+                     {{"stiffness", 50.0}, {"damping", damping}, {"delay", delay}, {"position", 0.02}}, 0.5,
+                     world::Motion::linear)});
     }
   }
   for (const double hysteresis : {0.0, 0.01}) {
@@ -337,8 +338,8 @@ TEST(EngineAlloc, HandSineFaultsClearAndOverrunsDoNotAllocate) {
 TEST(EngineAlloc, FullTelemetryRingDropsWithoutAllocating) {
   Rig rig(64);
   rig.device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
-  rig.engine.publish(make_plan("wall", {{"stiffness", 50.0}, {"damping", 0.2}, {"delay", 1.0}}, 0.5,
-                               world::Motion::linear));
+  rig.engine.publish(
+      make_plan("wall", {{"stiffness", 50.0}, {"damping", 0.2}, {"delay", 1.0}}, 0.5, world::Motion::linear));
   const std::size_t allocs = rig.guarded(guarded_cycles);
   EXPECT_EQ(allocs, 0u);
   EXPECT_EQ(rig.engine.counters().telemetry_dropped, static_cast<std::uint64_t>(guarded_cycles - 64));

@@ -63,7 +63,9 @@ std::unique_ptr<LoopPlan> make_plan(const std::string& scene, const world::Param
 }
 
 /// Default spring-wheel (k = 1.02 N m/rad, 1 Hz, exact integrator, b = 0).
-std::unique_ptr<LoopPlan> wheel(double torque_limit = 0.8) { return make_plan("spring-wheel", {}, torque_limit); }
+std::unique_ptr<LoopPlan> wheel(double torque_limit = 0.8) {
+  return make_plan("spring-wheel", {}, torque_limit);
+}
 
 class EngineSafety : public ::testing::Test {
  protected:

@@ -133,7 +133,8 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   // Let the loop run with the last plan for a moment, then stop it.
   const std::uint64_t seen = engine.cycle();
   const auto until = std::chrono::steady_clock::now() + 10s;
-  while (engine.cycle() < seen + 20 && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(1ms);
+  while (engine.cycle() < seen + 20 && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(1ms);
   EXPECT_EQ(engine.fault(), FaultReason::none);
   engine.stop();
   EXPECT_TRUE(engine.finished());

@@ -62,7 +62,8 @@ PlanRefusal refused(const PlanOutcome& outcome) {
 }
 
 PlanOutcome wall(const DeviceModel& model, double k, double b, bool force = false) {
-  return hapticd::daemon::plan_on_device("wall", {{"stiffness", k}, {"damping", b}, {"delay", 1.0}}, model, force);
+  return hapticd::daemon::plan_on_device("wall", {{"stiffness", k}, {"damping", b}, {"delay", 1.0}}, model,
+                                         force);
 }
 
 }  // namespace
@@ -160,13 +161,13 @@ TEST(Planner, ExactWheelNeedsSomeDeviceDamping) {
   {
     const loopback::LoopbackDevice undamped(wheel_config(0.0));
     const auto r = refused(hapticd::daemon::plan_on_device("spring-wheel", {{"integrator", "exact"}},
-                                                            model_of(undamped), false));
+                                                           model_of(undamped), false));
     EXPECT_NE(r.message.find("unstable on this device"), std::string::npos) << r.message;
   }
   {
     const loopback::LoopbackDevice damped(wheel_config(0.002));
-    const auto p = planned(hapticd::daemon::plan_on_device("spring-wheel", {{"integrator", "exact"}},
-                                                            model_of(damped), false));
+    const auto p = planned(
+        hapticd::daemon::plan_on_device("spring-wheel", {{"integrator", "exact"}}, model_of(damped), false));
     EXPECT_TRUE(p.stability.stable);
     EXPECT_LE(p.stability.closed_loop_radius, 1.0 + 1e-7);
   }
@@ -196,9 +197,10 @@ TEST(Planner, TwoMassLoopbackUsesTheFourStateModel) {
       << four.closed_loop_radius << " vs " << two.closed_loop_radius;
   const auto on_device = hapticd::daemon::plan_on_device(
       "wall", {{"stiffness", 20000.0}, {"damping", 46.0}, {"delay", 1.0}}, model, false);
-  const double radius = std::holds_alternative<PlannedScene>(on_device)
-                            ? std::get<PlannedScene>(on_device).stability.closed_loop_radius
-                            : std::get<PlanRefusal>(on_device).data["stability"]["closed_loop_radius"].get<double>();
+  const double radius =
+      std::holds_alternative<PlannedScene>(on_device)
+          ? std::get<PlannedScene>(on_device).stability.closed_loop_radius
+          : std::get<PlanRefusal>(on_device).data["stability"]["closed_loop_radius"].get<double>();
   EXPECT_DOUBLE_EQ(radius, four.closed_loop_radius);
 }
 
@@ -214,7 +216,8 @@ TEST(Planner, RelayAndFreeAreNotChecked) {
 
 TEST(Planner, InvalidParametersAreRefusedAsInvalid) {
   const loopback::LoopbackDevice device(hulin_config());
-  const auto r = refused(hapticd::daemon::plan_on_device("wall", {{"stiffness", -1.0}}, model_of(device), true));
+  const auto r =
+      refused(hapticd::daemon::plan_on_device("wall", {{"stiffness", -1.0}}, model_of(device), true));
   EXPECT_TRUE(r.invalid);  // force does not override bad parameters
   EXPECT_NE(r.message.find("stiffness"), std::string::npos);
   const auto u = refused(hapticd::daemon::plan_on_device("wal", {}, model_of(device), false));

@@ -173,8 +173,8 @@ std::vector<double> run_scenario() {
     const double noise = static_cast<double>(lcg >> 11) / 9007199254740992.0 - 0.5;
     device.write(-300.0 * r.position + 4.0 * noise);
     const auto s = device.snapshot();
-    trace.insert(trace.end(), {r.position, s.motor_position, s.body_position, s.motor_velocity, s.body_velocity,
-                               s.hand_force, s.friction_force});
+    trace.insert(trace.end(), {r.position, s.motor_position, s.body_position, s.motor_velocity,
+                               s.body_velocity, s.hand_force, s.friction_force});
   }
   return trace;
 }
@@ -199,13 +199,14 @@ TEST(LoopbackConfigKeys, EveryDocumentedKeyParsesWithItsDefault) {
   std::set<std::string> names;
   for (const auto& p : parameters) {
     EXPECT_FALSE(p.help.empty()) << p.name;
-    EXPECT_TRUE(p.type == "number" || p.type == "integer" || p.type == "string" || p.type == "bool") << p.name;
+    EXPECT_TRUE(p.type == "number" || p.type == "integer" || p.type == "string" || p.type == "bool")
+        << p.name;
     EXPECT_TRUE(names.insert(p.name).second) << "duplicate " << p.name;
     EXPECT_NO_THROW(parse_loopback_config({{p.name, p.default_value}})) << p.name << "=" << p.default_value;
   }
-  for (const char* key : {"motion", "plant", "mass", "damping", "coulomb", "motor_mass", "body_mass", "motor_damping",
-                          "body_damping", "cable_stiffness", "cable_damping", "sensor", "counts", "max_force",
-                          "delay", "period"}) {
+  for (const char* key : {"motion", "plant", "mass", "damping", "coulomb", "motor_mass", "body_mass",
+                          "motor_damping", "body_damping", "cable_stiffness", "cable_damping", "sensor",
+                          "counts", "max_force", "delay", "period"}) {
     EXPECT_EQ(names.count(key), 1U) << key;
   }
   // All defaults together give the default config.
@@ -221,7 +222,8 @@ TEST(LoopbackConfigKeys, EveryDocumentedKeyParsesWithItsDefault) {
 }
 
 TEST(LoopbackConfigKeys, MotionSelectsDefaultsAndKeysOverride) {
-  const LoopbackConfig linear = parse_loopback_config("mass=0.2 motion=linear period=250us delay=2 plant=two-mass");
+  const LoopbackConfig linear =
+      parse_loopback_config("mass=0.2 motion=linear period=250us delay=2 plant=two-mass");
   EXPECT_EQ(linear.motion, Motion::linear);
   EXPECT_EQ(linear.mass, 0.2);  // given after motion's defaults, whatever the order
   EXPECT_NEAR(linear.counts, 1.0 / 3.14e-6, 1e-6);

@@ -53,8 +53,8 @@ TEST(LoopbackHand, IdealHoldTracksStepExactlyWhileTheMotorPushes) {
 
 TEST(LoopbackHand, IdealHoldTracksSineExactlyAtSampleTimes) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config,
-                        parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0"));
+  LoopbackDevice device(
+      config, parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0"));
   device.start();
   for (int n = 1; n <= 2000; ++n) {
     device.write(0.1 * std::sin(n * 0.01));
@@ -162,7 +162,8 @@ TEST(LoopbackHand, ImpedanceStaticBalanceWithMotorForce) {
 
 TEST(LoopbackHand, StiffNonIdealHoldFollowsClosely) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1"));
+  LoopbackDevice device(config,
+                        parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1"));
   device.start();
   for (int n = 1; n <= 400; ++n) {
     device.write(0.0);
@@ -222,7 +223,8 @@ TEST(HandScriptParse, AcceptsTheDocumentedForms) {
   EXPECT_EQ(step.trajectory.kind, TrajectoryKind::step);
   EXPECT_EQ(step.trajectory.amplitude, 0.785398);
   EXPECT_EQ(step.trajectory.at, 0.5);
-  const HandScript sine = parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0");
+  const HandScript sine =
+      parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0");
   EXPECT_EQ(sine.trajectory.frequency, 1.0);
   EXPECT_EQ(parse_hand_script("mode=free").mode, HandMode::free);
   const HandScript force = parse_hand_script("mode=force force=0.2 at=1 release_at=2.0");
@@ -232,7 +234,8 @@ TEST(HandScriptParse, AcceptsTheDocumentedForms) {
   const HandScript imp = parse_hand_script("mode=impedance stiffness=50 damping=1 position=0");
   EXPECT_EQ(imp.stiffness, 50.0);
   EXPECT_EQ(imp.damping, 1.0);
-  for (const HandScript& s : {step, sine, force, imp}) EXPECT_EQ(parse_hand_script(s.to_text()), s) << s.to_text();
+  for (const HandScript& s : {step, sine, force, imp})
+    EXPECT_EQ(parse_hand_script(s.to_text()), s) << s.to_text();
 }
 
 void expect_error(std::string_view text, std::string_view fragment) {
@@ -247,7 +250,8 @@ TEST(HandScriptParse, ErrorsNameTheKeyAndWhatIsAccepted) {
   expect_error("mode=grab", "mode=grab is not one of free, hold, force, impedance");
   expect_error("trajectory=step", "missing mode");
   expect_error("mode=hold amplitud=1", "unknown key 'amplitud'; accepted: mode, trajectory");
-  expect_error("mode=free amplitude=1", "key 'amplitude' does not apply to mode=free; accepted: mode, release_at");
+  expect_error("mode=free amplitude=1",
+               "key 'amplitude' does not apply to mode=free; accepted: mode, release_at");
   expect_error("mode=hold trajectory=sine amplitude=1 frequency=1 rate=2",
                "key 'rate' does not apply to mode=hold trajectory=sine");
   expect_error("mode=hold trajectory=zigzag", "trajectory=zigzag is not one of constant, step, ramp, sine");

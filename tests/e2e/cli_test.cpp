@@ -28,7 +28,8 @@ json analyze(const std::vector<std::string>& args) {
 
 void expect_keys(const json& object, const std::vector<std::string>& keys) {
   ASSERT_TRUE(object.is_object()) << object.dump();
-  for (const auto& k : keys) EXPECT_TRUE(object.contains(k)) << "missing key '" << k << "' in " << object.dump();
+  for (const auto& k : keys)
+    EXPECT_TRUE(object.contains(k)) << "missing key '" << k << "' in " << object.dump();
 }
 
 std::string exact(double x) {
@@ -47,7 +48,8 @@ std::size_t line_count(const std::string& text) {
 TEST(CliAnalyze, IntegratorForwardEulerOneHertzWheel) {
   // Forward Euler on J = 1, k = (2 pi)^2 (f_n = 1 Hz): |lambda| = sqrt(1 + (w T)^2).
   const double k = 4.0 * M_PI * M_PI;
-  const json out = analyze({"integrator", "--scheme", "forward-euler", "--stiffness", exact(k), "--inertia", "1", "--period", "1ms"});
+  const json out = analyze({"integrator", "--scheme", "forward-euler", "--stiffness", exact(k), "--inertia",
+                            "1", "--period", "1ms"});
   expect_keys(out, {"eigenvalue_magnitude", "stable", "growth_per_second"});
   const double magnitude = std::sqrt(1.0 + k * 1e-6);
   EXPECT_NEAR(out["eigenvalue_magnitude"].get<double>(), magnitude, 1e-12);
@@ -57,10 +59,10 @@ TEST(CliAnalyze, IntegratorForwardEulerOneHertzWheel) {
 }
 
 TEST(CliAnalyze, WallKeysAndHulinLimits) {
-  const json out = analyze({"wall", "--mass", "0.1", "--period", "1ms", "--delay", "1", "--stiffness", "9000",
-                            "--damping", "46"});
-  expect_keys(out, {"alpha", "beta", "stable", "pole_radius", "alpha_max", "beta_at_alpha_max", "k_max", "b_at_k_max",
-                    "beta_max_at_zero_stiffness", "damping_range"});
+  const json out = analyze(
+      {"wall", "--mass", "0.1", "--period", "1ms", "--delay", "1", "--stiffness", "9000", "--damping", "46"});
+  expect_keys(out, {"alpha", "beta", "stable", "pole_radius", "alpha_max", "beta_at_alpha_max", "k_max",
+                    "b_at_k_max", "beta_max_at_zero_stiffness", "damping_range"});
   EXPECT_NEAR(out["alpha"].get<double>(), 0.09, 1e-12);
   EXPECT_NEAR(out["beta"].get<double>(), 0.46, 1e-12);
   EXPECT_TRUE(out["stable"].get<bool>());
@@ -100,7 +102,8 @@ TEST(CliAnalyze, CriticalStiffnessKeys) {
   expect_keys(rigid, {"k_cr", "crossover_hz", "gain_margin_db"});
   EXPECT_GT(rigid["k_cr"].get<double>(), 0.0);
   EXPECT_NEAR(rigid["gain_margin_db"].get<double>(), 20.0 * std::log10(rigid["k_cr"].get<double>()), 1e-6);
-  const json two = analyze({"critical-stiffness", "--plant", "two-mass", "--period", "1ms", "--delay", "1ms"});
+  const json two =
+      analyze({"critical-stiffness", "--plant", "two-mass", "--period", "1ms", "--delay", "1ms"});
   expect_keys(two, {"k_cr", "crossover_hz", "gain_margin_db", "q_db"});
   EXPECT_GT(two["k_cr"].get<double>(), 0.0);
 }
@@ -125,7 +128,8 @@ TEST(CliAnalyze, InvalidInputsExitTwoWithOneLineNamingTheArgument) {
       {{"wall", "--mass", "-1", "--period", "1ms", "--delay", "1"}, "--mass"},
       {{"wall", "--mass", "0.1", "--period", "nan", "--delay", "1"}, "--period"},
       {{"wall", "--mass", "0.1", "--period", "0", "--delay", "1"}, "--period"},
-      {{"integrator", "--scheme", "bogus", "--stiffness", "1", "--inertia", "1", "--period", "1ms"}, "--scheme"},
+      {{"integrator", "--scheme", "bogus", "--stiffness", "1", "--inertia", "1", "--period", "1ms"},
+       "--scheme"},
       {{"wall", "--mass", "0.1", "--period", "1ms", "--delay", "x"}, "--delay"},
       {{"wall", "--mass", "0.1", "--period", "1ms", "--delay", "1.5"}, "--delay"},
       {{"critical-stiffness", "--period", "1ms", "--delay", "-1ms"}, "--delay"},

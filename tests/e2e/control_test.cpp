@@ -128,12 +128,13 @@ TEST(Control, DaemonNotRunningExitsThreeNamingTheSocket) {
   }
 }
 
-CommandResult start_with_config(const TempDir& dir, const std::string& toml, const std::string& name = "bad.toml") {
+CommandResult start_with_config(const TempDir& dir, const std::string& toml,
+                                const std::string& name = "bad.toml") {
   const fs::path path = dir.path / name;
   std::ofstream(path) << toml;
   // If the config were (wrongly) accepted the daemon stops by itself after 0.1 s of loop time.
-  return run(hapticd_binary(), {"--config", path.string(), "--socket", (dir.path / "s.sock").string(), "--clock",
-                                "virtual", "--duration", "100ms"});
+  return run(hapticd_binary(), {"--config", path.string(), "--socket", (dir.path / "s.sock").string(),
+                                "--clock", "virtual", "--duration", "100ms"});
 }
 
 TEST(Control, ConfigErrorsExitTwoWithFileLineAndAcceptedValues) {
@@ -153,10 +154,11 @@ TEST(Control, ConfigErrorsExitTwoWithFileLineAndAcceptedValues) {
   }
   {
     // K = 20 kN/m on Hulin's device (alpha = 2): unstable, blamed on the stiffness line.
-    const auto r = start_with_config(dir, std::string("[device]\ndriver = \"loopback\"\ntorque_limit = 20.0\n\n"
-                                                      "[device.loopback]\nmotion = \"linear\"\nmass = 0.1\n\n"
-                                                      "[scene]\nname = \"wall\"\nstiffness = 20000.0\n"
-                                                      "damping = 46.0\ndelay = 1\n"));
+    const auto r =
+        start_with_config(dir, std::string("[device]\ndriver = \"loopback\"\ntorque_limit = 20.0\n\n"
+                                           "[device.loopback]\nmotion = \"linear\"\nmass = 0.1\n\n"
+                                           "[scene]\nname = \"wall\"\nstiffness = 20000.0\n"
+                                           "damping = 46.0\ndelay = 1\n"));
     EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
     EXPECT_NE(r.err.find("bad.toml:11:"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("largest stable K"), std::string::npos) << r.err;
@@ -203,7 +205,8 @@ TEST(Control, StreamPrintsCountLinesAndRejectsUnknownChannels) {
   int parsed = 0;
   while (std::getline(in, line)) {
     const json sample = json::parse(line);
-    EXPECT_TRUE(sample.contains("applied") || (sample.contains("values") && sample["values"].contains("applied")))
+    EXPECT_TRUE(sample.contains("applied") ||
+                (sample.contains("values") && sample["values"].contains("applied")))
         << line;
     ++parsed;
   }

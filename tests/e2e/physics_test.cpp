@@ -19,9 +19,9 @@ namespace {
 using std::numbers::pi;
 
 // Freudenberg 2.1: 1 Hz wheel, 800 N mm at 45 degrees.
-const double k_wheel = 0.8 / (pi / 4.0);             // N m/rad
+const double k_wheel = 0.8 / (pi / 4.0);               // N m/rad
 const double j_wheel = k_wheel / std::pow(2 * pi, 2);  // kg m^2
-const double z0 = pi / 4.0;                          // 45 degrees
+const double z0 = pi / 4.0;                            // 45 degrees
 const double period = 1e-3;
 
 std::string wheel_config(const std::string& scene_extra, const std::string& hand, double duration_s) {
@@ -36,7 +36,8 @@ Recording run_virtual(const TempDir& dir, const std::string& config) {
   Daemon daemon(dir, config, {"--record", "run.csv"});
   EXPECT_EQ(daemon.wait(std::chrono::seconds(120)), 0) << daemon.log();
   const Recording rec = read_recording(dir.path / "run.csv");
-  EXPECT_NE(std::find(rec.comments.begin(), rec.comments.end(), "# dropped 0 samples (ring full: 0, write failed: 0)"),
+  EXPECT_NE(std::find(rec.comments.begin(), rec.comments.end(),
+                      "# dropped 0 samples (ring full: 0, write failed: 0)"),
             rec.comments.end())
       << "samples were lost";
   return rec;
@@ -60,14 +61,15 @@ double peak(const std::vector<double>& x, std::size_t from, std::size_t to) {
 // held wheel is -k z0 cos(w_n t) from the step on, to rounding.
 TEST(Freudenberg2, ExactIntegratorMatchesCosineOverTenSeconds) {
   TempDir dir;
-  const auto rec = run_virtual(
-      dir, wheel_config("integrator = \"exact\"\n", "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5", 11.0));
+  const auto rec =
+      run_virtual(dir, wheel_config("integrator = \"exact\"\n",
+                                    "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5", 11.0));
   const auto position = rec.values("position_rad");
   const auto command = rec.values("command_n_m");
   const auto applied = rec.values("applied_n_m");
   const std::size_t n0 = first_index(position, 0.7);
   ASSERT_LT(n0 + 10000, position.size());
-  const double z = position[n0];  // the measured (encoder-quantized) step
+  const double z = position[n0];               // the measured (encoder-quantized) step
   EXPECT_NEAR(z, z0, 1.001 * 2 * pi / 16384);  // the encoder truncates: within one count
   const double wn = std::sqrt(k_wheel / j_wheel);
   const double peak_torque = k_wheel * z;
@@ -87,16 +89,17 @@ TEST(Freudenberg2, ExactIntegratorMatchesCosineOverTenSeconds) {
 TEST(Freudenberg2, ForwardEulerGrowsUntilTheTorqueLimit) {
   TempDir dir;
   {
-    const std::string refused =
-        wheel_config("integrator = \"forward-euler\"\n", "mode=hold trajectory=step amplitude=0.785398 at=0.5", 1.0);
+    const std::string refused = wheel_config("integrator = \"forward-euler\"\n",
+                                             "mode=hold trajectory=step amplitude=0.785398 at=0.5", 1.0);
     Daemon daemon(dir, refused);
     EXPECT_EQ(daemon.wait(std::chrono::seconds(30)), 2);
     EXPECT_NE(daemon.log().find("unstable"), std::string::npos) << daemon.log();
     EXPECT_NE(daemon.log().find("force"), std::string::npos) << daemon.log();
   }
   TempDir dir2;
-  const auto rec = run_virtual(dir2, wheel_config("integrator = \"forward-euler\"\nforce = true\n",
-                                                  "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5", 20.0));
+  const auto rec =
+      run_virtual(dir2, wheel_config("integrator = \"forward-euler\"\nforce = true\n",
+                                     "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5", 20.0));
   const auto position = rec.values("position_rad");
   const auto command = rec.values("command_n_m");
   const auto applied = rec.values("applied_n_m");
@@ -121,9 +124,10 @@ TEST(Freudenberg2, ForwardEulerGrowsUntilTheTorqueLimit) {
 // oscillator: the torque stays bounded at k z0.
 TEST(Freudenberg2, DampingTkKeepsForwardEulerBounded) {
   TempDir dir;
-  const auto rec = run_virtual(dir, wheel_config("integrator = \"forward-euler\"\ndamping = \"auto\"\n"
-                                                 "damping_reference = \"absolute\"\n",
-                                                 "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5", 20.0));
+  const auto rec =
+      run_virtual(dir, wheel_config("integrator = \"forward-euler\"\ndamping = \"auto\"\n"
+                                    "damping_reference = \"absolute\"\n",
+                                    "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5", 20.0));
   const auto position = rec.values("position_rad");
   const auto command = rec.values("command_n_m");
   const std::size_t n0 = first_index(position, 0.7);
@@ -175,7 +179,8 @@ TEST(Hulin, StableContactInsideTheRegionAndRefusalOutside) {
            "[device.loopback]\nmotion = \"linear\"\nmass = 0.1\nmax_force = 20\n"
            "hand = \"mode=force force=2 at=0.1\"\n"
            "[scene]\nname = \"wall\"\nstiffness = " +
-           std::to_string(k) + "\ndamping = " + std::to_string(b) + "\ndelay = 1\nposition = 0.001\nside = \"upper\"\n";
+           std::to_string(k) + "\ndamping = " + std::to_string(b) +
+           "\ndelay = 1\nposition = 0.001\nside = \"upper\"\n";
   };
   TempDir dir;
   const auto rec = run_virtual(dir, config(9000, 46));
@@ -207,19 +212,20 @@ TEST(Freudenberg4, ResonantExcitationPumpsOrDampsByPhase) {
   Daemon daemon(dir,
                 "[device]\ndriver = \"loopback\"\n[device.loopback]\nmotion = \"rotary\"\ndamping = 0.002\n"
                 "max_force = 1.2\nhand = \"mode=hold trajectory=sine amplitude=" +
-                    amplitude + " frequency=1 phase=0\"\n[scene]\nname = \"spring-wheel\"\nintegrator = \"exact\"\n",
+                    amplitude +
+                    " frequency=1 phase=0\"\n[scene]\nname = \"spring-wheel\"\nintegrator = \"exact\"\n",
                 {"--record", "run.csv"});
   std::this_thread::sleep_for(std::chrono::seconds(4));
   // Continue the same sine shifted by pi, in the device's own time base.
   const auto status = daemon.ctl({"--json", "status"});
   ASSERT_EQ(status.exit_code, 0) << status.err;
-  const auto reply = daemon.ctl({"--json", "hand", "mode=hold", "trajectory=sine", "amplitude=" + amplitude,
-                                 "frequency=1", "phase=0"});
+  const auto reply = daemon.ctl(
+      {"--json", "hand", "mode=hold", "trajectory=sine", "amplitude=" + amplitude, "frequency=1", "phase=0"});
   ASSERT_EQ(reply.exit_code, 0) << reply.err;
   const auto cycle = nlohmann::json::parse(reply.out).at("cycle").get<double>();
   const double phase = pi + 2 * pi * std::fmod(cycle * period, 1.0);
-  const auto again = daemon.ctl({"hand", "mode=hold", "trajectory=sine", "amplitude=" + amplitude, "frequency=1",
-                                 "phase=" + std::to_string(phase)});
+  const auto again = daemon.ctl({"hand", "mode=hold", "trajectory=sine", "amplitude=" + amplitude,
+                                 "frequency=1", "phase=" + std::to_string(phase)});
   ASSERT_EQ(again.exit_code, 0) << again.err;
   const auto switched = static_cast<std::size_t>(cycle);
   std::this_thread::sleep_for(std::chrono::seconds(5));
@@ -232,7 +238,8 @@ TEST(Freudenberg4, ResonantExcitationPumpsOrDampsByPhase) {
     return static_cast<std::size_t>(std::lower_bound(cycles.begin(), cycles.end(), c) - cycles.begin());
   };
   const double early = peak(virtual_position, at(0), at(1000));
-  const double pumped = peak(virtual_position, at(static_cast<double>(switched) - 1000), at(static_cast<double>(switched)));
+  const double pumped =
+      peak(virtual_position, at(static_cast<double>(switched) - 1000), at(static_cast<double>(switched)));
   const double damped = peak(virtual_position, at(2.0 * static_cast<double>(switched) - 1500),
                              at(2.0 * static_cast<double>(switched) - 500));
   EXPECT_GT(pumped, 3.0 * early) << "in phase: energy pumped in";

@@ -72,9 +72,9 @@ json status_json(const Daemon& d) {
 
 struct FaultRun {
   Recording rec;
-  json status_during;      // status --json while the fault is active
-  json stats_during;       // stats --json while the fault is active
-  std::size_t first = 0;   // index of the first row flagged fault_latched or read_error
+  json status_during;     // status --json while the fault is active
+  json stats_during;      // stats --json while the fault is active
+  std::size_t first = 0;  // index of the first row flagged fault_latched or read_error
   bool found = false;
 };
 
@@ -147,7 +147,8 @@ void expect_latched_fault(const FaultRun& r, const std::string& reason, bool one
   const std::size_t zero_from = one_late ? r.first + 1 : r.first;
   ASSERT_LT(zero_from, applied.size());
   EXPECT_EQ(applied[zero_from], 0.0) << "row " << zero_from;
-  EXPECT_NE(applied[r.first - 1], 0.0) << "the output before the fault must be nonzero for this test to mean anything";
+  EXPECT_NE(applied[r.first - 1], 0.0)
+      << "the output before the fault must be nonzero for this test to mean anything";
   const double before = max_abs(applied, 0, r.first);
   EXPECT_GT(before, 0.05);
   // Held at exactly zero while latched.
@@ -406,7 +407,8 @@ std::string read_line(int fd, std::string& buffer, std::chrono::milliseconds tim
       buffer.erase(0, nl + 1);
       return line;
     }
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) return "";
     pollfd p{fd, POLLIN, 0};
     if (poll(&p, 1, static_cast<int>(left.count())) <= 0) return "";
@@ -435,24 +437,30 @@ std::vector<std::string> malformed_requests() {
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":[1,2]}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"stiffness\":1e308}}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"stiffness\":-1}}}",
-      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"stiffness\":\"soft\"}}}",
+      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"stiffness\":\"soft\"}"
+      "}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"bogus\":1}}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{}}}",
-      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"mass\":0},\"force\":\"yes\"}}",
+      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{\"mass\":0},\"force\":"
+      "\"yes\"}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"scene.load\",\"params\":{\"scene\":5}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"scene.load\",\"params\":{\"scene\":\"no-such-scene\"}}",
-      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"scene.load\",\"params\":{\"scene\":\"wall\",\"params\":{\"stiffness\":"
+      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"scene.load\",\"params\":{\"scene\":\"wall\",\"params\":{"
+      "\"stiffness\":"
       "123456789012345678901234567890}}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.get\",\"params\":{\"names\":\"stiffness\"}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.get\",\"params\":{\"names\":[1,2]}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"hand.set\",\"params\":{\"mode\":\"juggle\"}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"hand.set\",\"params\":{\"text\":17}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"fault.inject\",\"params\":{\"kind\":\"meteor\"}}",
-      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"fault.inject\",\"params\":{\"kind\":\"nan\",\"amount\":\"x\"}}",
-      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"fault.inject\",\"params\":{\"kind\":\"nan\",\"amount\":1.5}}",
+      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"fault.inject\",\"params\":{\"kind\":\"nan\",\"amount\":"
+      "\"x\"}}",
+      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"fault.inject\",\"params\":{\"kind\":\"nan\",\"amount\":1.5}"
+      "}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"stream\",\"params\":{\"rate_hz\":1e300}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"stream\",\"params\":{\"rate_hz\":\"fast\"}}",
-      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"stream\",\"params\":{\"rate_hz\":10,\"channels\":[\"nope\"]}}",
+      "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"stream\",\"params\":{\"rate_hz\":10,\"channels\":[\"nope\"]"
+      "}}",
       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"record.start\",\"params\":{\"path\":\"../escape.csv\"}}",
       std::string("{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"status\",\"x\":\"\xff\xfe\"}"),
       "{\"jsonrpc\":\"2.0\",\"id\":99999999999999999999999999,\"method\":\"nope\"}",
@@ -515,7 +523,8 @@ damping = 1.0
 
 [scene]
 name = "spring-mass"
-)", {"--record", "malformed.csv"});
+)",
+           {"--record", "malformed.csv"});
   ASSERT_TRUE(d.running()) << d.log();
   ASSERT_EQ(d.ctl({"hand", "hold", "trajectory=sine", "amplitude=0.01", "frequency=1"}).exit_code, 0);
   const auto before = d.ctl({"stats", "--json"});
@@ -597,8 +606,9 @@ TEST(Safety, NumberOverflowGetsAParseErrorReply) {
   const int fd = connect_unix(d.socket());
   ASSERT_GE(fd, 0);
   std::string buffer;
-  ASSERT_TRUE(send_all(fd, "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{"
-                           "\"stiffness\":1e999}}}\n"));
+  ASSERT_TRUE(send_all(fd,
+                       "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"param.set\",\"params\":{\"params\":{"
+                       "\"stiffness\":1e999}}}\n"));
   const std::string reply = read_line(fd, buffer);
   EXPECT_NE(reply.find("-32700"), std::string::npos) << "reply: '" << reply << "'\n" << d.log();
   close(fd);

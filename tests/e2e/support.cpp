@@ -79,7 +79,8 @@ bool wait_for(pid_t pid, int& status, std::chrono::milliseconds timeout) {
 
 }  // namespace
 
-CommandResult run(const fs::path& program, const std::vector<std::string>& args, std::chrono::seconds timeout) {
+CommandResult run(const fs::path& program, const std::vector<std::string>& args,
+                  std::chrono::seconds timeout) {
   TempDir dir;
   const fs::path out = dir.path / "out";
   const fs::path err = dir.path / "err";

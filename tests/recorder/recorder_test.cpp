@@ -178,9 +178,10 @@ TEST(RecorderColumns, UnitsInNamesOnlySceneChannels) {
   const auto wheel = column_names(wheel_header());
   std::string joined;
   for (const auto& n : wheel) joined += (joined.empty() ? "" : ",") + n;
-  EXPECT_EQ(joined,
-            "time_s,cycle,position_rad,velocity_rad_per_s,virtual_position_rad,command_n_m,applied_n_m,latency_s,"
-            "compute_s,flags");
+  EXPECT_EQ(
+      joined,
+      "time_s,cycle,position_rad,velocity_rad_per_s,virtual_position_rad,command_n_m,applied_n_m,latency_s,"
+      "compute_s,flags");
   const auto wall = column_names(wall_header());
   joined.clear();
   for (const auto& n : wall) joined += (joined.empty() ? "" : ",") + n;
@@ -224,25 +225,29 @@ TEST(Recorder, HeaderBlockAndFlushOnStop) {
   EXPECT_EQ(lines[0], "# hapticd recording");
   EXPECT_TRUE(std::regex_match(lines[1], std::regex(R"(# hapticd_version: \d+\.\d+\.\d+)"))) << lines[1];
   const std::string text = data->contents();
-  EXPECT_TRUE(std::regex_search(text, std::regex("\n# start_utc: \\d{4}-\\d\\d-\\d\\dT\\d\\d:\\d\\d:\\d\\d\\.\\d{9}Z\n")));
+  EXPECT_TRUE(std::regex_search(
+      text, std::regex("\n# start_utc: \\d{4}-\\d\\d-\\d\\dT\\d\\d:\\d\\d:\\d\\d\\.\\d{9}Z\n")));
   EXPECT_TRUE(std::regex_search(text, std::regex("\n# start_clock_realtime_s: \\d{10,}\\.\\d{9}\n")));
   EXPECT_NE(text.find("\n# device: loopback (rotary, rigid)\n"), std::string::npos);
   EXPECT_NE(text.find("\n# motion: rotary\n"), std::string::npos);
   EXPECT_NE(text.find("\n# clock: virtual\n"), std::string::npos);
   EXPECT_NE(text.find("\n# period_s: 0.001\n"), std::string::npos);
   EXPECT_NE(text.find("\n# scene: spring-wheel\n"), std::string::npos);
-  EXPECT_NE(text.find("\n# parameter stiffness: 1.0186 N m/rad\n# parameter integrator: exact\n"), std::string::npos);
-  EXPECT_NE(text.find("\n# units: time_s s; cycle periods since loop start; position_rad rad; velocity_rad_per_s "
-                      "rad/s; virtual_position_rad rad; command_n_m N m (scene output before the limit); "
-                      "applied_n_m N m (sent to the device); latency_s s; compute_s s\n"),
+  EXPECT_NE(text.find("\n# parameter stiffness: 1.0186 N m/rad\n# parameter integrator: exact\n"),
             std::string::npos);
+  EXPECT_NE(
+      text.find("\n# units: time_s s; cycle periods since loop start; position_rad rad; velocity_rad_per_s "
+                "rad/s; virtual_position_rad rad; command_n_m N m (scene output before the limit); "
+                "applied_n_m N m (sent to the device); latency_s s; compute_s s\n"),
+      std::string::npos);
   // Column line, then the samples, then the trailer.
   std::size_t column_line = 0;
   while (column_line < lines.size() && lines[column_line].starts_with("#")) ++column_line;
   ASSERT_LT(column_line + 10, lines.size());
-  EXPECT_EQ(lines[column_line],
-            "time_s,cycle,position_rad,velocity_rad_per_s,virtual_position_rad,command_n_m,applied_n_m,latency_s,"
-            "compute_s,flags");
+  EXPECT_EQ(
+      lines[column_line],
+      "time_s,cycle,position_rad,velocity_rad_per_s,virtual_position_rad,command_n_m,applied_n_m,latency_s,"
+      "compute_s,flags");
   const auto first = split(lines[column_line + 1]);
   ASSERT_EQ(first.size(), 10u);
   EXPECT_EQ(first[0], "0.001");
@@ -359,8 +364,8 @@ TEST(Recorder, StalledWriterMakesTheRingDropAndTheDropsAreReported) {
   // The lost samples are also visible as missing cycles in the file.
   EXPECT_EQ(final.cycle_gaps, drops);
   const auto lines = lines_of(data->contents());
-  EXPECT_EQ(lines.back(), "# dropped " + std::to_string(drops) + " samples (ring full: " + std::to_string(drops) +
-                              ", write failed: 0)");
+  EXPECT_EQ(lines.back(), "# dropped " + std::to_string(drops) +
+                              " samples (ring full: " + std::to_string(drops) + ", write failed: 0)");
   std::uint64_t data_lines = 0;
   for (const auto& l : lines) data_lines += (!l.starts_with("#") && !l.starts_with("time_s")) ? 1 : 0;
   EXPECT_EQ(data_lines, pushed_ok);
@@ -453,7 +458,8 @@ TEST(Recorder, ExistingFilesAreNeverOverwrittenAndNamesAreChecked) {
   EXPECT_THROW(recorder.start("../escape.csv", wheel_header()), RecorderError);
   EXPECT_THROW(recorder.start("/tmp/x.csv", wheel_header()), RecorderError);
   const auto automatic = recorder.start("", wall_header());
-  EXPECT_TRUE(std::regex_match(automatic.filename().string(), std::regex(R"(hapticd-wall-\d{8}T\d{6}Z\.csv)")))
+  EXPECT_TRUE(
+      std::regex_match(automatic.filename().string(), std::regex(R"(hapticd-wall-\d{8}T\d{6}Z\.csv)")))
       << automatic;
   recorder.stop();
   std::filesystem::remove_all(options.directory);

@@ -73,7 +73,8 @@ TEST(LatencyHistogram, PercentilesMatchASortedReferenceWithinABucket) {
     const std::int64_t ref = reference_percentile(values, p);
     const std::int64_t got = s.percentile(p).count();
     const std::size_t b = s.layout.index_of(ref);
-    const std::int64_t width = b == HistogramLayout::overflow_bucket ? 0 : s.layout.upper(b) - s.layout.lower(b);
+    const std::int64_t width =
+        b == HistogramLayout::overflow_bucket ? 0 : s.layout.upper(b) - s.layout.lower(b);
     EXPECT_GE(got, ref) << "p=" << p;
     EXPECT_LE(got - ref, width) << "p=" << p;
   }

@@ -53,7 +53,7 @@ TEST(PeriodicSchedule, StallRunsOneLateCycleThenSkipsToTheNextFutureDeadline) {
   VirtualClock clock;
   PeriodicSchedule s(clock, 1ms);
   s.start();
-  s.wait_next();                  // deadline 1 ms
+  s.wait_next();                     // deadline 1 ms
   clock.stall_next_sleep(43'500us);  // like the host stalling the vCPU
   const auto late = s.wait_next();   // deadline 2 ms, woke at 45.5 ms
   EXPECT_EQ(late.deadline, Nanos{2ms});
@@ -76,8 +76,8 @@ TEST(PeriodicSchedule, ComputeLongerThanAPeriodCountsAsOverrun) {
   VirtualClock clock;
   PeriodicSchedule s(clock, 500us);
   s.start();
-  s.wait_next();               // deadline 0.5 ms
-  clock.advance(1'200us);      // cycle computes until 1.7 ms: 1.0 ms deadline passed
+  s.wait_next();                 // deadline 0.5 ms
+  clock.advance(1'200us);        // cycle computes until 1.7 ms: 1.0 ms deadline passed
   const auto w = s.wait_next();  // sleeps to 1.0 ms: returns at once at 1.7 ms
   EXPECT_EQ(w.deadline, Nanos{1ms});
   EXPECT_EQ(w.latency, Nanos{700us});

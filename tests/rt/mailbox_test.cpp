@@ -79,7 +79,7 @@ TEST(Mailbox, DestructorFreesPendingAndRetiredObjects) {
     box.publish(std::make_unique<Plan>(1));
     box.acquire(1);
     box.publish(std::make_unique<Plan>(2));
-    box.acquire(2);  // plan 1 now retired, uncollected
+    box.acquire(2);                          // plan 1 now retired, uncollected
     box.publish(std::make_unique<Plan>(3));  // collects plan 1; plan 3 pending
     EXPECT_EQ(Plan::live, 2);
   }

@@ -70,7 +70,8 @@ TEST(RtPermission, InvalidPriority) {
 }
 
 TEST(RtPermission, ParsesCapEff) {
-  const std::string status = "Name:\tx\nCapInh:\t0000000000000000\nCapEff:\t0000000000800000\nCapBnd:\t000001ffffffffff\n";
+  const std::string status =
+      "Name:\tx\nCapInh:\t0000000000000000\nCapEff:\t0000000000800000\nCapBnd:\t000001ffffffffff\n";
   EXPECT_TRUE(status_has_effective_cap(status, 23));
   EXPECT_FALSE(status_has_effective_cap(status, 24));
   EXPECT_FALSE(status_has_effective_cap("CapEff:\t0000000000000000\n", 23));
@@ -84,7 +85,8 @@ TEST(RtPermission, FindsTheCgroupBudgetFileForV1AndV2) {
   fs::create_directories(root / "cpu,cpuacct/system.slice/hapticd.service");
   std::ofstream(root / "cpu,cpuacct/system.slice/hapticd.service/cpu.rt_runtime_us") << "0\n";
   const auto v1 = find_cgroup_rt_runtime_file(
-      "12:memory:/system.slice/hapticd.service\n4:cpu,cpuacct:/system.slice/hapticd.service\n0::/x\n", root.string());
+      "12:memory:/system.slice/hapticd.service\n4:cpu,cpuacct:/system.slice/hapticd.service\n0::/x\n",
+      root.string());
   ASSERT_TRUE(v1.has_value());
   EXPECT_EQ(*v1, (root / "cpu,cpuacct/system.slice/hapticd.service/cpu.rt_runtime_us").string());
 
