@@ -5,7 +5,7 @@
 #include <numbers>
 #include <stdexcept>
 
-#include <unsupported/Eigen/MatrixFunctions>
+#include "world/integrator.hpp"
 
 namespace hapticd::analysis {
 
@@ -13,15 +13,11 @@ namespace {
 
 using cd = std::complex<double>;
 
-/// [e^{Ah}, int_0^h e^{As} ds b] from expm([A b; 0 0] h).
+/// [e^{Ah}, int_0^h e^{As} ds b]: the ZOH pair over h.
 std::pair<Eigen::MatrixXd, Eigen::VectorXd> exp_and_integral(const Eigen::MatrixXd& a,
                                                              const Eigen::VectorXd& b, double h) {
-  const Eigen::Index n = a.rows();
-  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 1, n + 1);
-  m.topLeftCorner(n, n) = a * h;
-  m.topRightCorner(n, 1) = b * h;
-  const Eigen::MatrixXd e = m.exp();
-  return {e.topLeftCorner(n, n), e.topRightCorner(n, 1)};
+  const world::DiscreteStateSpace d = world::discretize_zoh({a, b}, h);
+  return {d.ad, d.bd.col(0)};
 }
 
 }  // namespace

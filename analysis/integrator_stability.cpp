@@ -1,6 +1,7 @@
 #include "analysis/integrator_stability.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace hapticd::analysis {
@@ -27,9 +28,13 @@ IntegratorVerdict analyze_integrator(const SpringScene& scene) {
     v.eigenvalues.push_back(solver.eigenvalues()(i));
     v.eigenvalue_magnitude = std::max(v.eigenvalue_magnitude, std::abs(solver.eigenvalues()(i)));
   }
-  v.stable = v.eigenvalue_magnitude <= 1.0 + marginal_tolerance;
-  v.marginal = std::abs(v.eigenvalue_magnitude - 1.0) <= marginal_tolerance;
+  const double wt = std::sqrt(scene.stiffness / scene.inertia) * scene.period_s;
+  const double damping_t = scene.damping / scene.inertia * scene.period_s;
+  v.tolerance = marginal_tolerance + 64.0 * std::numeric_limits<double>::epsilon() * (wt + damping_t);
+  v.stable = v.eigenvalue_magnitude <= 1.0 + v.tolerance;
+  v.marginal = std::abs(v.eigenvalue_magnitude - 1.0) <= v.tolerance;
   v.growth_per_second = std::pow(v.eigenvalue_magnitude, 1.0 / scene.period_s);
+  v.growth_per_second_log10 = std::log10(v.eigenvalue_magnitude) / scene.period_s;
   return v;
 }
 

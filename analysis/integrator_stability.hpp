@@ -23,16 +23,23 @@ struct SpringScene {
   world::Integrator integrator = world::Integrator::exact;
 };
 
-/// Tolerance on |lambda| - 1 for "marginal" (and for "stable": |lambda| <= 1 + tol).
+/// Tolerance on |lambda| - 1 for "marginal" (and for "stable": |lambda| <= 1 + tol)
+/// when w T is small; it grows with the rounding of the discretization,
+/// 64 eps (w T + b T / J), so that an exact ZOH at w T = 3e5 (|lambda| - 1 =
+/// 1e-12 from rounding) is not called unstable. Real instabilities are far
+/// larger there: forward Euler's |lambda| - 1 is about (w T)^2 / 2.
 inline constexpr double marginal_tolerance = 1e-12;
 
 struct IntegratorVerdict {
   Eigen::Matrix2d ad;                             ///< discrete state matrix
   std::vector<std::complex<double>> eigenvalues;  ///< of ad
   double eigenvalue_magnitude = 0.0;              ///< max |lambda|
-  bool stable = false;                            ///< max |lambda| <= 1 + marginal_tolerance
-  bool marginal = false;           ///< | max |lambda| - 1 | <= marginal_tolerance (neither grows nor decays)
-  double growth_per_second = 0.0;  ///< max|lambda|^(1/T): free-oscillation amplitude factor per second
+  double tolerance = 0.0;                         ///< on |lambda| - 1, see marginal_tolerance
+  bool stable = false;                            ///< max |lambda| <= 1 + tolerance
+  bool marginal = false;  ///< | max |lambda| - 1 | <= tolerance (neither grows nor decays)
+  double growth_per_second =
+      0.0;  ///< max|lambda|^(1/T): free-oscillation amplitude factor per second (may be inf)
+  double growth_per_second_log10 = 0.0;  ///< log10(max|lambda|) / T: finite even when the factor overflows
 };
 
 /// Throws std::invalid_argument unless k >= 0, J > 0, b >= 0, T > 0 (finite).

@@ -35,8 +35,12 @@ void run_integrator(const IntegratorArgs& a) {
   scene.stiffness = non_negative_number("--stiffness", a.stiffness, "N m/rad or N/m");
   scene.inertia = a.inertia.empty() ? positive_number("--mass", a.mass, "kg")
                                     : positive_number("--inertia", a.inertia, "kg m^2");
-  scene.damping = a.damping.empty() ? 0.0 : non_negative_number("--damping", a.damping, "N m s/rad or N s/m");
   scene.period_s = positive_duration("--period", a.period);
+  // "auto" is Freudenberg's b = T k (eq. 2.24), as in the scene's parameter.
+  scene.damping = a.damping.empty() ? 0.0
+                  : a.damping == "auto"
+                      ? scene.period_s * scene.stiffness
+                      : non_negative_number("--damping", a.damping, "N m s/rad or N s/m, or auto");
   const auto v = analysis::analyze_integrator(scene);
   const double wn = std::sqrt(scene.stiffness / scene.inertia);
   if (a.json) {
@@ -52,7 +56,9 @@ void run_integrator(const IntegratorArgs& a) {
                                 {"eigenvalue_magnitude", v.eigenvalue_magnitude},
                                 {"stable", v.stable},
                                 {"marginal", v.marginal},
-                                {"growth_per_second", v.growth_per_second}}
+                                // null when it overflows a double; the log10 is always finite
+                                {"growth_per_second", v.growth_per_second},
+                                {"growth_per_second_log10", v.growth_per_second_log10}}
                      .dump(2)
               << "\n";
     return;
@@ -66,7 +72,9 @@ void run_integrator(const IntegratorArgs& a) {
   std::snprintf(mag, sizeof mag, "%.12f", v.eigenvalue_magnitude);
   t.row("|lambda| max", mag);
   t.row("verdict", v.marginal ? "marginal (neither grows nor decays)" : (v.stable ? "stable" : "UNSTABLE"));
-  t.row("amplitude after 1 s", "x" + fmt(v.growth_per_second));
+  t.row("amplitude after 1 s", std::isfinite(v.growth_per_second)
+                                   ? "x" + fmt(v.growth_per_second)
+                                   : "x1e" + fmt(v.growth_per_second_log10) + " (overflows a double)");
   t.print(std::cout);
 }
 
@@ -82,7 +90,8 @@ void add_analyze_integrator(CLI::App& analyze) {
   cmd->add_option("--inertia", args->inertia, "virtual inertia J_w, kg m^2");
   cmd->add_option("--mass", args->mass, "virtual mass m, kg (spring-mass)");
   cmd->add_option("--period", args->period, "sampling period (s, ms, us)")->required();
-  cmd->add_option("--damping", args->damping, "damping b (default 0); Freudenberg's fix is b = T k");
+  cmd->add_option("--damping", args->damping,
+                  "damping b (default 0), or auto: Freudenberg's fix b = T k (eq. 2.24)");
   cmd->add_flag("--json", args->json, "print one JSON object");
   cmd->callback([args] { run_integrator(*args); });
 }

@@ -1,5 +1,6 @@
 #include "world/integrator.hpp"
 
+#include <cmath>
 #include <stdexcept>
 #include <unsupported/Eigen/MatrixFunctions>
 
@@ -28,13 +29,50 @@ std::string_view integrator_names() noexcept {
   return "forward-euler, semi-implicit-euler, trapezoid, rk4, exact";
 }
 
+Eigen::MatrixXd balanced_exp(const Eigen::MatrixXd& m) {
+  // Osborne's iteration (as in LAPACK dgebal, without permutation): scale
+  // row i down and column i up by a power of two until their off-diagonal
+  // 1-norms are within a factor 2. Rows or columns that are zero (the input
+  // rows of a ZOH augmentation) are left alone.
+  const Eigen::Index n = m.rows();
+  Eigen::MatrixXd balanced = m;
+  Eigen::VectorXd scale = Eigen::VectorXd::Ones(n);
+  for (bool converged = false; !converged;) {
+    converged = true;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double column = balanced.col(i).cwiseAbs().sum() - std::abs(balanced(i, i));
+      double row = balanced.row(i).cwiseAbs().sum() - std::abs(balanced(i, i));
+      if (!(column > 0.0) || !(row > 0.0) || !std::isfinite(column + row)) continue;
+      const double before = column + row;
+      double f = 1.0;
+      while (column < row / 2.0) {
+        column *= 2.0;
+        row /= 2.0;
+        f *= 2.0;
+      }
+      while (column >= row * 2.0) {
+        column /= 2.0;
+        row *= 2.0;
+        f /= 2.0;
+      }
+      if (column + row < 0.95 * before) {
+        converged = false;
+        scale(i) *= f;
+        balanced.col(i) *= f;
+        balanced.row(i) /= f;
+      }
+    }
+  }
+  return scale.asDiagonal() * balanced.exp() * scale.cwiseInverse().asDiagonal();
+}
+
 DiscreteStateSpace discretize_zoh(const ContinuousStateSpace& sys, double period_s) {
   const Eigen::Index n = sys.a.rows();
   const Eigen::Index m = sys.b.cols();
   Eigen::MatrixXd augmented = Eigen::MatrixXd::Zero(n + m, n + m);
   augmented.topLeftCorner(n, n) = sys.a * period_s;
   augmented.topRightCorner(n, m) = sys.b * period_s;
-  const Eigen::MatrixXd e = augmented.exp();
+  const Eigen::MatrixXd e = balanced_exp(augmented);
   return {e.topLeftCorner(n, n), e.topRightCorner(n, m), period_s};
 }
 

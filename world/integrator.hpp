@@ -37,4 +37,14 @@ DiscreteStateSpace discretize(const ContinuousStateSpace& sys, double period_s, 
 /// Zero-order-hold discretization: [Ad Bd; 0 I] = expm([A B; 0 0] T).
 DiscreteStateSpace discretize_zoh(const ContinuousStateSpace& sys, double period_s);
 
+/// expm(M) of a square matrix, computed on a diagonally balanced copy
+/// D^-1 M D (powers of two, so the scaling itself is exact). Why: a
+/// mechanical A = [[0, 1], [-k/m, -b/m]] T is far from normal when k/m is
+/// large; scaling-and-squaring on it loses the rotation (k = 1e6, m = 1e-4,
+/// T = 1 ms: cos(w T) wrong by 2e-6; k = 1e9, m = 1e-6, T = 10 ms: by 0.9),
+/// while on the balanced copy the error stays near rounding. A row or column
+/// that is zero off the diagonal is left unscaled (no permutation as in
+/// LAPACK's dgebal): such matrices keep plain scaling-and-squaring accuracy.
+Eigen::MatrixXd balanced_exp(const Eigen::MatrixXd& m);
+
 }  // namespace hapticd::world

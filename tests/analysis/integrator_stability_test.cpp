@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
@@ -95,6 +96,32 @@ TEST(IntegratorStability, StiffForwardEulerGrowsFast) {
   const IntegratorVerdict v = analyze_integrator({1000.0, 0.01, 0.0, 1e-3, Integrator::forward_euler});
   EXPECT_FALSE(v.stable);
   EXPECT_GT(v.growth_per_second, 1e20);
+}
+
+// Stiff and extreme: the exact ZOH of an undamped spring stays marginal
+// (|lambda| = 1 to rounding) at w T = 10, 100, 1e4 and 3.2e5, where before
+// the balanced matrix exponential it read 0.99999999986 at w T = 100 and
+// 1.00043 (unstable) at w T = 3.2e5.
+TEST(IntegratorStability, ExactStaysMarginalOnStiffSprings) {
+  for (const auto& [k, j, t] : {std::tuple{1e4, 1e-4, 1e-3}, std::tuple{1e6, 1e-4, 1e-3},
+                                std::tuple{1e8, 1e-6, 1e-3}, std::tuple{1e9, 1e-6, 1e-2}}) {
+    const IntegratorVerdict v = analyze_integrator({k, j, 0.0, t, Integrator::exact});
+    EXPECT_TRUE(v.stable) << k;
+    EXPECT_TRUE(v.marginal) << k << ": |lambda| - 1 = " << v.eigenvalue_magnitude - 1.0;
+  }
+  // Damped, it decays at exactly e^{-zeta w T} per step.
+  const double k = 1e6, j = 1e-4, b = 0.2;  // zeta = b / (2 sqrt(k j)) = 0.01
+  const IntegratorVerdict v = analyze_integrator({k, j, b, 1e-3, Integrator::exact});
+  EXPECT_NEAR(v.eigenvalue_magnitude, std::exp(-b / (2.0 * j) * 1e-3), 1e-12);
+}
+
+// Growth that overflows a double still has a finite log10 to report.
+TEST(IntegratorStability, OverflowingGrowthKeepsItsLog10) {
+  const IntegratorVerdict v = analyze_integrator({1e6, 1e-4, 0.0, 1e-3, Integrator::semi_implicit_euler});
+  EXPECT_FALSE(v.stable);
+  EXPECT_TRUE(std::isinf(v.growth_per_second));
+  EXPECT_NEAR(v.growth_per_second_log10, std::log10(v.eigenvalue_magnitude) * 1e3, 1e-9);
+  EXPECT_GT(v.growth_per_second_log10, 3000.0);
 }
 
 TEST(IntegratorStability, RejectsBadInput) {

@@ -5,6 +5,7 @@
 #include <complex>
 
 #include <gtest/gtest.h>
+#include <unsupported/Eigen/MatrixFunctions>
 
 #include "tests/world/test_support.hpp"
 #include "world/integrator.hpp"
@@ -73,6 +74,43 @@ TEST(Integrators, ExactIsTheRotationOfTheHarmonicOscillator) {
   EXPECT_NEAR(ad(0, 1), std::sin(w * t) / w, 1e-14);
   EXPECT_NEAR(ad(1, 0), -w * std::sin(w * t), 1e-12);
   EXPECT_NEAR(ad(1, 1), std::cos(w * t), 1e-14);
+}
+
+// Stiff and extreme springs, where plain scaling-and-squaring on the
+// non-normal A T = [[0, T], [-w^2 T, 0]] loses the rotation (before
+// balancing: cos(w T) off by 2.4e-6 at w T = 100, by 0.94 at w T = 3.2e5).
+TEST(Integrators, ExactStaysARotationOnStiffSprings) {
+  struct Case {
+    double stiffness, inertia, period, tolerance;
+  };
+  for (const Case c : {Case{1e4, 1e-4, 1e-3, 1e-13}, Case{1e6, 1e-4, 1e-3, 1e-13},
+                       Case{1e8, 1e-6, 1e-3, 1e-12}, Case{1e9, 1e-6, 1e-2, 1e-9}}) {
+    const double w = std::sqrt(c.stiffness / c.inertia);
+    const double wt = w * c.period;
+    const Eigen::MatrixXd ad = ad_for(c.stiffness, c.inertia, 0.0, c.period, Integrator::exact);
+    EXPECT_NEAR(ad(0, 0), std::cos(wt), c.tolerance) << "w T = " << wt;
+    EXPECT_NEAR(ad(1, 1), std::cos(wt), c.tolerance) << "w T = " << wt;
+    EXPECT_NEAR(ad(0, 1) * w, std::sin(wt), c.tolerance) << "w T = " << wt;
+    EXPECT_NEAR(ad(1, 0) / w, -std::sin(wt), c.tolerance) << "w T = " << wt;
+    EXPECT_NEAR(ad.determinant(), 1.0, 10 * c.tolerance) << "w T = " << wt;
+  }
+}
+
+TEST(Integrators, BalancedExpOfAFarFromNormalMatrixIsTheSimilarOne) {
+  // M = S M' S^-1 with S = diag(g, 1): exp(M) = S exp(M') S^-1, and M' is
+  // well scaled, so Eigen's plain exp of it is the reference. Plain exp of M
+  // itself is off by 3e-8 here; g is no power of two, so balancing cannot
+  // hit S exactly.
+  const double g = 1e9;
+  Eigen::MatrixXd well(2, 2);
+  well << -1.0, 1.0, -4.0, -3.0;
+  const Eigen::Vector2d s(g, 1.0);
+  const Eigen::MatrixXd far = s.asDiagonal() * well * s.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd expected = s.asDiagonal() * well.exp() * s.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd e = balanced_exp(far);
+  for (Eigen::Index r = 0; r < 2; ++r) {
+    for (Eigen::Index c = 0; c < 2; ++c) EXPECT_NEAR(e(r, c) / expected(r, c), 1.0, 1e-14) << r << c;
+  }
 }
 
 TEST(Integrators, ForwardEulerDampedStableIffTBelowTwoZetaOverWn) {
