@@ -34,7 +34,7 @@ echo
 echo "== Freudenberg 2: the hand turns the wheel 45 degrees at t = 0.2 s and holds it =="
 ctl record start --path step.csv
 ctl hand mode=hold trajectory=step amplitude=0.785398163 at=0.2 >/dev/null
-ctl stream --rate 10 --count 12 position command virtual_position
+ctl stream --rate 10 --count 25 position command virtual_position
 ctl record stop
 echo
 kill -TERM $pid
@@ -44,12 +44,16 @@ cat "$work/hapticd.log"
 echo
 csv="$work/step.csv"
 awk -F, '
+  /^# period_s:/ {period=$0; sub(/.*: /, "", period)}
   /^#/ || /^time_s/ {next}
-  { t=$1; tau=$6; if (tau>max) max=tau; if (tau<min) min=tau;
-    if (started && prev<0 && tau>=0) { if (n==0) first=t; last=t; n++ }
-    if ($3 > 0.7) started=1; prev=tau }
+  # The virtual world advances one period per cycle; time_s is wall-clock
+  # deadlines, which jump ahead over periods the host stalled us through.
+  { t=$2*period; tau=$6; if (tau>max) max=tau; if (tau<min) min=tau;
+    if (started && prev<0 && tau>=0) {   # upward zero crossing, interpolated
+      tc=pt+(0-prev)/(tau-prev)*(t-pt); if (n==0) first=tc; last=tc; n++ }
+    if ($3 > 0.7) started=1; prev=tau; pt=t }
   END {
     printf "peak torque on the hand: %.1f N mm (Freudenberg: k z0 = 800 N mm)\n", -min*1000;
-    if (n > 1) printf "oscillation: %.3f Hz (virtual wheel tuned to 1 Hz)\n", (n-1)/(last-first);
+    if (n > 1) printf "oscillation: %.4f Hz (virtual wheel tuned to 1 Hz)\n", (n-1)/(last-first);
   }' "$csv"
 echo "recording: $csv ($(grep -vc '^#' "$csv") lines)"
