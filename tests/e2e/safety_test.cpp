@@ -269,10 +269,26 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-// Runs hapticctl as uid/gid 65534 (nobody) with no supplementary groups.
-AsUser hapticctl_as_nobody(const fs::path& scratch, const std::vector<std::string>& args) {
-  const fs::path out = scratch / "nobody.out";
-  const fs::path err = scratch / "nobody.err";
+// A world-readable scratch directory holding a copy of hapticctl: nobody must
+// be able to exec it even when the build tree sits under a 0700 directory
+// (a clone in a mktemp -d, a home directory).
+struct NobodyScratch {
+  NobodyScratch() {
+    fs::permissions(dir.path, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                  fs::perms::others_read | fs::perms::others_exec);
+    fs::copy_file(hapticctl_binary(), program);
+    fs::permissions(program, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                 fs::perms::others_read | fs::perms::others_exec);
+  }
+  TempDir dir;
+  fs::path program = dir.path / "hapticctl";
+};
+
+// Runs hapticctl (the scratch copy) as uid/gid 65534 (nobody) with no
+// supplementary groups. Exit 127: nobody could not exec it.
+AsUser hapticctl_as_nobody(const NobodyScratch& scratch, const std::vector<std::string>& args) {
+  const fs::path out = scratch.dir.path / "nobody.out";
+  const fs::path err = scratch.dir.path / "nobody.err";
   const pid_t pid = fork();
   if (pid == 0) {
     const int o = open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -284,7 +300,7 @@ AsUser hapticctl_as_nobody(const fs::path& scratch, const std::vector<std::strin
     dup2(e, 2);
     if (setgroups(0, nullptr) != 0 || setgid(65534) != 0 || setuid(65534) != 0) _exit(121);
     if (getuid() != 65534 || geteuid() != 65534) _exit(122);
-    std::string program = hapticctl_binary().string();
+    std::string program = scratch.program.string();
     std::vector<std::string> copy = args;
     std::vector<char*> argv{program.data()};
     for (auto& a : copy) argv.push_back(a.data());
@@ -314,7 +330,7 @@ TEST(Safety, NonMemberPeerIsRefusedWrites) {
   TempDir dir;
   Daemon d(dir, spring_mass_device);
   ASSERT_TRUE(d.running()) << d.log();
-  const TempDir scratch;  // for nobody's captured output
+  const NobodyScratch scratch;  // nobody's hapticctl and captured output
   const std::string sock = d.socket().string();
 
   // As shipped, the socket is mode 0660 owned by the daemon (root, no control
@@ -323,17 +339,17 @@ TEST(Safety, NonMemberPeerIsRefusedWrites) {
   ASSERT_EQ(stat(sock.c_str(), &st), 0);
   EXPECT_EQ(st.st_mode & 0777, 0660u);
   chmod(dir.path.c_str(), 0755);  // the temp dir itself must not be what stops nobody
-  const AsUser blocked = hapticctl_as_nobody(scratch.path, {"--socket", sock, "status"});
+  const AsUser blocked = hapticctl_as_nobody(scratch, {"--socket", sock, "status"});
   EXPECT_EQ(blocked.exit_code, 3) << blocked.err;
   EXPECT_NE(blocked.err.find(sock), std::string::npos) << blocked.err;
 
   // Opened to everyone (0666): reads work, writes are refused per SO_PEERCRED.
   ASSERT_EQ(chmod(sock.c_str(), 0666), 0);
-  const AsUser status = hapticctl_as_nobody(scratch.path, {"--socket", sock, "status"});
+  const AsUser status = hapticctl_as_nobody(scratch, {"--socket", sock, "status"});
   EXPECT_EQ(status.exit_code, 0) << status.err;
   EXPECT_NE(status.out.find("spring-mass"), std::string::npos) << status.out;
 
-  const AsUser set = hapticctl_as_nobody(scratch.path, {"--socket", sock, "set", "stiffness=1"});
+  const AsUser set = hapticctl_as_nobody(scratch, {"--socket", sock, "set", "stiffness=1"});
   EXPECT_EQ(set.exit_code, 1) << set.out << set.err;
   EXPECT_NE(set.err.find("not permitted"), std::string::npos) << set.err;
   EXPECT_NE(set.err.find("65534"), std::string::npos) << set.err;
@@ -342,7 +358,7 @@ TEST(Safety, NonMemberPeerIsRefusedWrites) {
            {"load", "free"}, {"fault", "inject", "nan"}, {"record", "start"}, {"hand", "free"}}) {
     std::vector<std::string> args{"--socket", sock};
     args.insert(args.end(), verb.begin(), verb.end());
-    const AsUser r = hapticctl_as_nobody(scratch.path, args);
+    const AsUser r = hapticctl_as_nobody(scratch, args);
     EXPECT_EQ(r.exit_code, 1) << verb.front() << ": " << r.err;
     EXPECT_NE(r.err.find("not permitted"), std::string::npos) << verb.front() << ": " << r.err;
   }
@@ -355,10 +371,10 @@ TEST(Safety, NonMemberPeerIsRefusedWrites) {
 
   // estop is read access by design (docs/protocol.md): anyone who can connect
   // may stop the device; only writers can clear it.
-  const AsUser estop = hapticctl_as_nobody(scratch.path, {"--socket", sock, "estop"});
+  const AsUser estop = hapticctl_as_nobody(scratch, {"--socket", sock, "estop"});
   EXPECT_EQ(estop.exit_code, 0) << estop.err;
   EXPECT_EQ(status_json(d)["fault"], json("estop"));
-  const AsUser clear = hapticctl_as_nobody(scratch.path, {"--socket", sock, "fault", "clear"});
+  const AsUser clear = hapticctl_as_nobody(scratch, {"--socket", sock, "fault", "clear"});
   EXPECT_EQ(clear.exit_code, 1) << clear.err;
   EXPECT_EQ(status_json(d)["fault"], json("estop"));
   EXPECT_EQ(d.ctl({"fault", "clear"}).exit_code, 0);
