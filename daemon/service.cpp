@@ -319,7 +319,8 @@ void Service::register_methods(control::ControlServer& server) {
           scenes.push_back(
               {{"name", d.name}, {"reference", d.reference}, {"summary", d.summary}, {"parameters", params}});
         }
-        return json{{"scenes", scenes}};
+        std::lock_guard lock(scene_mutex_);
+        return json{{"scenes", scenes}, {"current", scene_.name}};
       },
       Access::read);
 

@@ -1,40 +1,72 @@
-// hapticctl scenes: the scenes the daemon can load, '*' on the current one.
+// hapticctl scenes: the scenes the daemon can load, '*' on the current one,
+// each with its parameters (default, unit, what it is).
 
 #include <algorithm>
 #include <iostream>
+#include <sstream>
+#include <string>
 
 #include "cli/verbs.hpp"
 
 namespace hapticctl {
 
+namespace {
+
+using nlohmann::json;
+
+std::string text_of(const json& value) {
+  if (value.is_string()) return value.get<std::string>();
+  if (value.is_number_float()) {
+    std::ostringstream s;
+    s.precision(6);
+    s << value.get<double>();
+    return s.str();
+  }
+  return value.dump();
+}
+
+void print_scene(const json& scene, bool current) {
+  std::cout << (current ? "* " : "  ") << scene.value("name", std::string("?")) << "  "
+            << scene.value("summary", std::string()) << '\n';
+  const std::string reference = scene.value("reference", std::string());
+  if (!reference.empty()) std::cout << "    from " << reference << '\n';
+  const json params = scene.value("parameters", json::array());
+  std::size_t name_width = 0, default_width = 0, unit_width = 0;
+  for (const auto& p : params) {
+    name_width = std::max(name_width, p.value("name", std::string()).size());
+    default_width = std::max(default_width, text_of(p.value("default", json())).size());
+    unit_width = std::max(unit_width, p.value("unit", std::string()).size());
+  }
+  for (const auto& p : params) {
+    const std::string name = p.value("name", std::string());
+    const std::string def = text_of(p.value("default", json()));
+    const std::string unit = p.value("unit", std::string());
+    std::string help = p.value("help", std::string());
+    if (p.contains("accepted") && p["accepted"].is_array()) {
+      std::string accepted;
+      for (const auto& a : p["accepted"]) accepted += (accepted.empty() ? "" : ", ") + text_of(a);
+      help += " [" + accepted + "]";
+    }
+    std::cout << "    " << name << std::string(name_width - name.size() + 2, ' ') << def
+              << std::string(default_width - def.size() + 2, ' ') << unit
+              << std::string(unit_width - unit.size() + 2, ' ') << help << '\n';
+  }
+}
+
+}  // namespace
+
 void add_scenes_command(CLI::App& app, CommonOptions& opts) {
-  auto* cmd = app.add_subcommand("scenes", "list the scenes and their parameters");
+  auto* cmd = app.add_subcommand("scenes", "list the scenes, their parameters, defaults and units");
   add_common_options(*cmd, opts);
   cmd->callback([&opts] {
     auto result = detail::call(opts, "scene.list");
     if (opts.json) return detail::print_json(result);
-    const auto scenes = result.value("scenes", nlohmann::json::array());
-    const std::string current = result.contains("current") && result["current"].is_string()
-                                    ? result["current"].get<std::string>()
-                                    : std::string();
-    std::size_t width = 0;
-    for (const auto& s : scenes) width = std::max(width, s.value("name", std::string()).size());
-    for (const auto& s : scenes) {
-      std::string name = s.value("name", std::string("?"));
-      std::cout << (name == current ? "* " : "  ") << name << std::string(width - name.size() + 2, ' ')
-                << s.value("description", std::string()) << '\n';
-      if (s.contains("params") && s["params"].is_array() && !s["params"].empty()) {
-        std::string line;
-        for (const auto& p : s["params"]) {
-          std::string item = p.is_object() ? p.value("name", std::string("?")) : p.dump();
-          if (p.is_object() && p.contains("unit") && p["unit"].is_string() &&
-              !p["unit"].get<std::string>().empty()) {
-            item += " [" + p["unit"].get<std::string>() + "]";
-          }
-          line += (line.empty() ? "" : ", ") + item;
-        }
-        std::cout << std::string(width + 4, ' ') << line << '\n';
-      }
+    const std::string current = result.value("current", std::string());
+    bool first = true;
+    for (const auto& scene : result.value("scenes", json::array())) {
+      if (!first) std::cout << '\n';
+      first = false;
+      print_scene(scene, scene.value("name", std::string()) == current);
     }
   });
 }
