@@ -47,6 +47,36 @@ std::size_t lines_of(const std::string& text) {
   return n;
 }
 
+// `hapticctl scenes` (human): the catalog with the current scene starred,
+// every parameter with its default and the device's unit.
+TEST(Control, ScenesListsParametersWithDefaultsAndUnits) {
+  TempDir dir;
+  Daemon d(dir, linear_device);
+  ASSERT_TRUE(d.running()) << d.log();
+  const auto r = d.ctl({"scenes"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* scene : {"spring-wheel", "spring-mass", "wall", "relay", "free"}) {
+    EXPECT_NE(r.out.find(scene), std::string::npos) << scene << "\n" << r.out;
+  }
+  EXPECT_NE(r.out.find("* free"), std::string::npos) << r.out;
+  // Hulin section 7 defaults, in the linear device's units.
+  std::istringstream lines(r.out);
+  std::string line;
+  bool wall = false, stiffness_line = false;
+  while (std::getline(lines, line)) {
+    if (line.rfind("  wall", 0) == 0) wall = true;
+    if (wall && line.find("stiffness") != std::string::npos) {
+      EXPECT_NE(line.find("9000"), std::string::npos) << line;
+      EXPECT_NE(line.find("N/m"), std::string::npos) << line;
+      stiffness_line = true;
+      break;
+    }
+  }
+  EXPECT_TRUE(stiffness_line) << r.out;
+  const json listed = json::parse(d.ctl({"scenes", "--json"}).out);
+  EXPECT_EQ(listed["current"], json("free"));
+}
+
 TEST(Control, LoadSetGetRoundTrip) {
   TempDir dir;
   Daemon d(dir, linear_device);
