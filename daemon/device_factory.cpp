@@ -1,6 +1,6 @@
 #include "daemon/device_factory.hpp"
 
-#include <sstream>
+#include <charconv>
 #include <stdexcept>
 
 namespace hapticd::daemon {
@@ -9,10 +9,9 @@ namespace {
 
 std::string as_text(const config::ParameterValue& value) {
   if (const auto* d = std::get_if<double>(&value)) {
-    std::ostringstream out;
-    out.precision(17);
-    out << *d;
-    return out.str();
+    char buffer[32];  // shortest round-trip text
+    const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, *d);
+    return {buffer, ec == std::errc{} ? end : buffer};
   }
   if (const auto* b = std::get_if<bool>(&value)) return *b ? "true" : "false";
   return std::get<std::string>(value);

@@ -10,7 +10,7 @@ void add_hand_command(CLI::App& app, CommonOptions& opts) {
   auto words = std::make_shared<std::vector<std::string>>();
   auto* cmd = app.add_subcommand(
       "hand",
-      "script the loopback hand: [MODE] key=value ... (e.g. `hand sine amplitude_rad=0.1 freq_hz=1`)");
+      "script the loopback hand: [MODE] key=value ... (e.g. `hand hold trajectory=sine amplitude=0.1 frequency=1`)");
   add_common_options(*cmd, opts);
   cmd->add_option("args", *words,
                   "a mode (free, hold, step, ramp, sine, force, impedance, release) and key=value")

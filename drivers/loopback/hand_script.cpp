@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
+#include <charconv>
 #include <stdexcept>
 
 #include "drivers/loopback/key_value.hpp"
@@ -30,10 +30,11 @@ std::string join(std::initializer_list<std::string_view> names) {
   return out;
 }
 
+// Shortest text that reads back as the same double (0.1, not 0.10000000000000001).
 std::string number_text(double value) {
   char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  return {buffer, ec == std::errc{} ? end : buffer};
 }
 
 }  // namespace
