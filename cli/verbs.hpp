@@ -94,11 +94,12 @@ std::string display_key(const std::string& key);
 std::string format_value(const std::string& key, const nlohmann::json& value);
 /// Aligned "key: value unit" lines; nested objects indented below their key.
 void print_fields(std::ostream& out, const nlohmann::json& object, int indent = 0);
-/// A parameter table: NAME VALUE UNIT from {"name": {"value":..,"unit":..}} or {"name": value}.
-void print_params(std::ostream& out, const nlohmann::json& params);
-/// After load/set: if the result says "stable": false, warn on stderr
-/// (growth rate, the torque limit still holds).
-void report_stability(const nlohmann::json& result);
+/// A parameter table NAME VALUE UNIT from {"name": value} and {"name": unit}.
+void print_params(std::ostream& out, const nlohmann::json& parameters, const nlohmann::json& units);
+/// A scene.load / param.set result: scene, effective cycle, parameters with
+/// units, notes, stability; a set loaded with --force also warns on stderr
+/// (growth per second, the torque limit still holds).
+void print_scene_result(const nlohmann::json& result);
 /// The daemon's result as JSON (for --json).
 void print_json(const nlohmann::json& result);
 

@@ -189,10 +189,36 @@ nlohmann::json to_json(const StabilityVerdict& v) {
           {"summary", v.summary}};
 }
 
-nlohmann::json to_json(const world::ParameterSet& parameters) {
+nlohmann::json to_json(const world::ParameterSet& parameters, std::string_view scene) {
+  const world::SceneDescription* description = world::find_scene(scene);
+  const auto is_integer = [&](const std::string& name) {
+    if (description == nullptr) return false;
+    for (const auto& p : description->parameters) {
+      if (p.name == name) return p.type == world::ParameterType::integer;
+    }
+    return false;
+  };
   nlohmann::json out = nlohmann::json::object();
   for (const auto& [name, value] : parameters) {
-    std::visit([&, n = name](const auto& v) { out[n] = v; }, value);
+    const auto* number = std::get_if<double>(&value);
+    if (number != nullptr && is_integer(name) && std::isfinite(*number)) {
+      out[name] = static_cast<std::int64_t>(std::llround(*number));
+    } else {
+      std::visit([&, n = name](const auto& v) { out[n] = v; }, value);
+    }
+  }
+  return out;
+}
+
+const std::string& unit_on(const world::ParameterDescription& parameter, world::Motion motion) {
+  return motion == world::Motion::rotary && !parameter.rotary_unit.empty() ? parameter.rotary_unit
+                                                                           : parameter.unit;
+}
+
+nlohmann::json parameter_units(std::string_view scene, world::Motion motion) {
+  nlohmann::json out = nlohmann::json::object();
+  if (const auto* description = world::find_scene(scene)) {
+    for (const auto& p : description->parameters) out[p.name] = unit_on(p, motion);
   }
   return out;
 }

@@ -70,7 +70,13 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
 /// Stability of an already validated plan on the device.
 StabilityVerdict check_stability(const world::ScenePlan& plan, const DeviceModel& device);
 
-nlohmann::json to_json(const world::ParameterSet& parameters);
+/// The parameters as a JSON object; those the scene's catalog entry types as
+/// integers (the wall's delay) are integers, not 1.0.
+nlohmann::json to_json(const world::ParameterSet& parameters, std::string_view scene = {});
+/// The unit a scene parameter is given in on a device of this motion.
+const std::string& unit_on(const world::ParameterDescription& parameter, world::Motion motion);
+/// {name: unit} for every parameter of `scene` ({} if unknown).
+nlohmann::json parameter_units(std::string_view scene, world::Motion motion);
 /// JSON object -> parameters (numbers, booleans, strings); throws std::invalid_argument otherwise.
 world::ParameterSet parameters_from_json(const nlohmann::json& object);
 std::string to_text(const world::ParameterValue& value);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <initializer_list>
 #include <iostream>
 #include <sstream>
 
@@ -66,6 +67,23 @@ std::vector<std::string> names_of(const std::vector<world::ChannelDescription>& 
   names.reserve(channels.size());
   for (const auto& c : channels) names.push_back(c.name);
   return names;
+}
+
+/// A member the method does not take is an error, not silently ignored.
+void reject_unknown_keys(const char* method, const json& params,
+                         std::initializer_list<const char*> accepted) {
+  for (const auto& [key, value] : params.items()) {
+    bool known = false;
+    for (const char* a : accepted) known = known || key == a;
+    if (known) continue;
+    std::string list;
+    for (const char* a : accepted) {
+      if (!list.empty()) list += ", ";
+      list += a;
+    }
+    throw RpcError(code::invalid_params,
+                   std::string(method) + ": unknown member '" + key + "'; accepted: " + list);
+  }
 }
 
 bool get_force(const json& params) {
@@ -175,9 +193,13 @@ json Service::apply(const PlannedScene& planned, const world::ParameterSet& requ
   CurrentScene next = scene_from(planned, requested);
   next.effective_cycle = *cycle;
   recorder_->set_scene(header_for(next), *cycle);
-  json reply{{"scene", next.name},        {"parameters", to_json(next.resolved)},
-             {"effective_cycle", *cycle}, {"stability", to_json(next.stability)},
-             {"forced", next.forced},     {"notes", next.notes}};
+  json reply{{"scene", next.name},
+             {"parameters", to_json(next.resolved, next.name)},
+             {"units", parameter_units(next.name, model_.motion())},
+             {"effective_cycle", *cycle},
+             {"stability", to_json(next.stability)},
+             {"forced", next.forced},
+             {"notes", next.notes}};
   adopt(std::move(next));
   return reply;
 }
@@ -237,7 +259,8 @@ json Service::status() const {
              {"delay_samples", model_.info.inherent_delay_samples}}},
            {"scene",
             {{"name", scene.name},
-             {"parameters", to_json(scene.resolved)},
+             {"parameters", to_json(scene.resolved, scene.name)},
+             {"units", parameter_units(scene.name, model_.motion())},
              {"stability", to_json(scene.stability)},
              {"forced", scene.forced},
              {"effective_cycle", scene.effective_cycle}}}};
@@ -301,18 +324,20 @@ void Service::register_methods(control::ControlServer& server) {
   server.register_method(
       "scene.list",
       [this](const json&, const PeerInfo&) {
-        const bool rotary = model_.info.motion == drivers::Motion::rotary;
         json scenes = json::array();
         for (const auto& d : world::scene_catalog()) {
           json params = json::array();
           for (const auto& p : d.parameters) {
             json entry{{"name", p.name},
                        {"type", world::to_string(p.type)},
-                       {"unit", rotary && !p.rotary_unit.empty() ? p.rotary_unit : p.unit},
+                       {"unit", unit_on(p, model_.motion())},
                        {"help", p.help}};
             std::visit([&](const auto& v) { entry["default"] = v; }, p.default_value);
             if (!p.accepted.empty()) entry["accepted"] = p.accepted;
-            if (p.minimum) entry["minimum"] = *p.minimum;
+            if (p.minimum) {
+              entry["minimum"] = *p.minimum;
+              if (p.minimum_exclusive) entry["minimum_exclusive"] = true;
+            }
             if (p.maximum) entry["maximum"] = *p.maximum;
             params.push_back(entry);
           }
@@ -354,7 +379,7 @@ void Service::register_methods(control::ControlServer& server) {
           std::lock_guard lock(scene_mutex_);
           scene = scene_;
         }
-        json all = to_json(scene.resolved);
+        json all = to_json(scene.resolved, scene.name);
         json out = json::object();
         if (params.contains("names")) {
           if (!params["names"].is_array())
@@ -371,7 +396,12 @@ void Service::register_methods(control::ControlServer& server) {
         } else {
           out = all;
         }
-        return json{{"scene", scene.name}, {"parameters", out}};
+        json units = parameter_units(scene.name, model_.motion());
+        json shown_units = json::object();
+        for (const auto& [name, value] : out.items()) {
+          if (units.contains(name)) shown_units[name] = units[name];
+        }
+        return json{{"scene", scene.name}, {"parameters", out}, {"units", shown_units}};
       },
       Access::read);
 
@@ -405,6 +435,7 @@ void Service::register_methods(control::ControlServer& server) {
   server.register_method(
       "record.start",
       [this](const json& params, const PeerInfo&) {
+        reject_unknown_keys("record.start", params, {"path"});
         const std::string name = params.value("path", std::string());
         CurrentScene scene;
         {
@@ -423,7 +454,12 @@ void Service::register_methods(control::ControlServer& server) {
   server.register_method(
       "record.stop",
       [this](const json&, const PeerInfo&) {
-        const auto status = recorder_->stop();
+        recorder::RecorderStatus status;
+        try {
+          status = recorder_->stop();
+        } catch (const recorder::RecorderError& e) {
+          throw RpcError(code::refused, e.what());
+        }
         return json{{"path", status.path.string()},
                     {"samples", status.samples_written},
                     {"sections", status.sections},
@@ -444,7 +480,16 @@ void Service::register_methods(control::ControlServer& server) {
           text = params["text"].get<std::string>();
         } else {
           for (const auto& [k, v] : params.items()) {
-            text += k + "=" + (v.is_string() ? v.get<std::string>() : v.dump()) + " ";
+            if (v.is_structured())
+              throw RpcError(code::invalid_params, "hand.set: " + k + " must be a scalar");
+            const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+            // The script is key=value text: a space or '=' inside a value would
+            // smuggle in another key.
+            if (value.find_first_of(" \t\n=") != std::string::npos) {
+              throw RpcError(code::invalid_params,
+                             "hand.set: " + k + " = '" + value + "' may not contain spaces or '='");
+            }
+            text += k + "=" + value + " ";
           }
         }
         try {
@@ -466,7 +511,13 @@ void Service::register_methods(control::ControlServer& server) {
           throw RpcError(code::invalid_params, "fault.inject: unknown kind '" + kind + "'; accepted: " +
                                                    std::string(drivers::loopback::fault_names()));
         }
+        reject_unknown_keys("fault.inject", params, {"kind", "amount"});
         std::int64_t amount = -1;
+        if (*fault == drivers::loopback::Fault::encoder_jump && !params.contains("amount")) {
+          throw RpcError(code::invalid_params,
+                         "fault.inject: encoder-jump needs amount (the jump in encoder "
+                         "counts, e.g. amount=1000 or amount=-1000)");
+        }
         if (params.contains("amount")) {
           if (!params["amount"].is_number_integer()) {
             throw RpcError(code::invalid_params,

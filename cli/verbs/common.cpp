@@ -104,12 +104,8 @@ json assignments(const std::vector<std::string>& words) {
 }
 
 namespace {
-// Unit suffixes of member names (docs/protocol.md, "Units"); longest first.
-const std::pair<const char*, const char*> unit_suffixes[] = {
-    {"_bytes", "B"}, {"_rad_s", "rad/s"}, {"_m_s", "m/s"}, {"_per_s", "1/s"}, {"_pct", "%"},
-    {"_rad", "rad"}, {"_us", "us"},       {"_ms", "ms"},   {"_hz", "Hz"},     {"_nm", "N m"},
-    {"_kg", "kg"},   {"_s", "s"},         {"_n", "N"},     {"_m", "m"},
-};
+// Unit suffixes the daemon puts on member names (docs/protocol.md, "Units").
+const std::pair<const char*, const char*> unit_suffixes[] = {{"_us", "us"}, {"_hz", "Hz"}, {"_s", "s"}};
 
 const char* unit_of(const std::string& key, std::size_t* suffix_len) {
   for (const auto& [suffix, unit] : unit_suffixes) {
@@ -190,18 +186,15 @@ void print_fields_with_unit(std::ostream& out, const json& object, int indent, c
 }
 }  // namespace
 
-void print_params(std::ostream& out, const json& params) {
-  if (!params.is_object() || params.empty()) {
+void print_params(std::ostream& out, const json& parameters, const json& units) {
+  if (!parameters.is_object() || parameters.empty()) {
     out << "(no parameters)\n";
     return;
   }
   std::vector<std::array<std::string, 3>> rows{{"NAME", "VALUE", "UNIT"}};
-  for (const auto& [name, entry] : params.items()) {
-    if (entry.is_object() && entry.contains("value")) {
-      rows.push_back({name, scalar(entry["value"]), entry.contains("unit") ? scalar(entry["unit"]) : ""});
-    } else {
-      rows.push_back({name, scalar(entry), ""});
-    }
+  for (const auto& [name, value] : parameters.items()) {
+    const bool has_unit = units.is_object() && units.contains(name) && units[name].is_string();
+    rows.push_back({name, scalar(value), has_unit ? units[name].get<std::string>() : ""});
   }
   std::size_t w0 = 0, w1 = 0;
   for (const auto& r : rows) {
@@ -217,24 +210,24 @@ void print_params(std::ostream& out, const json& params) {
 
 void print_json(const json& result) { std::cout << result.dump(2) << '\n'; }
 
-void report_stability(const nlohmann::json& result) {
-  if (!result.is_object()) return;
-  // The daemon reports {"stability": {"stable", "growth_per_second", ...}}; older replies: "stable" at the
-  // top.
-  const json& verdict =
-      result.contains("stability") && result["stability"].is_object() ? result["stability"] : result;
-  if (!verdict.contains("stable") || !verdict["stable"].is_boolean()) return;
-  if (verdict["stable"].get<bool>()) return;
+void print_scene_result(const json& result) {
+  std::cout << "scene " << result.value("scene", std::string("?"));
+  if (result.contains("effective_cycle")) std::cout << ", in effect from cycle " << result["effective_cycle"];
+  std::cout << '\n';
+  print_params(std::cout, result.value("parameters", json::object()), result.value("units", json::object()));
+  for (const auto& note : result.value("notes", json::array())) {
+    if (note.is_string()) std::cout << "note: " << note.get<std::string>() << '\n';
+  }
+  const json verdict = result.value("stability", json::object());
+  if (verdict.contains("summary") && verdict["summary"].is_string()) {
+    std::cout << "stability: " << verdict["summary"].get<std::string>() << '\n';
+  }
+  if (!result.value("forced", false)) return;
   std::cerr << "hapticctl: warning: this parameter set is UNSTABLE (loaded with --force)";
-  if (verdict.contains("growth_rate_per_s") && verdict["growth_rate_per_s"].is_number()) {
-    std::cerr << "; amplitude grows at " << verdict["growth_rate_per_s"].get<double>() << " 1/s";
-  } else if (verdict.contains("growth_per_second") && verdict["growth_per_second"].is_number()) {
-    std::cerr << "; amplitude grows x" << verdict["growth_per_second"].get<double>() << " per second";
+  if (verdict.contains("growth_per_second") && verdict["growth_per_second"].is_number()) {
+    std::cerr << "; amplitude grows x" << scalar(verdict["growth_per_second"]) << " per second";
   }
   std::cerr << "; the torque limit still holds\n";
-  if (result.contains("warning") && result["warning"].is_string()) {
-    std::cerr << "  " << result["warning"].get<std::string>() << '\n';
-  }
 }
 
 }  // namespace detail

@@ -12,14 +12,15 @@ void add_fault_command(CLI::App& app, CommonOptions& opts) {
     std::vector<std::string> assignments;
   };
   auto args = std::make_shared<Args>();
-  auto* cmd = app.add_subcommand("fault", "inject or clear device faults (loopback device)");
+  auto* cmd = app.add_subcommand("fault", "inject faults (loopback device) or clear a latched fault");
   cmd->require_subcommand(1);
   add_common_options(*cmd, opts);
 
   auto* inject = cmd->add_subcommand("inject", "inject a fault: KIND [key=value ...]");
   add_common_options(*inject, opts);
-  inject->add_option("kind", args->kind, "read-error, stall, nan, encoder-jump, ...")->required();
-  inject->add_option("params", args->assignments, "fault parameters as name=value");
+  inject->add_option("kind", args->kind, "read-error, stall, nan, encoder-jump, fault")->required();
+  inject->add_option("params", args->assignments,
+                     "amount=N: periods (default: until cleared), or counts for encoder-jump (required)");
   inject->callback([&opts, args] {
     nlohmann::json params = detail::assignments(args->assignments);
     if (params.contains("kind")) {

@@ -17,8 +17,8 @@ void add_get_command(CLI::App& app, CommonOptions& opts) {
     auto result = detail::call(opts, "param.get", params);
     if (opts.json) return detail::print_json(result);
     if (result.contains("scene")) std::cout << "scene: " << result["scene"].get<std::string>() << '\n';
-    // The daemon sends the parameters as "parameters".
-    detail::print_params(std::cout, result.value("parameters", nlohmann::json::object()));
+    detail::print_params(std::cout, result.value("parameters", nlohmann::json::object()),
+                         result.value("units", nlohmann::json::object()));
   });
 }
 

@@ -8,12 +8,13 @@ namespace hapticctl {
 
 void add_hand_command(CLI::App& app, CommonOptions& opts) {
   auto words = std::make_shared<std::vector<std::string>>();
-  auto* cmd = app.add_subcommand(
-      "hand",
-      "script the loopback hand: [MODE] key=value ... (e.g. `hand hold trajectory=sine amplitude=0.1 frequency=1`)");
+  auto* cmd = app.add_subcommand("hand",
+                                 "script the loopback hand: [MODE] key=value ... (e.g. `hand hold "
+                                 "trajectory=sine amplitude=0.1 frequency=1`)");
   add_common_options(*cmd, opts);
   cmd->add_option("args", *words,
-                  "a mode (free, hold, step, ramp, sine, force, impedance, release) and key=value")
+                  "a mode (free, hold, force, impedance) and key=value (trajectory=step|ramp|sine, "
+                  "amplitude, at, release_at, ...)")
       ->required();
   cmd->callback([&opts, words] {
     std::vector<std::string> rest = *words;
@@ -32,12 +33,9 @@ void add_hand_command(CLI::App& app, CommonOptions& opts) {
     }
     auto result = detail::call(opts, "hand.set", params);
     if (opts.json) return detail::print_json(result);
-    std::cout << "hand: " << result.value("mode", params.value("mode", std::string("?"))) << '\n';
-    if (result.is_object()) {
-      auto shown = result;
-      shown.erase("mode");
-      if (!shown.empty()) detail::print_fields(std::cout, shown, 2);
-    }
+    // What the daemon applied, not what was typed.
+    std::cout << "hand: " << result.value("hand", std::string("?")) << " (from cycle "
+              << result.value("cycle", 0) << ")\n";
   });
 }
 

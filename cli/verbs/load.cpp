@@ -23,10 +23,7 @@ void add_load_command(CLI::App& app, CommonOptions& opts) {
     if (args->force) params["force"] = true;
     auto result = detail::call(opts, "scene.load", params);
     if (opts.json) return detail::print_json(result);
-    std::cout << "loaded " << result.value("scene", args->scene) << '\n';
-    // The daemon sends the parameters as "parameters".
-    detail::print_params(std::cout, result.value("parameters", nlohmann::json::object()));
-    detail::report_stability(result);
+    detail::print_scene_result(result);
   });
 }
 

@@ -1,4 +1,4 @@
-// hapticctl record start [--path P] [--channel C ...] | record stop
+// hapticctl record start [--path NAME] | record stop
 
 #include <iostream>
 
@@ -9,7 +9,6 @@ namespace hapticctl {
 void add_record_command(CLI::App& app, CommonOptions& opts) {
   struct Args {
     std::string path;
-    std::vector<std::string> channels;
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("record", "record telemetry to a file in the daemon");
@@ -18,12 +17,12 @@ void add_record_command(CLI::App& app, CommonOptions& opts) {
 
   auto* start = cmd->add_subcommand("start", "start a recording");
   add_common_options(*start, opts);
-  start->add_option("--path", args->path, "file to write (default: chosen by the daemon)");
-  start->add_option("--channel", args->channels, "channel to record (repeatable; default: all)");
+  start->add_option("--path", args->path,
+                    "file name in the daemon's recording directory (default: a time-stamped name); "
+                    "every channel of the scene is recorded");
   start->callback([&opts, args] {
     nlohmann::json params = nlohmann::json::object();
     if (!args->path.empty()) params["path"] = args->path;
-    if (!args->channels.empty()) params["channels"] = args->channels;
     auto result = detail::call(opts, "record.start", params);
     if (opts.json) return detail::print_json(result);
     std::cout << "recording to " << result.value("path", std::string("?")) << '\n';

@@ -21,9 +21,7 @@ void add_set_command(CLI::App& app, CommonOptions& opts) {
     if (args->force) params["force"] = true;
     auto result = detail::call(opts, "param.set", params);
     if (opts.json) return detail::print_json(result);
-    // The daemon sends the parameters as "parameters".
-    detail::print_params(std::cout, result.value("parameters", nlohmann::json::object()));
-    detail::report_stability(result);
+    detail::print_scene_result(result);
   });
 }
 

@@ -19,12 +19,10 @@ std::string sample_line(const nlohmann::json& params) {
   auto add = [&line](const std::string& key, const nlohmann::json& value) {
     line += (line.empty() ? "" : "  ") + detail::display_key(key) + " " + detail::format_value(key, value);
   };
+  // A telemetry notification: cycle, time_s, the channels, seq and dropped.
   for (const auto& [key, value] : params.items()) {
-    if (key == "values" || key == "dropped") continue;
+    if (key == "seq" || key == "dropped") continue;
     if (!value.is_structured()) add(key, value);
-  }
-  if (params.contains("values") && params["values"].is_object()) {
-    for (const auto& [key, value] : params["values"].items()) add(key, value);
   }
   if (params.value("dropped", 0) > 0) add("dropped", params["dropped"]);
   return line;

@@ -16,7 +16,9 @@ namespace hapticd::rpc {
 inline constexpr std::string_view version = "2.0";
 
 /// Error codes. The standard ones come from the JSON-RPC 2.0 specification;
-/// the application ones (-32000..-32004) are hapticd's.
+/// the application ones (-32000..-32003) are hapticd's. A latched fault is
+/// no error code: scene.load and param.set still take effect (the output
+/// stays zero until fault.clear), and status reports the fault.
 namespace code {
 inline constexpr int parse_error = -32700;       ///< the line is not JSON
 inline constexpr int invalid_request = -32600;   ///< JSON, but not a request object
@@ -29,7 +31,6 @@ inline constexpr int not_permitted = -32001;  ///< the peer's credentials do not
 inline constexpr int busy = -32002;           ///< too many clients, or the daemon cannot take the request now
 inline constexpr int message_too_large =
     -32003;  ///< a request line exceeded the size limit; the connection closes
-inline constexpr int fault_latched = -32004;  ///< a device fault is latched; clear it first (fault.clear)
 }  // namespace code
 
 /// Short name of a code for messages and the CLI ("refused", "parse error", ...).
@@ -53,8 +54,6 @@ constexpr std::string_view code_name(int c) noexcept {
       return "busy";
     case code::message_too_large:
       return "message too large";
-    case code::fault_latched:
-      return "fault latched";
     default:
       return "error";
   }

@@ -287,6 +287,7 @@ void ControlServer::Impl::close_all() {
 int ControlServer::Impl::idle_wait_ms() const {
   auto now = Clock::now();
   std::optional<Clock::duration> soonest;
+  if (opts.idle_timeout <= Clock::duration::zero()) return -1;  // 0: never idle
   for (const auto& [fd, c] : conns) {
     if (c->dead || c->timer_fd >= 0) continue;
     auto left = c->last_activity + opts.idle_timeout - now;
@@ -298,6 +299,7 @@ int ControlServer::Impl::idle_wait_ms() const {
 }
 
 void ControlServer::Impl::check_idle() {
+  if (opts.idle_timeout <= Clock::duration::zero()) return;  // 0: never idle
   auto now = Clock::now();
   for (auto& [fd, c] : conns) {
     if (c->dead || c->timer_fd >= 0) continue;
@@ -608,7 +610,7 @@ json ControlServer::Impl::stream_start(Connection& c, const json& params) {
   double hz = rate->get<double>();
   if (!(hz > 0.0) || hz > opts.max_stream_rate_hz) {
     throw RpcError(rpc::code::invalid_params,
-                   "rate_hz must be > 0 and <= " + std::to_string(opts.max_stream_rate_hz),
+                   "rate_hz must be > 0 and <= " + json(opts.max_stream_rate_hz).dump(),
                    json{{"limit", opts.max_stream_rate_hz}});
   }
   std::vector<std::string> channels;

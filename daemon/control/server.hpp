@@ -43,7 +43,7 @@ struct ServerOptions {
   /// Further connections get one -32002 error line and are closed.
   std::size_t max_clients = 16;
   /// Clients silent for this long are disconnected, unless subscribed to a stream.
-  std::chrono::milliseconds idle_timeout = std::chrono::seconds(300);
+  std::chrono::milliseconds idle_timeout = std::chrono::seconds(300);  ///< 0: never disconnect an idle client
   /// Queued output per client: above it, stream notifications are dropped
   /// (and counted) and requests are no longer read until it drains; a client
   /// whose queue reaches four times this (replies it never reads) is disconnected.

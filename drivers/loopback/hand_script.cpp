@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <charconv>
+#include <cmath>
 #include <stdexcept>
 
 #include "drivers/loopback/key_value.hpp"

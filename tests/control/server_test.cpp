@@ -303,6 +303,18 @@ TEST_F(ServerTest, IdleClientsAreDisconnectedButSubscribersAreNot) {
   EXPECT_GE(server->stats().idle_disconnects, 1u);
 }
 
+// idle_timeout = 0 is "never" (docs/config.md), not "at once".
+TEST_F(ServerTest, ZeroIdleTimeoutNeverDisconnects) {
+  ServerOptions o;
+  o.idle_timeout = 0ms;
+  start(o);
+  RawPeer silent(path);
+  EXPECT_FALSE(silent.closed_within(500ms));
+  auto c = connect();
+  EXPECT_NO_THROW(c.call("echo"));
+  EXPECT_EQ(server->stats().idle_disconnects, 0u);
+}
+
 TEST_F(ServerTest, StreamDeliversNotificationsAtRequestedRate) {
   start();
   auto c = connect();

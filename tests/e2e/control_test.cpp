@@ -77,6 +77,51 @@ TEST(Control, ScenesListsParametersWithDefaultsAndUnits) {
   EXPECT_EQ(listed["current"], json("free"));
 }
 
+// The human output of load/set/get carries the device's units and the
+// daemon's notes; wrong requests get a refusal that says what is accepted.
+TEST(Control, HumanOutputAndRequestErrors) {
+  TempDir dir;
+  Daemon d(dir, linear_device);
+  ASSERT_TRUE(d.running()) << d.log();
+
+  const auto load = d.ctl({"load", "spring-mass", "damping=auto", "integrator=forward-euler"});
+  ASSERT_EQ(load.exit_code, 0) << load.err;
+  EXPECT_NE(load.out.find("in effect from cycle"), std::string::npos) << load.out;
+  EXPECT_NE(load.out.find("N s/m"), std::string::npos) << load.out;
+  EXPECT_NE(load.out.find("note:"), std::string::npos) << load.out;  // how auto was resolved
+  EXPECT_NE(load.out.find("stability: stable"), std::string::npos) << load.out;
+
+  const auto get = d.ctl({"get", "stiffness", "mass"});
+  ASSERT_EQ(get.exit_code, 0) << get.err;
+  EXPECT_NE(get.out.find("N/m"), std::string::npos) << get.out;
+  EXPECT_NE(get.out.find("kg"), std::string::npos) << get.out;
+  const json got = json::parse(d.ctl({"get", "--json"}).out);
+  EXPECT_EQ(got["units"]["damping"], json("N s/m")) << got.dump();
+
+  // Integers stay integers.
+  ASSERT_EQ(d.ctl({"load", "wall", "delay=2", "stiffness=1000", "damping=20"}).exit_code, 0);
+  EXPECT_TRUE(json::parse(d.ctl({"get", "--json"}).out)["parameters"]["delay"].is_number_integer());
+
+  const auto stop = d.ctl({"record", "stop"});
+  EXPECT_EQ(stop.exit_code, 1) << stop.out;
+  EXPECT_NE(stop.err.find("refused: no recording is active"), std::string::npos) << stop.err;
+
+  const auto jump = d.ctl({"fault", "inject", "encoder-jump"});
+  EXPECT_EQ(jump.exit_code, 1);
+  EXPECT_NE(jump.err.find("encoder-jump needs amount"), std::string::npos) << jump.err;
+  const auto unknown = d.ctl({"fault", "inject", "stall", "duration=3"});
+  EXPECT_EQ(unknown.exit_code, 1);
+  EXPECT_NE(unknown.err.find("unknown member 'duration'; accepted: kind, amount"), std::string::npos)
+      << unknown.err;
+  const auto spaced = d.ctl({"hand", "hold", "trajectory=step at=1"});
+  EXPECT_EQ(spaced.exit_code, 1);
+  EXPECT_NE(spaced.err.find("may not contain spaces"), std::string::npos) << spaced.err;
+  const auto status = d.ctl({"status", "--json"});
+  ASSERT_EQ(status.exit_code, 0) << status.err;
+  EXPECT_EQ(json::parse(status.out)["state"], json("running")) << status.out;
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
 TEST(Control, LoadSetGetRoundTrip) {
   TempDir dir;
   Daemon d(dir, linear_device);
