@@ -13,21 +13,69 @@ namespace {
 
 using world::Integrator;
 
-// Amplitude growth factor per second measured by iterating Ad for `seconds`
-// from x = [1, 0]: energy-like norm sqrt(x^2 + (v/w)^2), averaged over a
-// final and an initial cycle so the non-orthogonal eigenvectors do not bias it.
+// One free-response step (u = 0) of the continuous model J x'' = -k x - b x',
+// written out per scheme by hand from its textbook definition, independent
+// of world::discretize(): a wrong Ad in the code does not reproduce here.
+struct FreeState {
+  double x = 0.0;
+  double v = 0.0;
+};
+
+FreeState hand_step(const SpringScene& s, FreeState p) {
+  const double k = s.stiffness, j = s.inertia, b = s.damping, t = s.period_s;
+  const auto accel = [&](double x, double v) { return (-k * x - b * v) / j; };
+  switch (s.integrator) {
+    case Integrator::forward_euler:  // both from the old values
+      return {p.x + t * p.v, p.v + t * accel(p.x, p.v)};
+    case Integrator::semi_implicit_euler: {  // velocity first, position with the new velocity
+      const double v = p.v + t * accel(p.x, p.v);
+      return {p.x + t * v, v};
+    }
+    case Integrator::trapezoid: {
+      // x1 = x0 + T/2 (v0 + v1), v1 = v0 + T/2 (a(x0, v0) + a(x1, v1)):
+      //   [1, -T/2; T k/(2J), 1 + T b/(2J)] [x1; v1] = [x0 + T/2 v0; v0 + T/2 a(x0, v0)]
+      const double a11 = 1.0, a12 = -t / 2.0, a21 = t * k / (2.0 * j), a22 = 1.0 + t * b / (2.0 * j);
+      const double r1 = p.x + t / 2.0 * p.v, r2 = p.v + t / 2.0 * accel(p.x, p.v);
+      const double det = a11 * a22 - a12 * a21;  // Cramer
+      return {(r1 * a22 - a12 * r2) / det, (a11 * r2 - a21 * r1) / det};
+    }
+    case Integrator::rk4: {
+      const double k1x = p.v, k1v = accel(p.x, p.v);
+      const double k2x = p.v + t / 2 * k1v, k2v = accel(p.x + t / 2 * k1x, p.v + t / 2 * k1v);
+      const double k3x = p.v + t / 2 * k2v, k3v = accel(p.x + t / 2 * k2x, p.v + t / 2 * k2v);
+      const double k4x = p.v + t * k3v, k4v = accel(p.x + t * k3x, p.v + t * k3v);
+      return {p.x + t / 6 * (k1x + 2 * k2x + 2 * k3x + k4x), p.v + t / 6 * (k1v + 2 * k2v + 2 * k3v + k4v)};
+    }
+    case Integrator::exact:
+      break;  // sampled from the closed form instead, see free_state()
+  }
+  ADD_FAILURE() << "no hand step for " << to_string(s.integrator);
+  return p;
+}
+
+// State at step n from x = 1, v = 0. For `exact` the closed-form
+// underdamped oscillator x(t) = e^{-zeta w t} (cos(w_d t) + zeta w / w_d
+// sin(w_d t)), v(t) = -(w^2 / w_d) e^{-zeta w t} sin(w_d t), sampled at
+// t = n T; the others are iterated with hand_step().
 double simulated_growth_per_second(const SpringScene& s, double seconds) {
-  const IntegratorVerdict v = analyze_integrator(s);
   const double w = std::sqrt(s.stiffness / s.inertia);
+  const double zeta = s.damping / (2.0 * std::sqrt(s.stiffness * s.inertia));
+  EXPECT_LT(zeta, 1.0) << "closed form below is the underdamped one";
+  const double wd = w * std::sqrt(1.0 - zeta * zeta);
   const int steps = static_cast<int>(std::lround(seconds / s.period_s));
   const int cycle = static_cast<int>(std::lround(2.0 * std::numbers::pi / w / s.period_s));
-  Eigen::Vector2d x(1.0, 0.0);
+  FreeState p{1.0, 0.0};
   double first = 0.0, last = 0.0;
   for (int n = 0; n < steps; ++n) {
-    const double e = std::hypot(x(0), x(1) / w);
+    if (s.integrator == Integrator::exact) {
+      const double t = n * s.period_s, decay = std::exp(-zeta * w * t);
+      p = {decay * (std::cos(wd * t) + zeta * w / wd * std::sin(wd * t)),
+           -w * w / wd * decay * std::sin(wd * t)};
+    }
+    const double e = std::hypot(p.x, p.v / w);
     if (n < cycle) first = std::max(first, e);
     if (n >= steps - cycle) last = std::max(last, e);
-    x = v.ad * x;
+    if (s.integrator != Integrator::exact) p = hand_step(s, p);
   }
   return std::pow(last / first, 1.0 / (seconds - cycle * s.period_s));
 }
