@@ -168,7 +168,17 @@ TEST(IntegratorStability, OverflowingGrowthKeepsItsLog10) {
   const IntegratorVerdict v = analyze_integrator({1e6, 1e-4, 0.0, 1e-3, Integrator::semi_implicit_euler});
   EXPECT_FALSE(v.stable);
   EXPECT_TRUE(std::isinf(v.growth_per_second));
-  EXPECT_NEAR(v.growth_per_second_log10, std::log10(v.eigenvalue_magnitude) * 1e3, 1e-9);
+  // Closed form, undamped semi-implicit Euler: Ad = [[1 - y^2, T], [-T k/J, 1]]
+  // with y = w T has trace 2 - y^2 and det 1, so for y > 2 the larger root of
+  // lambda^2 - (2 - y^2) lambda + 1 = 0 has |lambda| = (y^2 - 2 + y sqrt(y^2 - 4)) / 2.
+  // Here y = sqrt(1e6 / 1e-4) 1e-3 = 100: |lambda| = 9997.9998999799950...,
+  // growth_per_second_log10 = 1000 log10(|lambda|) = 3999.913128071889.
+  const double y = std::sqrt(1e6 / 1e-4) * 1e-3;
+  const double lambda = (y * y - 2.0 + y * std::sqrt(y * y - 4.0)) / 2.0;
+  EXPECT_NEAR(v.eigenvalue_magnitude, lambda, 1e-9 * lambda);
+  const double expected_log10 = std::log10(lambda) / 1e-3;
+  EXPECT_NEAR(expected_log10, 3999.913128071889, 1e-9);  // the derivation above, by hand
+  EXPECT_NEAR(v.growth_per_second_log10, expected_log10, 1e-6 * expected_log10);
   EXPECT_GT(v.growth_per_second_log10, 3000.0);
 }
 
