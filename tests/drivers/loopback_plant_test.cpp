@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
+#include <numbers>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -246,6 +248,57 @@ TEST(LoopbackTwoMass, BodySensorReadsTheBody) {
   EXPECT_NE(device.snapshot().motor_position, device.snapshot().body_position);
 }
 
+// Polynomial product, coefficients lowest power first.
+std::vector<double> poly_mul(const std::vector<double>& a, const std::vector<double>& b) {
+  std::vector<double> c(a.size() + b.size() - 1, 0.0);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (std::size_t j = 0; j < b.size(); ++j) c[i + j] += a[i] * b[j];
+  }
+  return c;
+}
+
+// All roots of c[0] + c[1] s + ... + c[n] s^n by Durand-Kerner (Weierstrass)
+// iteration, polished by Newton steps; independent of Eigen's eigensolver.
+std::vector<std::complex<double>> durand_kerner(const std::vector<double>& c) {
+  const std::size_t n = c.size() - 1;
+  const auto eval = [&](std::complex<double> s) {
+    std::complex<double> p = c[n];
+    for (std::size_t i = n; i-- > 0;) p = p * s + c[i];
+    return p / c[n];  // monic
+  };
+  // Start on a circle of the Cauchy bound radius, at non-symmetric angles.
+  double radius = 0.0;
+  for (std::size_t i = 0; i < n; ++i) radius = std::max(radius, std::abs(c[i] / c[n]));
+  radius += 1.0;
+  std::vector<std::complex<double>> z(n);
+  for (std::size_t k = 0; k < n; ++k)
+    z[k] = std::polar(radius, 0.4 + 2.0 * std::numbers::pi * static_cast<double>(k) / static_cast<double>(n));
+  for (int iteration = 0; iteration < 10000; ++iteration) {
+    double change = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+      std::complex<double> denominator = 1.0;
+      for (std::size_t j = 0; j < n; ++j) {
+        if (j != k) denominator *= z[k] - z[j];
+      }
+      const std::complex<double> step = eval(z[k]) / denominator;
+      z[k] -= step;
+      change = std::max(change, std::abs(step) / std::max(1.0, std::abs(z[k])));
+    }
+    if (change < 1e-15) break;
+  }
+  for (auto& root : z) {  // Newton polish with the derivative by Horner
+    for (int i = 0; i < 3; ++i) {
+      std::complex<double> p = c[n], dp = 0.0;
+      for (std::size_t j = n; j-- > 0;) {
+        dp = dp * root + p;
+        p = p * root + c[j];
+      }
+      if (dp != 0.0) root -= p / dp;
+    }
+  }
+  return z;
+}
+
 TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
   const LoopbackConfig config = two_mass_linear();
   LoopbackDevice device(config);
@@ -286,8 +339,57 @@ TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
   ASSERT_GT(lambda_model.imag(), 0.0);
   EXPECT_NEAR(lambda_measured.imag(), lambda_model.imag(), 1e-6 * lambda_model.imag());
   EXPECT_NEAR(lambda_measured.real(), lambda_model.real(), 1e-5 * std::abs(lambda_model));
-  // And near the undamped w_n^2 = k_c m / (m_d m_m) of Diaz & Gil eq. 13.
-  const double wn = std::sqrt(79.5e3 * 5.4 / (5.1 * 0.3));
+
+  // Independently of the device's A: the characteristic polynomial of Diaz &
+  // Gil eq. 5-9, p_d(s) p_m(s) - (k_c + b_c s)^2, with Table I written out here.
+  const double m_m = 0.3, m_d = 5.1, b_m = 0.1, b_d = 3.4, k_c = 79.5e3, b_c = 15.0;
+  const std::vector<double> p_d{k_c, b_d + b_c, m_d};  // eq. 8, lowest power first
+  const std::vector<double> p_m{k_c, b_m + b_c, m_m};  // eq. 9
+  std::vector<double> quartic = poly_mul(p_d, p_m);
+  const std::vector<double> coupling = poly_mul({k_c, b_c}, {k_c, b_c});
+  for (std::size_t i = 0; i < coupling.size(); ++i) quartic[i] -= coupling[i];
+  ASSERT_EQ(quartic.size(), 5u);
+  // By hand: m_d m_m s^4 + (m_d (b_m + b_c) + m_m (b_d + b_c)) s^3
+  //   + (k_c m + b_d b_m + b_c (b_d + b_m)) s^2 + k_c b s + 0.
+  const double m = m_m + m_d, b = b_m + b_d;
+  EXPECT_DOUBLE_EQ(quartic[4], m_d * m_m);
+  EXPECT_DOUBLE_EQ(quartic[3], m_d * (b_m + b_c) + m_m * (b_d + b_c));
+  EXPECT_DOUBLE_EQ(quartic[2], k_c * m + b_d * b_m + b_c * (b_d + b_m));
+  EXPECT_DOUBLE_EQ(quartic[1], k_c * b);
+  EXPECT_EQ(quartic[0], 0.0);  // k_c^2 - k_c^2: the free rigid-body mode s = 0
+  const std::vector<double> cubic(quartic.begin() + 1, quartic.end());  // divided by s
+  const std::vector<std::complex<double>> roots = durand_kerner(cubic);
+  ASSERT_EQ(roots.size(), 3u);
+  std::complex<double> cable, rigid;
+  for (const auto& r : roots) {
+    if (r.imag() > 1.0) cable = r;
+    if (std::abs(r.imag()) < 1e-9 * std::abs(r)) rigid = r;
+  }
+  // mpmath polyroots, 30 digits: -26.646514154485796 +- 529.035152657098401 j, -0.648148161616643.
+  EXPECT_NEAR(cable.real(), -26.646514154485796, 1e-9);
+  EXPECT_NEAR(cable.imag(), 529.035152657098401, 1e-9);
+  EXPECT_NEAR(rigid.real(), -0.648148161616643, 1e-12);
+  // The model's four eigenvalues are {0, rigid, cable, conj(cable)}.
+  std::vector<std::complex<double>> expected{0.0, rigid, cable, std::conj(cable)};
+  for (Eigen::Index i = 0; i < lambda.size(); ++i) {
+    auto nearest = std::min_element(expected.begin(), expected.end(), [&](auto p, auto q) {
+      return std::abs(p - lambda(i)) < std::abs(q - lambda(i));
+    });
+    EXPECT_LT(std::abs(*nearest - lambda(i)), 1e-9 * std::max(1.0, std::abs(*nearest))) << lambda(i);
+    expected.erase(nearest);
+  }
+  // The device's measured free response against the independent roots.
+  EXPECT_NEAR(lambda_measured.imag(), cable.imag(), 1e-6 * cable.imag());
+  EXPECT_NEAR(lambda_measured.real(), cable.real(), 1e-5 * std::abs(cable));
+  EXPECT_LT(std::abs(lambda_measured - cable), 1e-6 * std::abs(cable));
+  // The closed form of eq. 13-16, -z_n/2 +- j sqrt(w_n^2 - z_n^2/4), is the
+  // cable pair to first order in the damping: -26.6465142 +- 529.0351582 j,
+  // 1e-8 from the exact roots (it was a 1% check of |lambda| against w_n).
+  const double wn = std::sqrt(k_c * m / (m_d * m_m));               // eq. 13
+  const double zn = (b_m + b_c) / m_m + (b_d + b_c) / m_d - b / m;  // eq. 14-16
+  const std::complex<double> approx(-zn / 2.0, std::sqrt(wn * wn - zn * zn / 4.0));
+  EXPECT_NEAR(wn, std::sqrt(79.5e3 * 5.4 / (5.1 * 0.3)), 1e-12);
+  EXPECT_LT(std::abs(approx - cable), 1e-7 * std::abs(cable));
   EXPECT_NEAR(std::abs(lambda_model), wn, 0.01 * wn);
 }
 
