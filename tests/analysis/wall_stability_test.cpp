@@ -16,6 +16,101 @@ namespace {
 
 const double sqrt2 = std::sqrt(2.0);
 
+// Eq. (3) on the unit circle, solved by hand (independent of the code's
+// boundary_curve / stable_intervals). With z = e^{j theta}:
+//   z (z + 1) = 2 cos(theta/2) e^{j 3theta/2},  z^2 - 1 = 2j sin(theta) e^{j theta},
+//   2 z^{1+d} (z - 1)^2 = -8 sin^2(theta/2) e^{j (d+2) theta};
+// dividing eq. (3) by e^{j 3theta/2}, the imaginary part gives beta and the
+// real part alpha:
+//   beta(theta)  = 2 sin(theta/2) sin((d + 1/2) theta) / cos^2(theta/2),
+//   alpha(theta) = [4 sin^2(theta/2) cos((d + 1/2) theta) - beta sin(theta) sin(theta/2)] / cos(theta/2).
+double boundary_beta(double theta, int d) {
+  const double h = theta / 2.0;
+  return 2.0 * std::sin(h) * std::sin((d + 0.5) * theta) / (std::cos(h) * std::cos(h));
+}
+double boundary_alpha(double theta, int d) {
+  const double h = theta / 2.0;
+  return (4.0 * std::sin(h) * std::sin(h) * std::cos((d + 0.5) * theta) -
+          boundary_beta(theta, d) * std::sin(theta) * std::sin(h)) /
+         std::cos(h);
+}
+
+// The first branch of the curve leaves the origin (both ~ theta^2) and ends
+// where alpha returns to 0 (at beta_max_at_zero_stiffness). Its end, found by
+// a scan of alpha's sign and bisection; beta must increase along the branch.
+double branch_end(int d) {
+  double lo = 1e-3;
+  while (boundary_alpha(lo + 1e-3, d) > 0.0) lo += 1e-3;
+  double hi = lo + 1e-3;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (boundary_alpha(mid, d) > 0.0 ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+// theta on the first branch with beta(theta) = target, by bisection.
+double theta_for_beta(double target, int d) {
+  double lo = 0.0, hi = branch_end(d);
+  EXPECT_LT(target, boundary_beta(hi, d));
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (boundary_beta(mid, d) < target ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// max over theta of alpha(theta) on the first branch, by golden section.
+BoundaryPoint closed_form_max_stiffness(int d) {
+  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+  double a = 0.0, b = branch_end(d);
+  for (int i = 0; i < 200 && b - a > 1e-15; ++i) {
+    const double c = b - g * (b - a), e = a + g * (b - a);
+    if (boundary_alpha(c, d) > boundary_alpha(e, d)) {
+      b = e;
+    } else {
+      a = c;
+    }
+  }
+  const double theta = 0.5 * (a + b);
+  return {boundary_beta(theta, d), boundary_alpha(theta, d)};
+}
+
+// Before relying on the closed form: it reproduces the code's alpha_max
+// (and the branch is monotone in beta, so bisection finds the right theta).
+TEST(WallStability, ClosedFormBoundaryAgreesWithTheCode) {
+  // d = 1, beta = 0.46: alpha_max = 0.14342013571857 (also mpmath, 30 digits:
+  // theta = 0.5695224801679519, alpha = 0.1434201357185735).
+  const double theta = theta_for_beta(0.46, 1);
+  EXPECT_NEAR(boundary_beta(theta, 1), 0.46, 1e-15);
+  EXPECT_NEAR(boundary_alpha(theta, 1), 0.1434201357185735, 1e-14);
+  EXPECT_NEAR(alpha_max(0.46, 1), boundary_alpha(theta, 1), 1e-12);
+  for (int d = 0; d <= 3; ++d) {
+    const double end = branch_end(d);
+    EXPECT_NEAR(boundary_beta(end, d), beta_max_at_zero_stiffness(d), 1e-9) << d;
+    for (int i = 1; i < 200; ++i) {
+      ASSERT_GT(boundary_beta(end * i / 200.0, d), boundary_beta(end * (i - 1) / 200.0, d)) << d;
+    }
+    for (double frac : {0.05, 0.2, 0.5, 0.8, 0.95}) {
+      const double beta = frac * beta_max_at_zero_stiffness(d);
+      const double closed = boundary_alpha(theta_for_beta(beta, d), d);
+      EXPECT_NEAR(alpha_max(beta, d), closed, 1e-9 * closed) << d << " " << beta;
+    }
+  }
+  // Remark 2, d = 1: max alpha over theta (mpmath: theta = 0.5459436984736499,
+  // alpha = 0.1444693492260521, beta = 0.4246937898825979).
+  const BoundaryPoint top = closed_form_max_stiffness(1);
+  EXPECT_NEAR(top.alpha, 0.1444693492260521, 1e-12);
+  EXPECT_NEAR(top.beta, 0.4246937898825979, 1e-6);  // a maximum: beta only to sqrt(eps)
+  const BoundaryPoint code = max_stiffness_point(1);
+  EXPECT_NEAR(code.alpha, top.alpha, 1e-12);
+  EXPECT_NEAR(code.beta, top.beta, 1e-6);
+  // d = 0: the exact [12 - 8 sqrt2, -2 + 2 sqrt2] of Remark 2.
+  const BoundaryPoint top0 = closed_form_max_stiffness(0);
+  EXPECT_NEAR(top0.alpha, 12.0 - 8.0 * sqrt2, 1e-12);
+  EXPECT_NEAR(top0.beta, -2.0 + 2.0 * sqrt2, 1e-6);
+}
+
 // Remark 2: maximum stiffness point.
 TEST(WallStability, MaxStiffnessPointNoDelayIsExact) {
   const BoundaryPoint p = max_stiffness_point(0);
@@ -50,13 +145,24 @@ TEST(WallStability, BetaMaxAtZeroStiffness) {
 }
 
 // Remark 1: alpha_max ~ 2 beta (d = 0), 2/3 beta (d = 1) near the origin.
+// Derived from the closed-form boundary above for every d: for small theta,
+// sin(theta/2) ~ theta/2, sin((d + 1/2) theta) ~ (d + 1/2) theta and the
+// cosines ~ 1, so beta ~ (d + 1/2) theta^2 and alpha ~ theta^2 - beta theta^2/2
+// ~ theta^2, hence alpha / beta -> 1 / (d + 1/2) = 2 / (2d + 1):
+// 2, 2/3, 2/5, 2/7 for d = 0..3 (the paper states d = 0 and d = 1 only).
 TEST(WallStability, SlopeAtOrigin) {
   const double beta = 1e-6;
   EXPECT_NEAR(alpha_max(beta, 0) / beta, 2.0, 1e-5);
   EXPECT_NEAR(alpha_max(beta, 1) / beta, 2.0 / 3.0, 1e-5);
-  // Observed, not in the paper: 2/5 for d = 2, 2/7 for d = 3, i.e. 2/(2d+1).
-  EXPECT_NEAR(alpha_max(beta, 2) / beta, 2.0 / 5.0, 1e-5);
-  EXPECT_NEAR(alpha_max(beta, 3) / beta, 2.0 / 7.0, 1e-5);
+  for (int d = 0; d <= 3; ++d) {
+    const double slope = 2.0 / (2.0 * d + 1.0);
+    // The closed form's own ratio approaches the limit (the correction is O(theta^2) = O(beta)).
+    const double theta = theta_for_beta(beta, d);
+    EXPECT_NEAR(boundary_alpha(theta, d) / boundary_beta(theta, d), slope, 1e-5) << d;
+    // The code's boundary is the closed form's at this beta, and has the slope.
+    EXPECT_NEAR(alpha_max(beta, d), boundary_alpha(theta, d), 1e-9 * beta) << d;
+    EXPECT_NEAR(alpha_max(beta, d) / beta, slope, 1e-5) << d;
+  }
 }
 
 double poly5(double b) {
@@ -115,9 +221,30 @@ TEST(WallStability, MinimumRadiusNoDelayIsTripleRoot) {
   EXPECT_NEAR(p.beta, 0.405, 5e-4);
 }
 
+// For d = 1 the optimum is a triple root r with a fourth root s:
+// 2 (z - r)^3 (z - s) = 2 z^4 - 4 z^3 + (2 + alpha + beta) z^2 + alpha z - beta
+// (eq. 3). Matching z^3: s = 2 - 3r; z^1: alpha = -2 r^2 (3s + r) = 4 r^2 (4r - 3);
+// z^0: beta = -2 r^3 s = 2 r^3 (3r - 2); z^2: 12 r - 12 r^2 = 2 + alpha + beta,
+// i.e. 3 r^4 + 6 r^3 - 6 r + 1 = 0. Near 0.75: r = 0.7521143395,
+// alpha = 0.0191364971, beta = 0.2181238206, |s| = 0.2563 < r.
 TEST(WallStability, MinimumRadiusOneDelay) {
+  const auto quartic = [](double r) { return 3 * r * r * r * r + 6 * r * r * r - 6 * r + 1; };
+  double lo = 0.7, hi = 0.8;
+  ASSERT_LT(quartic(lo), 0.0);
+  ASSERT_GT(quartic(hi), 0.0);
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (quartic(mid) < 0.0 ? lo : hi) = mid;
+  }
+  const double r = 0.5 * (lo + hi);
+  EXPECT_NEAR(r, 0.7521143395063479, 1e-15);  // mpmath findroot
+  const double alpha = 4 * r * r * (4 * r - 3), beta = 2 * r * r * r * (3 * r - 2), s = 2 - 3 * r;
+  ASSERT_LT(std::abs(s), r);
   const MinimumRadiusPoint p = minimum_radius_point(1);
-  EXPECT_NEAR(p.alpha, 0.0191, 5e-5);
+  EXPECT_NEAR(p.alpha, alpha, 1e-5);
+  EXPECT_NEAR(p.beta, beta, 1e-5);
+  EXPECT_NEAR(p.radius, r, 1e-5);
+  EXPECT_NEAR(p.alpha, 0.0191, 5e-5);  // paper, 3 digits
   EXPECT_NEAR(p.beta, 0.218, 5e-4);
 }
 
@@ -217,7 +344,9 @@ TEST(WallStability, TimeDomainAgreesJustInsideAndOutsideTheBoundary) {
 
 // Section 7 (m = 0.1 kg, T = 1 ms, d = 1). The paper writes B = 0.46 m/T =
 // 4.6 N s/m; 0.46 m/T is 46 N s/m. With 46 N s/m the wall is stable; with
-// the printed 4.6 N s/m (beta = 0.046) it is not (alpha_max(0.046) = 0.0029).
+// the printed 4.6 N s/m (beta = 0.046) it is not (alpha_max(0.046) = 0.0291,
+// below alpha = 0.09): on the closed-form boundary, beta(theta) = 0.046 at
+// theta = 0.1755709393, alpha = 0.0290935745, so K_max = alpha m / T^2 = 2909.357 N/m.
 TEST(WallStability, Section7Phantom) {
   const WallVerdict ok = analyze_wall(0.1, 1e-3, 1, 9000.0, 46.0);
   EXPECT_NEAR(ok.alpha, 0.09, 1e-12);
@@ -227,14 +356,19 @@ TEST(WallStability, Section7Phantom) {
 
   const WallVerdict typo = analyze_wall(0.1, 1e-3, 1, 9000.0, 4.6);
   EXPECT_FALSE(typo.stable);
-  EXPECT_NEAR(typo.k_max_for_damping, physical_stiffness(alpha_max(0.046, 1), 0.1, 1e-3), 1e-9);
+  const double alpha_typo = boundary_alpha(theta_for_beta(0.046, 1), 1);
+  EXPECT_NEAR(alpha_typo, 0.0290935744869607, 1e-13);  // mpmath, 30 digits
+  const double k_typo = alpha_typo * 0.1 / (1e-3 * 1e-3);
+  EXPECT_NEAR(typo.k_max_for_damping, k_typo, 1e-6 * k_typo);
   EXPECT_LT(typo.k_max_for_damping, 3000.0);
 
   const WallVerdict stiff = analyze_wall(0.1, 1e-3, 1, 20000.0, 4.6);
   EXPECT_FALSE(stiff.stable);
   EXPECT_FALSE(stiff.damping_range);  // 20 kN/m > k_max for any damping
-  EXPECT_NEAR(stiff.k_max, 0.144469349 * 0.1 / 1e-6, 0.1);
-  EXPECT_NEAR(stiff.b_at_k_max, 0.424694 * 0.1 / 1e-3, 1e-3);
+  const BoundaryPoint top = closed_form_max_stiffness(1);
+  EXPECT_NEAR(stiff.k_max, top.alpha * 0.1 / 1e-6, 1e-6 * top.alpha * 0.1 / 1e-6);
+  EXPECT_NEAR(stiff.b_at_k_max, top.beta * 0.1 / 1e-3, 1e-4);  // beta at a maximum: ~sqrt(eps)
+  EXPECT_NEAR(stiff.b_at_k_max, 0.424694 * 0.1 / 1e-3, 1e-3);  // Remark 2, 6 digits
   const std::string msg = refusal_message(stiff);
   EXPECT_NE(msg.find("K = 20000 N/m"), std::string::npos) << msg;
   EXPECT_NE(msg.find("m = 0.1 kg, T = 1 ms, d = 1"), std::string::npos) << msg;
