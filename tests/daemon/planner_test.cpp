@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
+#include <numbers>
 #include <string>
 #include <variant>
 
@@ -112,6 +114,35 @@ TEST(Planner, StiffWallIsRefusedWithTheLargestStableStiffness) {
   EXPECT_FALSE(r.data["stability"]["stable"].get<bool>());
 }
 
+// Hulin eq. (3), alpha z (z + 1) + beta (z^2 - 1) + 2 z^{1+d} (z - 1)^2 = 0, is
+// linear in (alpha, beta): on the circle z = rho e^{j theta} its real and
+// imaginary parts are two real equations, solved here by Cramer's rule.
+struct WallCurvePoint {
+  double alpha, beta;
+};
+WallCurvePoint wall_curve(double rho, double theta, int d) {
+  const std::complex<double> z = std::polar(rho, theta);
+  const std::complex<double> a = z * (z + 1.0), b = z * z - 1.0;
+  const std::complex<double> c = 2.0 * std::pow(z, d + 1) * (z - 1.0) * (z - 1.0);
+  const double det = a.real() * b.imag() - b.real() * a.imag();
+  return {(-c.real() * b.imag() + b.real() * c.imag()) / det,
+          (-a.real() * c.imag() + c.real() * a.imag()) / det};
+}
+// Stiffness (N/m) at which a root of eq. (3) sits on |z| = rho for this
+// damping: theta by bisection on the branch leaving the origin (beta
+// increases with theta there; for d = 1 it ends at theta = pi/4, beta = 0.83).
+double wall_stiffness_on_circle(double rho, double damping, double mass, double period, int d) {
+  const double beta = damping * period / mass;
+  double lo = 1e-3, hi = std::numbers::pi / 4.0;
+  EXPECT_LT(wall_curve(rho, lo, d).beta, beta);
+  EXPECT_GT(wall_curve(rho, hi, d).beta, beta);
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (wall_curve(rho, mid, d).beta < beta ? lo : hi) = mid;
+  }
+  return wall_curve(rho, 0.5 * (lo + hi), d).alpha * mass / (period * period);
+}
+
 TEST(Planner, PapersMisprintedDampingIsRefused) {
   // Hulin section 7 prints B = 4.6 N s/m; with K = 9000 N/m that is unstable.
   const loopback::LoopbackDevice device(hulin_config());
@@ -120,7 +151,22 @@ TEST(Planner, PapersMisprintedDampingIsRefused) {
   const double expected = analysis::alpha_max(beta, 1) * hulin_mass / (T * T);
   const double limit = r.data["limit"]["stiffness"].get<double>();
   EXPECT_NEAR(limit, expected, 1e-3 * expected);
-  EXPECT_NEAR(limit, 2909.0, 5.0);
+  // Independently: on the unit circle beta(theta) = 0.046 at theta = 0.17557,
+  // alpha = 0.0290935745, K = 2909.357449 N/m (also the trig closed form in
+  // tests/analysis/wall_stability_test.cpp, and mpmath).
+  const double k_boundary = wall_stiffness_on_circle(1.0, 4.6, hulin_mass, T, 1);
+  EXPECT_NEAR(k_boundary, 2909.357448696, 1e-6);
+  // The planner bisects K in [1e-6 K, K] until hi - lo <= 1e-9 K (K = 9000
+  // requested) and returns lo, the last K it calls stable; it calls the loop
+  // stable while the pole radius is <= 1 + 1e-7 (its drift tolerance for the
+  // double root at z = 1), so its boundary is the one on |z| = 1 + 1e-7,
+  // 2909.369593 N/m, 0.012 N/m (4e-6) above the exact one (the planner
+  // returns 2909.369585, 8e-6 below it: within its bisection step).
+  const double drift_tolerance = 1e-7, bisection = 1e-9 * 9000.0;
+  const double k_planner = wall_stiffness_on_circle(1.0 + drift_tolerance, 4.6, hulin_mass, T, 1);
+  EXPECT_GT(k_planner, k_boundary);
+  EXPECT_LE(limit, k_planner + 1e-9 * k_planner);  // lo is stable (up to eigenvalue rounding)
+  EXPECT_GE(limit, k_planner - bisection - 1e-9 * k_planner);
   EXPECT_NE(r.message.find("largest stable stiffness"), std::string::npos) << r.message;
 }
 
