@@ -191,6 +191,19 @@ TEST(WallScene, HulinRemark2MaximumStiffnessPointIsOnTheBoundary) {
     r = std::max(r, std::abs(z));
   }
   EXPECT_NEAR(r, 1.0, 1e-6);
+  // The scene itself: its linear model closed around the rigid mass is stable
+  // just below the point and unstable just above it (same damping).
+  const auto scene_radius = [&](double a) {
+    const WallParameters p{a * mass / (period * period), beta * mass / period, 0.3, WallSide::lower, 0};
+    double radius = 0.0;
+    for (const auto& z : closed_loop_poles(Damped(p, period).linear_model(), mass)) {
+      radius = std::max(radius, std::abs(z));
+    }
+    return radius;
+  };
+  EXPECT_LT(scene_radius(alpha * (1.0 - 1e-6)), 1.0);
+  EXPECT_GT(scene_radius(alpha * (1.0 + 1e-6)), 1.0);
+  EXPECT_NEAR(scene_radius(alpha), 1.0, 1e-6);
 }
 
 }  // namespace
