@@ -106,6 +106,38 @@ TEST(CliAnalyze, CriticalStiffnessKeys) {
       analyze({"critical-stiffness", "--plant", "two-mass", "--period", "1ms", "--delay", "1ms"});
   expect_keys(two, {"k_cr", "crossover_hz", "gain_margin_db", "q_db"});
   EXPECT_GT(two["k_cr"].get<double>(), 0.0);
+
+  // Rigid plant (Table I totals m = 5.4 kg, b = 3.5 N s/m), no delay: the
+  // ZOH of 1/(m s^2 + b s) is (c1 z + c0) / (b (z - 1)(z - e)) with a = b/m,
+  // e = e^{-a T}, c1 = T - (1 - e)/a, c0 = (1 - e)/a - T e. The loop
+  // z^2 + a1 z + a0, a1 = K c1/b - 1 - e, a0 = e + K c0/b, reaches |z| = 1 as a
+  // complex pair (Jury: a0 = 1) at K_cr = b (1 - e)/c0, where
+  // cos(w T) = -a1/2. (Re-derived here, as in RigidNoDelayMatchesJuryClosedForm.)
+  const json jury = analyze({"critical-stiffness", "--plant", "rigid", "--period", "1ms"});
+  const double m = 5.4, b = 3.5, t = 1e-3, a = b / m, e = std::exp(-a * t);
+  const double c1 = t - (1 - e) / a, c0 = (1 - e) / a - t * e;
+  const double kcr = b * (1 - e) / c0;
+  ASSERT_GT(2 * b * (1 + e) / (c1 - c0), kcr);  // the real root z = -1 stays inside up to there
+  const double w = std::acos(-(kcr * c1 / b - 1 - e) / 2) / t;
+  EXPECT_NEAR(jury["mass"].get<double>(), m, 1e-15);
+  EXPECT_NEAR(jury["damping"].get<double>(), b, 1e-15);
+  EXPECT_NEAR(jury["k_cr"].get<double>(), kcr, 1e-6 * kcr);
+  EXPECT_NEAR(jury["crossover_rad_per_s"].get<double>(), w, 1e-6 * w);
+  EXPECT_NEAR(jury["crossover_hz"].get<double>(), w / (2 * M_PI), 1e-6 * w / (2 * M_PI));
+  EXPECT_NEAR(jury["gain_margin_db"].get<double>(), 20 * std::log10(kcr), 1e-6);
+  EXPECT_NEAR(kcr, 2 * b / t, 0.01 * kcr);  // the familiar b > K T / 2
+
+  // Two-mass: Q = m_m z_n w_n (eq. 24) from Table I with eq. 13-16:
+  // w_n = sqrt(k_c m / (m_d m_m)) = 529.7058, z_n = (b_m + b_c)/m_m +
+  // (b_d + b_c)/m_d - b/m = 53.29303, Q = 8468.97 N/m = 78.557 dB.
+  const double m_m = 0.3, m_d = 5.1, b_m = 0.1, b_d = 3.4, k_c = 79.5e3, b_c = 15.0;
+  const double wn = std::sqrt(k_c * (m_m + m_d) / (m_d * m_m));
+  const double zn = (b_m + b_c) / m_m + (b_d + b_c) / m_d - (b_m + b_d) / (m_m + m_d);
+  const double q_db = 20 * std::log10(m_m * zn * wn);
+  EXPECT_NEAR(q_db, 78.557, 1e-3);
+  EXPECT_NEAR(two["q_db"].get<double>(), q_db, 1e-9);
+  EXPECT_NEAR(two["omega_n"].get<double>(), wn, 1e-9 * wn);
+  EXPECT_NEAR(two["z_n"].get<double>(), zn, 1e-9 * zn);
 }
 
 TEST(CliAnalyze, DurationSpellingsAgree) {
