@@ -192,7 +192,38 @@ TEST(Hulin, StableContactInsideTheRegionAndRefusalOutside) {
   double spread = 0;
   for (std::size_t i = n - 500; i < n; ++i) spread = std::max(spread, std::abs(position[i] - rest));
   EXPECT_LT(spread, 3 * 3.14e-6) << "settled within the encoder resolution";
-  EXPECT_NEAR(applied.back(), -2.0, 0.1);
+  // Static balance. The rest penetration F/K = 222.2 um is 70.77 encoder counts
+  // (res = 3.14 um, the linear default), not a whole number, so no reading
+  // balances the hand exactly: the mass rocks between the counts around
+  // `rest`, and the wall law applied[i] = -K (p[i-1] - x_w) - B (p[i-1] -
+  // p[i-2]) / T (d = 1) adds +-B res / T = 0.144 N at each count change.
+  const double k = 9000, b = 46, mass = 0.1, hand = 2.0, wall = 0.001, res = 3.14e-6;
+  for (std::size_t i = n - 500; i < n; ++i) {
+    const double law = -k * (position[i - 1] - wall) - b * (position[i - 1] - position[i - 2]) / period;
+    EXPECT_NEAR(applied[i], law, 1e-9) << i;
+  }
+  // The last sample is between count changes, on a count within one count of
+  // the rest position: the spring alone balances the hand to K res = 0.028 N.
+  ASSERT_EQ(position[n - 2], position[n - 3]);
+  ASSERT_LT(std::abs(position[n - 2] - rest), res);
+  EXPECT_NEAR(applied.back(), -hand, k * res);
+  // On average the hand is balanced far better (Newton over the last N
+  // periods: sum (applied + F) T = m (v_end - v_start), no friction or
+  // damping on this device). The mass stays in a band of width W (the
+  // readings' range plus one count); with |acceleration| <= A its speed is at
+  // most sqrt(2 A W), else it would leave the band.
+  const std::size_t window = 500;
+  double sum = 0, lo = position[n - window], hi = lo, worst = 0;
+  for (std::size_t i = n - window; i < n; ++i) {
+    sum += applied[i];
+    lo = std::min(lo, position[i]);
+    hi = std::max(hi, position[i]);
+    worst = std::max(worst, std::abs(applied[i] + hand));
+  }
+  const double v_max = std::sqrt(2.0 * worst / mass * (hi - lo + res));
+  const double bound = 2.0 * mass * v_max / (static_cast<double>(window) * period);
+  EXPECT_LT(bound, 0.01);
+  EXPECT_NEAR(sum / static_cast<double>(window), -hand, bound);
   EXPECT_LT(peak(applied, 0, n), 20.0) << "contact never hit the torque limit";
 
   TempDir dir2;
@@ -200,7 +231,15 @@ TEST(Hulin, StableContactInsideTheRegionAndRefusalOutside) {
   EXPECT_EQ(refused.wait(std::chrono::seconds(30)), 2);
   const std::string log = refused.log();
   EXPECT_NE(log.find("largest stable stiffness"), std::string::npos) << log;
-  EXPECT_NE(log.find(":"), std::string::npos);
+  // The refusal is blamed on the config's stiffness line (file:line:), and
+  // says which Hulin case it checked.
+  const std::string text = config(20000, 46);
+  const auto stiffness_line = 1 + std::count(text.begin(), text.begin() + text.find("stiffness ="), '\n');
+  EXPECT_NE(log.find("hapticd.toml:" + std::to_string(stiffness_line) + ":"), std::string::npos) << log;
+  EXPECT_NE(log.find("Hulin: K = 20000 N/m with B = 46 N s/m is outside the stable region for m = 0.1 kg, "
+                     "T = 1 ms, d = 1"),
+            std::string::npos)
+      << log;
 }
 
 // Freudenberg 4: the hand turns the wheel 5 degrees at 1 Hz, the virtual
