@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <random>
 #include <type_traits>
@@ -145,6 +146,109 @@ TEST(SpringScene, RelativeDampingUsesTheDeviceVelocity) {
   std::array<double, 3> ch{};
   relative.channels(ch);
   EXPECT_NEAR(ch[2], v, 1e-12);
+}
+
+// Freudenberg 2.19 with the inputs the scene holds over a period: theta_z =
+// y[n] and theta_z_dot = y_dot[n] = (y[n] - y[n-1]) / T (its BackwardDifference),
+// both constant over [nT, (n+1)T). Integrated by classic RK4 with `substeps`
+// steps per period, independent of discretize() and of the scene's Ad / Bd.
+struct HeldInputReference {
+  double k, j, b, t;
+  int substeps = 1000;
+  double w = 0.0, w_dot = 0.0, y_previous = 0.0;
+  /// The output the scene gives for input y (2.22 with the sign on the device), then one period.
+  double step(double y) {
+    const double y_dot = (y - y_previous) / t;
+    y_previous = y;
+    const double out = k * (w - y) + b * (w_dot - y_dot);
+    const auto accel = [&](double x, double v) { return (-k * (x - y) - b * (v - y_dot)) / j; };
+    const double h = t / substeps;
+    for (int i = 0; i < substeps; ++i) {
+      const double k1x = w_dot, k1v = accel(w, w_dot);
+      const double k2x = w_dot + h / 2 * k1v, k2v = accel(w + h / 2 * k1x, w_dot + h / 2 * k1v);
+      const double k3x = w_dot + h / 2 * k2v, k3v = accel(w + h / 2 * k2x, w_dot + h / 2 * k2v);
+      const double k4x = w_dot + h * k3v, k4v = accel(w + h * k3x, w_dot + h * k3v);
+      w += h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x);
+      w_dot += h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+    }
+    return out;
+  }
+};
+
+// The relative-damping column (2.19-2.22) against the fine RK4 reference,
+// for a sine and a ramp of the device.
+TEST(SpringScene, RelativeDampingExactMatchesFineIntegrationOfEq2_19) {
+  const double t = 1e-3, b = 0.05;
+  const auto sine = [](int n) { return 0.5 * std::sin(2.0 * std::numbers::pi * 3.0 * (n + 1) * 1e-3); };
+  const auto ramp = [](int n) { return 0.2 + 0.3 * (n + 1) * 1e-3; };
+  for (const auto& input : {std::function<double(int)>(sine), std::function<double(int)>(ramp)}) {
+    Relative scene(SpringParameters{k, j, b, Integrator::exact}, t);
+    const double y0 = input(-1);
+    scene.reset(y0);
+    HeldInputReference ref{k, j, b, t};
+    ref.w = y0;
+    ref.y_previous = y0;
+    double worst = 0.0, largest = 0.0;
+    for (int n = 0; n < 400; ++n) {
+      const double y = input(n);
+      const double expected = ref.step(y);
+      const double got = scene.step(y);
+      worst = std::max(worst, std::abs(got - expected));
+      largest = std::max(largest, std::abs(expected));
+      std::array<double, 3> ch{};
+      scene.channels(ch);
+      EXPECT_NEAR(ch[0], ref.w, 1e-12) << n;
+      EXPECT_NEAR(ch[1], ref.w_dot, 1e-10) << n;
+    }
+    EXPECT_GT(largest, 0.01);
+    EXPECT_LT(worst, 1e-11);  // observed 1e-14; a scene that dropped y_dot would be off by b v = 0.015
+  }
+}
+
+// Freudenberg 2.22: a wheel co-moving with the device (theta_w = theta_z,
+// theta_w_dot = theta_z_dot) sees no damping. In continuous time, with the
+// device on a ramp theta_z = v t, theta_w = v t solves 2.19 and the torque is
+// 0. The scene holds theta_z = y[n] over the period while the wheel moves on,
+// so on the ramp it settles one half period behind: with e = theta_w - y[n]
+// at the period start and u = theta_w_dot, the held-input solution over a
+// period is [e; u](T) = [b v/k; 0] + Phi(T) ([e; u] - [b v/k; 0]), and the
+// periodic state [e + v T; u] = [e; u] after y moves on by v T solves
+// (Phi - I) [e - b v/k; u] = [v T; 0]. Phi is the damped-oscillator map,
+// written out. To first order u = v (no relative velocity: the damper is
+// idle), e = -v T/2, F = k e + b (u - v) = -k v T/2.
+TEST(SpringScene, RelativeDampingCoMovingWheelSeesNoDamping) {
+  const double t = 1e-3, b = 0.3, v = 0.3;
+  const double w = std::sqrt(k / j), sigma = b / (2.0 * j), wd = std::sqrt(w * w - sigma * sigma);
+  const double decay = std::exp(-sigma * t), c = std::cos(wd * t), sn = std::sin(wd * t);
+  const double p11 = decay * (c + sigma / wd * sn), p12 = decay * sn / wd;
+  const double p21 = -decay * w * w / wd * sn, p22 = decay * (c - sigma / wd * sn);
+  // Cramer on (Phi - I) [d; u] = [v T; 0].
+  const double a11 = p11 - 1.0, a12 = p12, a21 = p21, a22 = p22 - 1.0, det = a11 * a22 - a12 * a21;
+  const double d = v * t * a22 / det, u = -a21 * v * t / det;
+  const double e = d + b * v / k;
+  const double f_steady = k * e + b * (u - v);
+  EXPECT_NEAR(u, v, v * w * w * t * t / 10.0);  // u = v (1 - w^2 T^2 / 12 + ...)
+  EXPECT_NEAR(f_steady, -k * v * t / 2.0, k * v * t / 2.0 * (b * t / j + w * w * t * t));
+
+  // The scene cannot be started co-moving (reset() zeroes the wheel velocity),
+  // so it starts from rest at y = 0 with the device on the ramp from the first
+  // step: the start transient decays (e^{-sigma t}, sigma = 5.8 / s) and it
+  // settles on the periodic co-moving state above.
+  Relative scene(SpringParameters{k, j, b, Integrator::exact}, t);
+  scene.reset(0.0);
+  double f = 0.0;
+  for (int n = 0; n < 8000; ++n) f = scene.step(v * (n + 1) * t);
+  std::array<double, 3> ch{};
+  scene.channels(ch);
+  EXPECT_NEAR(ch[2], v, 1e-12);  // the backward difference of the ramp
+  EXPECT_NEAR(ch[1], u, 1e-12);  // wheel velocity: co-moving to O(T^2)
+  EXPECT_NEAR(b * (ch[1] - ch[2]), b * (u - v), 1e-12);
+  EXPECT_LT(std::abs(b * (ch[1] - ch[2])), 1e-5 * b * v);  // the damper sees no relative motion
+  EXPECT_NEAR(f, f_steady, 1e-12);
+  // ... while a wheel at rest would feel the full b v.
+  Relative at_rest(SpringParameters{k, j, b, Integrator::exact}, t);
+  at_rest.reset(0.0);
+  EXPECT_NEAR(at_rest.step(v * t), -k * v * t - b * v, 1e-15);
 }
 
 template <class S>
