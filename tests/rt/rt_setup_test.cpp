@@ -3,10 +3,14 @@
 #include <gtest/gtest.h>
 #include <pthread.h>
 #include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <string>
 #include <thread>
 
 #include "daemon/rt/rt_permission.hpp"
@@ -100,8 +104,36 @@ TEST(RtPermission, FindsTheCgroupBudgetFileForV1AndV2) {
   fs::remove_all(root);
 }
 
+// Whether this process may take SCHED_FIFO at `priority`, decided as the
+// project explains refusals (rt_permission.cpp): CAP_SYS_NICE in CapEff
+// (read here from /proc/self/status, bit 23) or an RLIMIT_RTPRIO at or above
+// the priority (root without CAP_SYS_NICE gets no exemption), and a cgroup RT
+// budget that is not 0 (or no cpu.rt_runtime_us at all).
+bool may_take_fifo(int priority, std::string* why) {
+  std::ifstream status_file("/proc/self/status");
+  std::string line;
+  bool cap_sys_nice = false;
+  while (std::getline(status_file, line)) {
+    if (line.rfind("CapEff:", 0) == 0)
+      cap_sys_nice = ((std::stoull(line.substr(7), nullptr, 16) >> 23) & 1) != 0;
+  }
+  rlimit rl{};
+  const bool rlimit_ok = ::getrlimit(RLIMIT_RTPRIO, &rl) == 0 &&
+                         (rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur >= static_cast<rlim_t>(priority) ||
+                          rl.rlim_max == RLIM_INFINITY || rl.rlim_max >= static_cast<rlim_t>(priority));
+  std::ifstream cgroup_file("/proc/self/cgroup");
+  const std::string cgroup((std::istreambuf_iterator<char>(cgroup_file)), std::istreambuf_iterator<char>());
+  long long budget = -1;  // -1: no budget file
+  if (const auto file = find_cgroup_rt_runtime_file(cgroup)) std::ifstream(*file) >> budget;
+  *why = "euid " + std::to_string(::geteuid()) + ", CAP_SYS_NICE " + (cap_sys_nice ? "yes" : "no") +
+         ", RLIMIT_RTPRIO " + (rlimit_ok ? "allows" : "forbids") + ", cgroup budget " +
+         std::to_string(budget);
+  return (cap_sys_nice || rlimit_ok) && budget != 0;
+}
+
 // The real thing on a fresh thread. As root it usually succeeds; either way
-// the report must agree with what the kernel says about the thread.
+// the report must agree with what the kernel says about the thread, and where
+// the permissions allow it, it must have succeeded.
 TEST(RtSetup, ReportMatchesTheThreadsActualScheduler) {
   RtOptions o;
   o.priority = 10;
@@ -118,6 +150,10 @@ TEST(RtSetup, ReportMatchesTheThreadsActualScheduler) {
     pthread_getaffinity_np(pthread_self(), sizeof set, &set);
   });
   t.join();
+  std::string why;
+  if (may_take_fifo(10, &why)) {
+    EXPECT_TRUE(r.scheduler_set) << "permitted (" << why << ") but: " << r.message();
+  }
   if (r.scheduler_set) {
     EXPECT_EQ(policy, SCHED_FIFO);
     EXPECT_EQ(sp.sched_priority, 10);
