@@ -175,9 +175,13 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
     if (verdict.damping_range)
       limit["damping_range"] = {verdict.damping_range->lower, verdict.damping_range->upper};
   }
-  refusal.message += ". Send force=true (hapticctl --force) to load it anyway; the torque limit still holds";
   refusal.data = {{"limit", limit}, {"stability", to_json(planned.stability)}};
   return refusal;
+}
+
+std::string refusal_text(const PlanRefusal& refusal, std::string_view how) {
+  if (refusal.invalid) return refusal.message;
+  return refusal.message + ". " + std::string(how) + " to load it anyway; the torque limit still holds";
 }
 
 nlohmann::json to_json(const StabilityVerdict& v) {

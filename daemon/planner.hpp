@@ -63,6 +63,14 @@ struct PlanRefusal {
 
 using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
 
+/// How to load an unstable set on purpose, in the words of each front end.
+inline constexpr std::string_view force_over_rpc = "Send force=true (hapticctl --force)";
+inline constexpr std::string_view force_in_config = "Set force = true in [scene]";
+
+/// The refusal's message, plus for an unstable (not invalid) set how to load
+/// it anyway (`how`: force_over_rpc or force_in_config).
+std::string refusal_text(const PlanRefusal& refusal, std::string_view how);
+
 /// Plans `scene` with `parameters` (missing ones take their defaults) for the device.
 PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters,
                            const DeviceModel& device, bool force);

@@ -112,7 +112,8 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
   }
   auto outcome = plan_on_device(cfg.scene.name, initial_requested_, model_, force);
   if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
-    throw config::ConfigError(blame(cfg.scene, refusal->message), "scene", refusal->message);
+    throw config::ConfigError(blame(cfg.scene, refusal->message), "scene",
+                              refusal_text(*refusal, force_in_config));
   }
   initial_ = std::move(std::get<PlannedScene>(outcome));
 }
@@ -364,8 +365,8 @@ void Service::register_methods(control::ControlServer& server) {
         auto outcome =
             plan_on_device(params["scene"].get<std::string>(), requested, model_, get_force(params));
         if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
-          throw RpcError(refusal->invalid ? code::invalid_params : code::refused, refusal->message,
-                         refusal->data);
+          throw RpcError(refusal->invalid ? code::invalid_params : code::refused,
+                         refusal_text(*refusal, force_over_rpc), refusal->data);
         }
         return apply(std::get<PlannedScene>(outcome), requested);
       },
@@ -425,8 +426,8 @@ void Service::register_methods(control::ControlServer& server) {
         for (auto& [k, v] : changes) requested[k] = v;
         auto outcome = plan_on_device(scene.name, requested, model_, get_force(params));
         if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
-          throw RpcError(refusal->invalid ? code::invalid_params : code::refused, refusal->message,
-                         refusal->data);
+          throw RpcError(refusal->invalid ? code::invalid_params : code::refused,
+                         refusal_text(*refusal, force_over_rpc), refusal->data);
         }
         return apply(std::get<PlannedScene>(outcome), requested);
       },

@@ -101,7 +101,11 @@ TEST(Planner, StiffWallIsRefusedWithTheLargestStableStiffness) {
   const auto verdict = analysis::analyze_wall(hulin_mass, T, 1, 20000.0, 46.0);
   EXPECT_FALSE(verdict.stable);
   EXPECT_NE(r.message.find("Hulin: " + analysis::refusal_message(verdict)), std::string::npos) << r.message;
-  EXPECT_NE(r.message.find("force=true"), std::string::npos);
+  EXPECT_NE(hapticd::daemon::refusal_text(r, hapticd::daemon::force_over_rpc).find("force=true"),
+            std::string::npos);
+  EXPECT_NE(
+      hapticd::daemon::refusal_text(r, hapticd::daemon::force_in_config).find("force = true in [scene]"),
+      std::string::npos);
 
   const double beta = analysis::normalized_damping(46.0, hulin_mass, T);
   const double expected = analysis::alpha_max(beta, 1) * hulin_mass / (T * T);
