@@ -5,6 +5,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "analysis/optimize.hpp"
 #include "world/integrator.hpp"
 
 namespace hapticd::analysis {
@@ -76,27 +77,9 @@ std::vector<PhaseCrossover> phase_crossovers(const DelayedZoh& sys, const Eigen:
     const double w = i == points - 1 ? nyquist : start * std::pow(ratio, i);
     const cd cur = h(w);
     if (cur.imag() == 0.0 || (cur.imag() > 0.0) != (prev.imag() > 0.0)) {
-      double lo = w_prev, hi = w;
-      double ilo = prev.imag();
-      if (cur.imag() != 0.0) {
-        while (hi - lo > 1e-13 * hi) {
-          const double mid = 0.5 * (lo + hi);
-          const double im = h(mid).imag();
-          if (im == 0.0) {
-            lo = hi = mid;
-            break;
-          }
-          if ((im > 0.0) == (ilo > 0.0)) {
-            lo = mid;
-            ilo = im;
-          } else {
-            hi = mid;
-          }
-        }
-      } else {
-        lo = w;
-      }
-      const double wc = cur.imag() == 0.0 ? w : 0.5 * (lo + hi);
+      const double wc = cur.imag() == 0.0 ? w
+                                          : bisect_sign_change([&](double x) { return h(x).imag(); }, w_prev,
+                                                               w, prev.imag(), 1e-13 * w);
       const cd hc = h(wc);
       if (hc.real() < 0.0) out.push_back({wc, hc, -1.0 / hc.real()});
     }

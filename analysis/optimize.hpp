@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// One-dimensional minimization shared by the analyses.
+/// One-dimensional minimization and root bisection shared by the analyses.
 
 #include <cmath>
 #include <utility>
@@ -57,6 +57,26 @@ Minimum grid_then_golden(F&& f, double a, double b, int n, double tol) {
   Minimum m = golden_section_minimize(f, a + (best - 1) * h, a + (best + 1) * h, tol);
   if (best_value < m.value) m = {a + best * h, best_value};
   return m;
+}
+
+/// Root of f in [lo, hi] where f changes sign (f_lo = f(lo), nonzero):
+/// bisection until the bracket is narrower than tol or stops shrinking.
+/// Returns the midpoint of the last bracket, or the point where f is 0.
+template <typename F>
+double bisect_sign_change(F&& f, double lo, double hi, double f_lo, double tol) {
+  while (hi - lo > tol) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid <= lo || mid >= hi) break;
+    const double f_mid = f(mid);
+    if (f_mid == 0.0) return mid;
+    if ((f_mid > 0.0) == (f_lo > 0.0)) {
+      lo = mid;
+      f_lo = f_mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return 0.5 * (lo + hi);
 }
 
 }  // namespace hapticd::analysis

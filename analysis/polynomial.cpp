@@ -7,6 +7,8 @@
 
 #include <Eigen/Dense>
 
+#include "analysis/optimize.hpp"
+
 namespace hapticd::analysis {
 
 namespace {
@@ -122,23 +124,8 @@ std::vector<UnitCircleCrossing> unit_circle_crossings(const Polynomial& p0, cons
     if (prev_g == 0.0) {
       if (crossing_at(p0, p1, prev_theta, t)) out.push_back({t, prev_theta});
     } else if (!last && g != 0.0 && (g > 0.0) != (prev_g > 0.0)) {
-      double lo = prev_theta, hi = theta, glo = prev_g;
-      while (hi - lo > 1e-14) {
-        const double mid = 0.5 * (lo + hi);
-        if (mid <= lo || mid >= hi) break;
-        const double gm = imag_cross(p0, p1, mid);
-        if (gm == 0.0) {
-          lo = hi = mid;
-          break;
-        }
-        if ((gm > 0.0) == (glo > 0.0)) {
-          lo = mid;
-          glo = gm;
-        } else {
-          hi = mid;
-        }
-      }
-      const double root_theta = 0.5 * (lo + hi);
+      const double root_theta = bisect_sign_change([&](double x) { return imag_cross(p0, p1, x); },
+                                                   prev_theta, theta, prev_g, 1e-14);
       if (crossing_at(p0, p1, root_theta, t)) out.push_back({t, root_theta});
     }
     prev_theta = theta;

@@ -88,6 +88,8 @@ nlohmann::json call(const CommonOptions& opts, const std::string& method,
 /// name=value words as a JSON object; malformed ones print and throw Exit(usage).
 nlohmann::json assignments(const std::vector<std::string>& words);
 
+/// A scalar for people: strings bare, null "-", floats to 6 significant digits.
+std::string scalar(const nlohmann::json& value);
 /// "period_us" -> "period", "rate_hz" -> "rate": the key without its unit suffix.
 std::string display_key(const std::string& key);
 /// A value with the unit of the key's suffix: ("period_us", 1000) -> "1000 us".

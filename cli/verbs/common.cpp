@@ -119,6 +119,8 @@ const char* unit_of(const std::string& key, std::size_t* suffix_len) {
   return nullptr;
 }
 
+}  // namespace
+
 std::string scalar(const json& value) {
   if (value.is_string()) return value.get<std::string>();
   if (value.is_null()) return "-";
@@ -130,7 +132,6 @@ std::string scalar(const json& value) {
   }
   return value.dump();
 }
-}  // namespace
 
 std::string display_key(const std::string& key) {
   std::size_t len = 0;

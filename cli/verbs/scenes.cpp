@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <iostream>
-#include <sstream>
 #include <string>
 
 #include "cli/verbs.hpp"
@@ -14,17 +13,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string text_of(const json& value) {
-  if (value.is_string()) return value.get<std::string>();
-  if (value.is_number_float()) {
-    std::ostringstream s;
-    s.precision(6);
-    s << value.get<double>();
-    return s.str();
-  }
-  return value.dump();
-}
-
 void print_scene(const json& scene, bool current) {
   std::cout << (current ? "* " : "  ") << scene.value("name", std::string("?")) << "  "
             << scene.value("summary", std::string()) << '\n';
@@ -34,17 +22,17 @@ void print_scene(const json& scene, bool current) {
   std::size_t name_width = 0, default_width = 0, unit_width = 0;
   for (const auto& p : params) {
     name_width = std::max(name_width, p.value("name", std::string()).size());
-    default_width = std::max(default_width, text_of(p.value("default", json())).size());
+    default_width = std::max(default_width, detail::scalar(p.value("default", json())).size());
     unit_width = std::max(unit_width, p.value("unit", std::string()).size());
   }
   for (const auto& p : params) {
     const std::string name = p.value("name", std::string());
-    const std::string def = text_of(p.value("default", json()));
+    const std::string def = detail::scalar(p.value("default", json()));
     const std::string unit = p.value("unit", std::string());
     std::string help = p.value("help", std::string());
     if (p.contains("accepted") && p["accepted"].is_array()) {
       std::string accepted;
-      for (const auto& a : p["accepted"]) accepted += (accepted.empty() ? "" : ", ") + text_of(a);
+      for (const auto& a : p["accepted"]) accepted += (accepted.empty() ? "" : ", ") + detail::scalar(a);
       help += " [" + accepted + "]";
     }
     std::cout << "    " << name << std::string(name_width - name.size() + 2, ' ') << def
