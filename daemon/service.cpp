@@ -334,6 +334,10 @@ void Service::register_methods(control::ControlServer& server) {
                        {"unit", unit_on(p, model_.motion())},
                        {"help", p.help}};
             std::visit([&](const auto& v) { entry["default"] = v; }, p.default_value);
+            if (const auto* number = std::get_if<double>(&p.default_value);
+                number != nullptr && p.type == world::ParameterType::integer) {
+              entry["default"] = static_cast<std::int64_t>(std::llround(*number));
+            }
             if (!p.accepted.empty()) entry["accepted"] = p.accepted;
             if (p.minimum) {
               entry["minimum"] = *p.minimum;
