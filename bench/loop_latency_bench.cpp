@@ -1,6 +1,6 @@
 // Cost of the RT building blocks (ring, mailbox, histogram, statistics), and
 // a measured 1 ms loop: PeriodicSchedule + RealClock on a SCHED_FIFO thread
-// set up by configure_realtime(), reporting wake-up latency percentiles as
+// set up by hapticd::daemon::system::configure_realtime(), reporting wake-up latency percentiles as
 // counters so bench/cyclictest_compare.sh can put them next to cyclictest's.
 //
 // Environment for the measured loop:
@@ -22,14 +22,15 @@
 #include <thread>
 #include <vector>
 
-#include "daemon/rt/cycle_stats.hpp"
-#include "daemon/rt/latency_stats.hpp"
-#include "daemon/rt/loop_timing.hpp"
-#include "daemon/rt/mailbox.hpp"
-#include "daemon/rt/rt_setup.hpp"
-#include "daemon/rt/spsc_ring.hpp"
+#include "daemon/system/rt_setup.hpp"
+#include "rt/cycle_stats.hpp"
+#include "rt/latency_stats.hpp"
+#include "rt/loop_timing.hpp"
+#include "rt/mailbox.hpp"
+#include "rt/spsc_ring.hpp"
 
 using namespace hapticd::rt;
+using namespace hapticd::daemon::system;
 
 namespace {
 
@@ -138,18 +139,18 @@ BENCHMARK(BM_HistogramSnapshot);
 void BM_PeriodicLoop(benchmark::State& state) {
   const auto cycles = static_cast<std::size_t>(env_long("HAPTICD_LOOP_CYCLES", 5000));
   const Nanos period{env_long("HAPTICD_LOOP_PERIOD_US", 1000) * 1000};
-  RtOptions options;
+  hapticd::daemon::system::RtOptions options;
   options.priority = static_cast<int>(env_long("HAPTICD_LOOP_PRIORITY", 80));
   if (const long cpu = env_long("HAPTICD_LOOP_CPU", -1); cpu >= 0) options.cpus = {static_cast<int>(cpu)};
 
   for (auto _ : state) {
     std::vector<std::int64_t> latencies(cycles);  // allocated before the loop runs
     auto stats = std::make_unique<CycleStats>();
-    RtSetupReport report;
+    hapticd::daemon::system::RtSetupReport report;
     std::uint64_t overruns = 0, missed = 0;
     Nanos elapsed{0};
     std::thread rt([&] {
-      report = configure_realtime(options);
+      report = hapticd::daemon::system::configure_realtime(options);
       RealClock clock;
       PeriodicSchedule schedule(clock, period);
       schedule.start();

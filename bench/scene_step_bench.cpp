@@ -134,7 +134,7 @@ void BM_IntegratorAccuracy(benchmark::State& state) {
   const double t = static_cast<double>(state.range(1)) * 1e-4;
   state.SetLabel(std::string(to_string(integrator)) + " T=" + std::to_string(t * 1e3) + "ms");
   const double k = scene_defaults::wheel_stiffness;
-  const double z0 = hapticd::units::deg_to_rad(45.0);
+  const double z0 = hapticd::world::units::deg_to_rad(45.0);
   const double wn = std::sqrt(k / scene_defaults::wheel_inertia);
   SpringScene<SpringDamping::none> scene(spring(0.0, integrator), t);
   scene.reset(0.0);

@@ -18,31 +18,31 @@ std::string with_unit(std::string what, std::string_view unit) {
 }  // namespace
 
 double positive_number(std::string_view flag, const std::string& text, std::string_view unit) {
-  const auto value = units::parse_finite(text);
+  const auto value = world::units::parse_finite(text);
   if (!value || *value <= 0.0) reject(flag, text, with_unit("a finite number > 0", unit));
   return *value;
 }
 
 double non_negative_number(std::string_view flag, const std::string& text, std::string_view unit) {
-  const auto value = units::parse_finite(text);
+  const auto value = world::units::parse_finite(text);
   if (!value || *value < 0.0) reject(flag, text, with_unit("a finite number >= 0", unit));
   return *value;
 }
 
 double positive_duration(std::string_view flag, const std::string& text) {
-  const auto value = units::parse_duration_s(text);
+  const auto value = world::units::parse_duration_s(text);
   if (!value || *value <= 0.0) reject(flag, text, "a duration > 0 such as 1ms, 250us or 0.001s");
   return *value;
 }
 
 double non_negative_duration(std::string_view flag, const std::string& text) {
-  const auto value = units::parse_duration_s(text);
+  const auto value = world::units::parse_duration_s(text);
   if (!value || *value < 0.0) reject(flag, text, "a duration >= 0 such as 0, 2ms, 250us or 0.002s");
   return *value;
 }
 
 int whole_number(std::string_view flag, const std::string& text, int min, int max) {
-  const auto value = units::parse_finite(text);
+  const auto value = world::units::parse_finite(text);
   if (!value || *value != std::floor(*value) || *value < min || *value > max) {
     reject(flag, text, "a whole number from " + std::to_string(min) + " to " + std::to_string(max));
   }

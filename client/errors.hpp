@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "daemon/control/jsonrpc.hpp"
+#include "rpc/jsonrpc.hpp"
 
 namespace hapticd::client {
 

@@ -8,7 +8,7 @@ add_library(hapticd_daemon_core STATIC
 target_include_directories(hapticd_daemon_core PUBLIC ${PROJECT_SOURCE_DIR})
 target_compile_definitions(hapticd_daemon_core PUBLIC HAPTICD_VERSION="${PROJECT_VERSION}")
 target_link_libraries(hapticd_daemon_core
-  PUBLIC hapticd_rt hapticd_analysis hapticd_world hapticd_driver_loopback hapticd_config hapticd_recorder
+  PUBLIC hapticd_rt hapticd_system hapticd_analysis hapticd_world hapticd_driver_loopback hapticd_config hapticd_recorder
          hapticd_control nlohmann_json::nlohmann_json
   PRIVATE hapticd_warnings)
 

@@ -90,22 +90,22 @@ int main(int argc, char** argv) {
 
   try {
     hapticd::daemon::ServiceOptions options;
-    options.config =
-        config_path.empty() ? hapticd::config::default_config() : hapticd::config::load_config(config_path);
+    options.config = config_path.empty() ? hapticd::daemon::config::default_config()
+                                         : hapticd::daemon::config::load_config(config_path);
     auto& loop = options.config.loop;
     if (require_rt) loop.require_rt = true;
     if (!clock.empty()) {
       if (clock == "real") {
-        loop.clock = hapticd::config::ClockKind::real;
+        loop.clock = hapticd::daemon::config::ClockKind::real;
       } else if (clock == "virtual") {
-        loop.clock = hapticd::config::ClockKind::virtual_clock;
+        loop.clock = hapticd::daemon::config::ClockKind::virtual_clock;
       } else {
         std::cerr << "hapticd: --clock: '" << clock << "' is not accepted; accepted: real, virtual\n";
         return 2;
       }
     }
     if (!duration.empty()) {
-      const auto d = hapticd::units::parse_duration_s(duration);
+      const auto d = hapticd::world::units::parse_duration_s(duration);
       if (!d || *d <= 0) {
         std::cerr << "hapticd: --duration: '" << duration
                   << "' is not accepted; expected a duration > 0 such as 10s or 500ms\n";
@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     return service.run();
-  } catch (const hapticd::config::ConfigError& e) {
+  } catch (const hapticd::daemon::config::ConfigError& e) {
     std::cerr << "hapticd: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {

@@ -13,7 +13,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "daemon/rt/systemd_notify.hpp"
+#include "daemon/system/systemd_notify.hpp"
 #include "daemon/version.hpp"
 
 namespace hapticd::daemon {
@@ -173,7 +173,7 @@ CurrentScene Service::scene_from(const PlannedScene& planned, const world::Param
 }
 
 std::uint64_t Service::publish(const PlannedScene& planned) {
-  auto plan = std::make_unique<LoopPlan>();
+  auto plan = std::make_unique<engine::LoopPlan>();
   plan->scene = planned.plan.scene_object;
   plan->torque_limit = options_.config.device.torque_limit;
   plan->unstable_forced = planned.forced;
@@ -243,28 +243,30 @@ json Service::status() const {
     std::lock_guard lock(scene_mutex_);
     scene = scene_;
   }
-  const FaultReason fault = engine_->fault();
-  json out{{"version", version},
-           {"state", engine_->finished() ? "stopped" : (fault == FaultReason::none ? "running" : "fault")},
-           {"fault", fault == FaultReason::none ? json(nullptr) : json(std::string(to_string(fault)))},
-           {"cycle", engine_->cycle()},
-           {"time_s", static_cast<double>(engine_->cycle()) * cfg.loop.period_s},
-           {"period_s", cfg.loop.period_s},
-           {"clock", config::to_string(cfg.loop.clock)},
-           {"torque_limit", cfg.device.torque_limit},
-           {"device",
-            {{"driver", model_.info.driver},
-             {"motion", model_.info.motion == drivers::Motion::rotary ? "rotary" : "linear"},
-             {"description", model_.describe()},
-             {"effective_mass", model_.info.effective_mass},
-             {"delay_samples", model_.info.inherent_delay_samples}}},
-           {"scene",
-            {{"name", scene.name},
-             {"parameters", to_json(scene.resolved, scene.name)},
-             {"units", parameter_units(scene.name, model_.motion())},
-             {"stability", to_json(scene.stability)},
-             {"forced", scene.forced},
-             {"effective_cycle", scene.effective_cycle}}}};
+  const engine::FaultReason fault = engine_->fault();
+  json out{
+      {"version", version},
+      {"state", engine_->finished() ? "stopped" : (fault == engine::FaultReason::none ? "running" : "fault")},
+      {"fault",
+       fault == engine::FaultReason::none ? json(nullptr) : json(std::string(engine::to_string(fault)))},
+      {"cycle", engine_->cycle()},
+      {"time_s", static_cast<double>(engine_->cycle()) * cfg.loop.period_s},
+      {"period_s", cfg.loop.period_s},
+      {"clock", config::to_string(cfg.loop.clock)},
+      {"torque_limit", cfg.device.torque_limit},
+      {"device",
+       {{"driver", model_.info.driver},
+        {"motion", model_.info.motion == drivers::Motion::rotary ? "rotary" : "linear"},
+        {"description", model_.describe()},
+        {"effective_mass", model_.info.effective_mass},
+        {"delay_samples", model_.info.inherent_delay_samples}}},
+      {"scene",
+       {{"name", scene.name},
+        {"parameters", to_json(scene.resolved, scene.name)},
+        {"units", parameter_units(scene.name, model_.motion())},
+        {"stability", to_json(scene.stability)},
+        {"forced", scene.forced},
+        {"effective_cycle", scene.effective_cycle}}}};
   if (rt_report_ != nullptr) {
     out["realtime"] = {{"scheduler_set", rt_report_->scheduler_set},
                        {"priority", rt_report_->priority},
@@ -539,10 +541,11 @@ void Service::register_methods(control::ControlServer& server) {
       "fault.clear",
       [this](const json&, const PeerInfo&) {
         if (device_.loopback != nullptr) device_.loopback->clear_faults();
-        const FaultReason before = engine_->fault();
+        const engine::FaultReason before = engine_->fault();
         engine_->clear_fault();
         return json{
-            {"cleared", before == FaultReason::none ? json(nullptr) : json(std::string(to_string(before)))},
+            {"cleared", before == engine::FaultReason::none ? json(nullptr)
+                                                            : json(std::string(engine::to_string(before)))},
             {"cycle", engine_->cycle()}};
       },
       Access::write);
@@ -551,7 +554,7 @@ void Service::register_methods(control::ControlServer& server) {
       "estop",
       [this](const json&, const PeerInfo&) {
         engine_->estop();
-        return json{{"fault", std::string(to_string(engine_->fault()))}, {"cycle", engine_->cycle()}};
+        return json{{"fault", std::string(engine::to_string(engine_->fault()))}, {"cycle", engine_->cycle()}};
       },
       // Read access by design (docs/protocol.md): anyone who can connect may
       // stop the device; only writers can clear it (fault.clear).
@@ -577,7 +580,7 @@ int Service::run() {
     clock_ = std::make_unique<rt::RealClock>();
   }
 
-  EngineOptions eo;
+  engine::EngineOptions eo;
   eo.period = rt::Nanos(static_cast<std::int64_t>(std::llround(cfg.loop.period_s * 1e9)));
   // With the virtual clock the loop never sleeps: running it SCHED_FIFO would
   // starve the machine, so it stays a normal thread.
@@ -593,7 +596,7 @@ int Service::run() {
   eo.wait_for_telemetry_space = virtual_clock;
 
   device_.device->start();
-  engine_ = std::make_unique<Engine>(eo, *device_.device, *clock_);
+  engine_ = std::make_unique<engine::Engine>(eo, *device_.device, *clock_);
 
   const auto directory = config::resolve_recording_directory(
       cfg.recorder, std::getenv("STATE_DIRECTORY"));  // NOLINT(concurrency-mt-unsafe): start-up, no setenv
@@ -658,7 +661,7 @@ int Service::run() {
             << cfg.loop.period_s * 1e3 << " ms, " << config::to_string(cfg.loop.clock) << " clock, scene "
             << initial_.plan.scene << "; control socket " << server_->socket_path() << std::endl;
 
-  rt::SystemdNotifier notifier;
+  hapticd::daemon::system::SystemdNotifier notifier;
   notifier.ready();
   notifier.status("running scene " + initial_.plan.scene);
   const auto watchdog_every = notifier.watchdog_interval().value_or(std::chrono::microseconds(0)) / 2;

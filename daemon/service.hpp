@@ -19,7 +19,7 @@
 #include "daemon/engine/engine.hpp"
 #include "daemon/planner.hpp"
 #include "daemon/recorder/recorder.hpp"
-#include "daemon/rt/clock.hpp"
+#include "rt/clock.hpp"
 
 namespace hapticd::daemon {
 
@@ -75,10 +75,10 @@ class Service {
   PlannedScene initial_;
   world::ParameterSet initial_requested_;
   std::unique_ptr<rt::Clock> clock_;
-  std::unique_ptr<Engine> engine_;
+  std::unique_ptr<engine::Engine> engine_;
   std::unique_ptr<recorder::Recorder> recorder_;
   std::unique_ptr<control::ControlServer> server_;
-  const rt::RtSetupReport* rt_report_ = nullptr;
+  const hapticd::daemon::system::RtSetupReport* rt_report_ = nullptr;
 
   mutable std::mutex scene_mutex_;
   CurrentScene scene_;

@@ -3,7 +3,7 @@
 #include <charconv>
 #include <cmath>
 
-namespace hapticd::units {
+namespace hapticd::world::units {
 
 std::optional<double> parse_finite(std::string_view text) noexcept {
   while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
@@ -34,4 +34,4 @@ std::optional<double> parse_duration_s(std::string_view text) noexcept {
   return *value * scale;
 }
 
-}  // namespace hapticd::units
+}  // namespace hapticd::world::units

@@ -8,7 +8,7 @@
 #include <optional>
 #include <string_view>
 
-namespace hapticd::units {
+namespace hapticd::world::units {
 
 inline constexpr double pi = std::numbers::pi;
 
@@ -31,4 +31,4 @@ std::optional<double> parse_duration_s(std::string_view text) noexcept;
 /// Parses a finite floating-point number; nothing on any trailing text, NaN or Inf.
 std::optional<double> parse_finite(std::string_view text) noexcept;
 
-}  // namespace hapticd::units
+}  // namespace hapticd::world::units

@@ -11,7 +11,7 @@
 
 #include "world/units.hpp"
 
-namespace hapticd::config {
+namespace hapticd::daemon::config {
 
 namespace {
 
@@ -196,7 +196,7 @@ class Parser {
         std::string(range_text) + " (a string with suffix s, ms or us, or a number of seconds)";
     double value = 0.0;
     if (const auto* s = node.as_string()) {
-      const auto parsed = units::parse_duration_s(s->get());
+      const auto parsed = world::units::parse_duration_s(s->get());
       if (!parsed) {
         fail(node.source(), key, key + " = " + render(node) + " is not a duration; accepted: " + accepted);
       }
@@ -485,4 +485,4 @@ std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder
   return ".";
 }
 
-}  // namespace hapticd::config
+}  // namespace hapticd::daemon::config

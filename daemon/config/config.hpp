@@ -20,7 +20,7 @@
 #include <variant>
 #include <vector>
 
-namespace hapticd::config {
+namespace hapticd::daemon::config {
 
 /// Same alternatives as world::ParameterValue (world/scene_catalog.hpp).
 /// TOML integers are stored as double.
@@ -144,4 +144,4 @@ std::string_view default_config_text() noexcept;
 std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder,
                                                   const char* state_directory_env);
 
-}  // namespace hapticd::config
+}  // namespace hapticd::daemon::config

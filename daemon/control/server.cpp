@@ -28,7 +28,7 @@
 
 #include "client/socket_path.hpp"
 
-namespace hapticd::control {
+namespace hapticd::daemon::control {
 
 namespace {
 
@@ -835,4 +835,4 @@ ServerStats ControlServer::stats() const {
   return impl_->counters;
 }
 
-}  // namespace hapticd::control
+}  // namespace hapticd::daemon::control

@@ -17,9 +17,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "daemon/control/jsonrpc.hpp"
+#include "rpc/jsonrpc.hpp"
 
-namespace hapticd::control {
+namespace hapticd::daemon::control {
 
 using rpc::RpcError;
 
@@ -129,4 +129,4 @@ class ControlServer {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace hapticd::control
+}  // namespace hapticd::daemon::control

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::engine {
 
 namespace {
 void bump(std::atomic<std::uint64_t>& counter) noexcept { rt::single_writer_add(counter, std::uint64_t{1}); }
@@ -17,7 +17,7 @@ Engine::Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock)
 
 Engine::~Engine() { stop(); }
 
-const rt::RtSetupReport& Engine::start() {
+const hapticd::daemon::system::RtSetupReport& Engine::start() {
   thread_ = std::thread([this] { thread_main(); });
   started_.wait(false, std::memory_order_acquire);
   return rt_report_;
@@ -51,7 +51,7 @@ EngineCounters Engine::counters() const noexcept {
 }
 
 void Engine::thread_main() {
-  rt_report_ = rt::configure_realtime(options_.realtime);
+  rt_report_ = hapticd::daemon::system::configure_realtime(options_.realtime);
   const bool fatal = rt_report_.fatal;
   started_.store(true, std::memory_order_release);
   started_.notify_all();
@@ -167,4 +167,4 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   telemetry_.try_push(sample);
 }
 
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::engine

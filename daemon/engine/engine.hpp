@@ -17,23 +17,23 @@
 
 #include "daemon/engine/loop_plan.hpp"
 #include "daemon/engine/safety.hpp"
-#include "daemon/rt/clock.hpp"
-#include "daemon/rt/cycle_stats.hpp"
-#include "daemon/rt/mailbox.hpp"
-#include "daemon/rt/rt_setup.hpp"
-#include "daemon/rt/spsc_ring.hpp"
+#include "daemon/system/rt_setup.hpp"
 #include "daemon/telemetry.hpp"
 #include "drivers/device.hpp"
+#include "rt/clock.hpp"
+#include "rt/cycle_stats.hpp"
+#include "rt/mailbox.hpp"
+#include "rt/spsc_ring.hpp"
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::engine {
 
 struct EngineOptions {
   rt::Nanos period{1'000'000};
-  rt::RtOptions realtime;                     ///< applied on the loop thread at start
-  std::uint32_t overrun_limit = 10;           ///< consecutive overruns that latch a fault (0: never)
-  std::uint32_t read_error_limit = 10;        ///< consecutive read errors that latch a fault (0: never)
-  std::optional<rt::Nanos> duration;          ///< stop by itself after this much loop time
-  std::size_t telemetry_capacity = 1u << 14;  ///< samples; a power of two
+  hapticd::daemon::system::RtOptions realtime;  ///< applied on the loop thread at start
+  std::uint32_t overrun_limit = 10;             ///< consecutive overruns that latch a fault (0: never)
+  std::uint32_t read_error_limit = 10;          ///< consecutive read errors that latch a fault (0: never)
+  std::optional<rt::Nanos> duration;            ///< stop by itself after this much loop time
+  std::size_t telemetry_capacity = 1u << 14;    ///< samples; a power of two
   /// Virtual clock only: wait for ring space instead of dropping a sample.
   /// Simulated time is not real time, so a deterministic run that loses
   /// nothing is worth more than speed; never set with the real clock.
@@ -59,7 +59,7 @@ class Engine {
 
   /// Starts the loop thread and waits until it has configured itself.
   /// Returns its real-time report (check `fatal`).
-  const rt::RtSetupReport& start();
+  const hapticd::daemon::system::RtSetupReport& start();
   /// Asks the loop to stop at the next period boundary and joins it.
   void stop() noexcept;
   /// True once the loop has ended (stopped, or reached its duration).
@@ -120,8 +120,8 @@ class Engine {
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> finished_{false};
   std::atomic<bool> started_{false};
-  rt::RtSetupReport rt_report_;
+  hapticd::daemon::system::RtSetupReport rt_report_;
   std::thread thread_;
 };
 
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::engine

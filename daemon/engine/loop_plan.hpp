@@ -10,7 +10,7 @@
 
 #include "world/any_scene.hpp"
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::engine {
 
 struct LoopPlan {
   world::AnyScene scene;
@@ -18,4 +18,4 @@ struct LoopPlan {
   bool unstable_forced = false;  ///< loaded with force=true although analysis says unstable
 };
 
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::engine

@@ -1,6 +1,6 @@
 #include "daemon/engine/safety.hpp"
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::engine {
 
 std::string_view to_string(FaultReason reason) noexcept {
   switch (reason) {
@@ -24,4 +24,4 @@ std::string_view to_string(FaultReason reason) noexcept {
   return "unknown";
 }
 
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::engine

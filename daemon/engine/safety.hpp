@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <string_view>
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::engine {
 
 /// Why the output is held at zero. The first reason latched wins.
 enum class FaultReason : std::uint8_t {
@@ -72,4 +72,4 @@ class StreakCounter {
   std::uint32_t streak_ = 0;
 };
 
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::engine

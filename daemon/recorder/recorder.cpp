@@ -15,7 +15,7 @@
 #define HAPTICD_VERSION "unknown"
 #endif
 
-namespace hapticd::recorder {
+namespace hapticd::daemon::recorder {
 
 namespace {
 
@@ -540,4 +540,4 @@ void Recorder::run() {
   }
 }
 
-}  // namespace hapticd::recorder
+}  // namespace hapticd::daemon::recorder

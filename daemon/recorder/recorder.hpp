@@ -38,7 +38,7 @@
 
 #include "daemon/telemetry.hpp"
 
-namespace hapticd::recorder {
+namespace hapticd::daemon::recorder {
 
 using daemon::ChannelDescription;
 using daemon::TelemetrySample;
@@ -208,4 +208,4 @@ class Recorder {
   std::thread thread_;
 };
 
-}  // namespace hapticd::recorder
+}  // namespace hapticd::daemon::recorder

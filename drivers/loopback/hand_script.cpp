@@ -58,7 +58,7 @@ Trajectory::Sample Trajectory::at_time(double t) const noexcept {
       return {from + direction * travelled, direction * rate};
     }
     case TrajectoryKind::sine: {
-      const double w = 2.0 * units::pi * frequency;
+      const double w = 2.0 * world::units::pi * frequency;
       const double angle = w * t + phase;
       return {position + amplitude * std::sin(angle), amplitude * w * std::cos(angle)};
     }
@@ -133,7 +133,7 @@ HandScript parse_hand_script(std::string_view text) {
     return nullptr;
   };
   auto number = [](std::string_view key, const std::string& value) {
-    const auto parsed = units::parse_finite(value);
+    const auto parsed = world::units::parse_finite(value);
     if (!parsed) fail(std::string(key) + "=" + value + " is not a finite number");
     return *parsed;
   };

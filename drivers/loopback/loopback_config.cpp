@@ -24,7 +24,7 @@ std::string number_text(double value) {
 }
 
 double parse_number(std::string_view key, std::string_view value) {
-  const auto parsed = units::parse_finite(value);
+  const auto parsed = world::units::parse_finite(value);
   if (!parsed) fail(std::string(key) + "=" + std::string(value) + " is not a finite number");
   return *parsed;
 }
@@ -48,7 +48,7 @@ LoopbackConfig LoopbackConfig::defaults(Motion motion) {
 }
 
 double LoopbackConfig::resolution() const noexcept {
-  return motion == Motion::rotary ? 2.0 * units::pi / counts : 1.0 / counts;
+  return motion == Motion::rotary ? 2.0 * world::units::pi / counts : 1.0 / counts;
 }
 
 double LoopbackConfig::total_mass() const noexcept {
@@ -186,7 +186,7 @@ LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, st
       }
       config.delay = delay;
     } else if (key == "period") {
-      const auto period = units::parse_duration_s(value);
+      const auto period = world::units::parse_duration_s(value);
       if (!period) fail("period=" + value + " is not a duration (e.g. 0.001, 1ms, 250us)");
       config.period_s = *period;
     } else {

@@ -119,7 +119,7 @@ std::unique_ptr<PreparedHand> LoopbackDevice::prepare(const HandScript& script) 
   }
   prepared->kind = HandKind::impedance;
   const double m = config_.total_mass();
-  const double w = 2.0 * units::pi * default_hold_frequency_hz;
+  const double w = 2.0 * world::units::pi * default_hold_frequency_hz;
   if (script.mode == HandMode::hold) {
     prepared->stiffness = script.stiffness.value_or(m * w * w);
     prepared->damping = script.damping.value_or(2.0 * std::sqrt(prepared->stiffness * m));

@@ -24,10 +24,10 @@
 #include <string_view>
 #include <vector>
 
-#include "daemon/rt/seqlock.hpp"
 #include "drivers/device.hpp"
 #include "drivers/loopback/hand_script.hpp"
 #include "drivers/loopback/loopback_config.hpp"
+#include "rt/seqlock.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::drivers::loopback {

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::config {
+namespace hapticd::daemon::config {
 namespace {
 
 /// Parses text as file "t.toml" and returns the ConfigError's what(), or
@@ -347,4 +347,4 @@ TEST(ConfigHelpers, RingCapacity) {
 }
 
 }  // namespace
-}  // namespace hapticd::config
+}  // namespace hapticd::daemon::config

@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::config {
+namespace hapticd::daemon::config {
 namespace {
 
 const std::filesystem::path config_dir = std::filesystem::path(HAPTICD_SOURCE_DIR) / "config";
@@ -83,4 +83,4 @@ TEST(ShippedConfigs, PaperValuesAreThePapers) {
 }
 
 }  // namespace
-}  // namespace hapticd::config
+}  // namespace hapticd::daemon::config

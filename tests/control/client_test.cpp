@@ -62,7 +62,7 @@ TEST(SocketPath, ResolutionOrder) {
 }
 
 TEST(ClientConnect, MissingSocketIsConnectErrorNamingThePath) {
-  hapticd::control::test::TempDir dir;
+  hapticd::daemon::control::test::TempDir dir;
   std::string path = dir.file("absent.sock");
   try {
     Client::connect(path, 1s);

@@ -16,7 +16,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::control::test {
+namespace hapticd::daemon::control::test {
 
 class TempDir {
  public:
@@ -115,4 +115,4 @@ bool eventually(Pred pred, std::chrono::milliseconds timeout = std::chrono::seco
   return pred();
 }
 
-}  // namespace hapticd::control::test
+}  // namespace hapticd::daemon::control::test

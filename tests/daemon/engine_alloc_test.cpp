@@ -15,19 +15,19 @@
 #include <vector>
 
 #include "daemon/engine/engine.hpp"
-#include "daemon/rt/alloc_counter.hpp"
-#include "daemon/rt/clock.hpp"
-#include "daemon/rt/loop_timing.hpp"
 #include "drivers/loopback/loopback_device.hpp"
+#include "rt/clock.hpp"
+#include "rt/loop_timing.hpp"
+#include "tests/support/alloc_counter.hpp"
 #include "world/scene_catalog.hpp"
 
 namespace {
 
-using hapticd::daemon::Engine;
-using hapticd::daemon::EngineOptions;
-using hapticd::daemon::FaultReason;
-using hapticd::daemon::LoopPlan;
 using hapticd::daemon::TelemetrySample;
+using hapticd::daemon::engine::Engine;
+using hapticd::daemon::engine::EngineOptions;
+using hapticd::daemon::engine::FaultReason;
+using hapticd::daemon::engine::LoopPlan;
 using hapticd::testing::AllocationGuard;
 namespace loopback = hapticd::drivers::loopback;
 namespace world = hapticd::world;

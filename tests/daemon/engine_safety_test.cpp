@@ -14,18 +14,18 @@
 #include <vector>
 
 #include "daemon/engine/engine.hpp"
-#include "daemon/rt/clock.hpp"
-#include "daemon/rt/loop_timing.hpp"
 #include "drivers/loopback/loopback_device.hpp"
+#include "rt/clock.hpp"
+#include "rt/loop_timing.hpp"
 #include "world/scene_catalog.hpp"
 
 namespace {
 
-using hapticd::daemon::Engine;
-using hapticd::daemon::EngineOptions;
-using hapticd::daemon::FaultReason;
-using hapticd::daemon::LoopPlan;
 using hapticd::daemon::TelemetrySample;
+using hapticd::daemon::engine::Engine;
+using hapticd::daemon::engine::EngineOptions;
+using hapticd::daemon::engine::FaultReason;
+using hapticd::daemon::engine::LoopPlan;
 namespace loopback = hapticd::drivers::loopback;
 namespace world = hapticd::world;
 namespace rt = hapticd::rt;

@@ -17,7 +17,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::recorder {
+namespace hapticd::daemon::recorder {
 namespace {
 
 using namespace std::chrono_literals;
@@ -517,4 +517,4 @@ TEST(Recorder, StreamsGetEveryDrainedSampleRecordingOrNot) {
 }
 
 }  // namespace
-}  // namespace hapticd::recorder
+}  // namespace hapticd::daemon::recorder

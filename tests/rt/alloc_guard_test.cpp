@@ -1,4 +1,4 @@
-#include "daemon/rt/alloc_counter.hpp"
+#include "tests/support/alloc_counter.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,10 +6,10 @@
 #include <thread>
 #include <vector>
 
-#include "daemon/rt/cycle_stats.hpp"
-#include "daemon/rt/loop_timing.hpp"
-#include "daemon/rt/mailbox.hpp"
-#include "daemon/rt/spsc_ring.hpp"
+#include "rt/cycle_stats.hpp"
+#include "rt/loop_timing.hpp"
+#include "rt/mailbox.hpp"
+#include "rt/spsc_ring.hpp"
 
 using hapticd::testing::AllocationGuard;
 using namespace hapticd::rt;

@@ -1,8 +1,8 @@
-#include "daemon/rt/cycle_stats.hpp"
+#include "rt/cycle_stats.hpp"
 
 #include <gtest/gtest.h>
 
-#include "daemon/rt/loop_timing.hpp"
+#include "rt/loop_timing.hpp"
 
 using hapticd::rt::CycleStats;
 using hapticd::rt::Nanos;

@@ -1,4 +1,4 @@
-#include "daemon/rt/latency_stats.hpp"
+#include "rt/latency_stats.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "daemon/rt/loop_timing.hpp"
+#include "rt/loop_timing.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "daemon/rt/mailbox.hpp"
+#include "rt/mailbox.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "daemon/rt/spsc_ring.hpp"
+#include "rt/spsc_ring.hpp"
 
 #include <gtest/gtest.h>
 

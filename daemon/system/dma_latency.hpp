@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 
 class CpuDmaLatencyRequest {
  public:
@@ -30,4 +30,4 @@ class CpuDmaLatencyRequest {
   int fd_ = -1;
 };
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

@@ -18,8 +18,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "daemon/rt/clock.hpp"
-#include "daemon/rt/seqlock.hpp"
+#include "rt/clock.hpp"
+#include "rt/seqlock.hpp"
 
 namespace hapticd::rt {
 

@@ -1,4 +1,4 @@
-#include "daemon/rt/clock.hpp"
+#include "rt/clock.hpp"
 
 #include <cerrno>
 #include <ctime>

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "daemon/rt/dma_latency.hpp"
+#include "daemon/system/dma_latency.hpp"
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 
 struct RtOptions {
   int priority = 80;        ///< SCHED_FIFO 1..99; 0 = leave the scheduler alone
@@ -50,4 +50,4 @@ RtSetupReport configure_realtime(const RtOptions& options);
 /// stack size minus a safety margin. Returns the bytes touched.
 std::size_t prefault_stack(std::size_t bytes) noexcept;
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

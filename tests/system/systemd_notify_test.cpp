@@ -1,4 +1,4 @@
-#include "daemon/rt/systemd_notify.hpp"
+#include "daemon/system/systemd_notify.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <string>
 
-using hapticd::rt::SystemdNotifier;
+using hapticd::daemon::system::SystemdNotifier;
 
 namespace {
 

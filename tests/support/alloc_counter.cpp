@@ -1,7 +1,7 @@
 // Replacement global allocation functions (all the forms [new.delete] lets a
 // program replace), counting per thread while armed. Plain malloc/free
 // underneath, so sanitizers still see every allocation.
-#include "daemon/rt/alloc_counter.hpp"
+#include "tests/support/alloc_counter.hpp"
 
 #include <cstdlib>
 #include <new>

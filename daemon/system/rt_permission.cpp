@@ -1,4 +1,4 @@
-#include "daemon/rt/rt_permission.hpp"
+#include "daemon/system/rt_permission.hpp"
 
 #include <sys/resource.h>
 
@@ -11,7 +11,7 @@
 #include <system_error>
 #include <vector>
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 namespace {
 
 constexpr int cap_sys_nice = 23;  // linux/capability.h
@@ -149,4 +149,4 @@ std::string explain_sched_failure(const SchedPermissionFacts& f) {
   return m.str();
 }
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

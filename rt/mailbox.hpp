@@ -29,8 +29,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "daemon/rt/seqlock.hpp"
-#include "daemon/rt/spsc_ring.hpp"
+#include "rt/seqlock.hpp"
+#include "rt/spsc_ring.hpp"
 
 namespace hapticd::rt {
 

@@ -11,7 +11,7 @@
 #include <optional>
 #include <string_view>
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 
 class SystemdNotifier {
  public:
@@ -36,4 +36,4 @@ class SystemdNotifier {
   std::optional<std::chrono::microseconds> watchdog_;
 };
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

@@ -1,4 +1,4 @@
-#include "daemon/rt/systemd_notify.hpp"
+#include "daemon/system/systemd_notify.hpp"
 
 #include <systemd/sd-daemon.h>
 
@@ -7,7 +7,7 @@
 #include <string>
 #include <system_error>
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 
 SystemdNotifier::SystemdNotifier() {
   const char* socket = std::getenv("NOTIFY_SOCKET");  // NOLINT(concurrency-mt-unsafe): no setenv anywhere
@@ -34,4 +34,4 @@ bool SystemdNotifier::status(std::string_view text) {
   return send(s);
 }
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

@@ -12,9 +12,9 @@
 #include <atomic>
 #include <cstdint>
 
-#include "daemon/rt/latency_stats.hpp"
-#include "daemon/rt/loop_timing.hpp"
-#include "daemon/rt/seqlock.hpp"
+#include "rt/latency_stats.hpp"
+#include "rt/loop_timing.hpp"
+#include "rt/seqlock.hpp"
 
 namespace hapticd::rt {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <string_view>
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 
 struct SchedPermissionFacts {
   int error = 0;  ///< errno of the failed sched call
@@ -39,4 +39,4 @@ bool status_has_effective_cap(std::string_view proc_status, int cap);
 std::optional<std::string> find_cgroup_rt_runtime_file(std::string_view proc_self_cgroup,
                                                        const std::string& cgroup_root = "/sys/fs/cgroup");
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

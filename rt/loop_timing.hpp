@@ -13,7 +13,7 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "daemon/rt/clock.hpp"
+#include "rt/clock.hpp"
 
 namespace hapticd::rt {
 

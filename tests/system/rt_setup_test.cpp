@@ -1,4 +1,4 @@
-#include "daemon/rt/rt_setup.hpp"
+#include "daemon/system/rt_setup.hpp"
 
 #include <gtest/gtest.h>
 #include <pthread.h>
@@ -13,9 +13,10 @@
 #include <string>
 #include <thread>
 
-#include "daemon/rt/rt_permission.hpp"
+#include "daemon/system/rt_permission.hpp"
 
-using namespace hapticd::rt;
+using namespace hapticd::daemon::system;
+using Nanos = std::chrono::nanoseconds;
 
 namespace {
 bool contains(const std::string& s, const char* part) { return s.find(part) != std::string::npos; }

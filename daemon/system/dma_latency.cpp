@@ -1,4 +1,4 @@
-#include "daemon/rt/dma_latency.hpp"
+#include "daemon/system/dma_latency.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -7,7 +7,7 @@
 #include <cstring>
 #include <system_error>
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 
 CpuDmaLatencyRequest CpuDmaLatencyRequest::open(std::int32_t max_latency_us, std::string* error,
                                                 const char* path) {
@@ -46,4 +46,4 @@ void CpuDmaLatencyRequest::release() noexcept {
   fd_ = -1;
 }
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system

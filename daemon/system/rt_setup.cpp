@@ -1,4 +1,4 @@
-#include "daemon/rt/rt_setup.hpp"
+#include "daemon/system/rt_setup.hpp"
 
 #include <alloca.h>
 #include <pthread.h>
@@ -11,9 +11,9 @@
 #include <cstring>
 #include <system_error>
 
-#include "daemon/rt/rt_permission.hpp"
+#include "daemon/system/rt_permission.hpp"
 
-namespace hapticd::rt {
+namespace hapticd::daemon::system {
 namespace {
 
 constexpr std::size_t page = 4096;
@@ -134,4 +134,4 @@ RtSetupReport configure_realtime(const RtOptions& o) {
   return r;
 }
 
-}  // namespace hapticd::rt
+}  // namespace hapticd::daemon::system
