@@ -8,7 +8,6 @@
 
 #include "analysis/closed_loop.hpp"
 #include "analysis/wall_stability.hpp"
-#include "drivers/loopback/loopback_device.hpp"
 
 namespace hapticd::daemon {
 
@@ -60,19 +59,18 @@ std::string DeviceModel::describe() const {
   if (info.viscous_damping > 0) {
     s += ", b = " + num(info.viscous_damping) + (rotary ? " N m s/rad" : " N s/m");
   }
-  s += ", T = " + num(period_s * 1e3) + " ms, d = " + std::to_string(info.inherent_delay_samples);
+  s += ", T = " + num(period_s * 1e3) + " ms, d = " + std::to_string(info.delay_periods);
   if (plant.dynamics.a.rows() == 4) s += ", two-mass (" + std::string(world::to_string(sensor)) + " sensing)";
   return s;
 }
 
-DeviceModel make_device_model(const drivers::Device& device,
-                              const drivers::loopback::LoopbackDevice* loopback, double period_s) {
+DeviceModel make_device_model(const drivers::Device& device, double period_s) {
   DeviceModel model;
-  model.info = device.info();
+  model.info = device.model();
   model.period_s = period_s;
-  if (loopback != nullptr) {
-    model.plant = loopback->plant_model();
-    model.sensor = loopback->config().sensor;
+  if (model.info.plant) {
+    model.plant = *model.info.plant;
+    model.sensor = model.info.sensor;
   } else {
     model.plant = world::RigidPlant{model.info.effective_mass, model.info.viscous_damping}.model();
   }
@@ -88,7 +86,7 @@ StabilityVerdict check_stability(const world::ScenePlan& plan, const DeviceModel
   v.checked = true;
   v.scene_radius = radius_of(plan.linear->a);
   const auto closed = analysis::analyze_closed_loop(device.plant, device.sensor, *plan.linear,
-                                                    device.period_s, device.info.inherent_delay_samples);
+                                                    device.period_s, device.info.delay_periods);
   v.closed_loop_radius = closed.pole_radius;
   const double worst = std::max(v.scene_radius, v.closed_loop_radius);
   v.growth_per_second = std::pow(worst, 1.0 / device.period_s);
@@ -165,7 +163,7 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
   // problem: say what his region allows.
   if (scene == "wall" && device.plant.dynamics.a.rows() == 2 && device.info.viscous_damping == 0.0) {
     const int d = static_cast<int>(std::get<double>(planned.plan.parameters.at("delay"))) +
-                  device.info.inherent_delay_samples;
+                  device.info.delay_periods;
     const auto verdict = analysis::analyze_wall(device.info.effective_mass, device.period_s, d,
                                                 std::get<double>(planned.plan.parameters.at("stiffness")),
                                                 std::get<double>(planned.plan.parameters.at("damping")));

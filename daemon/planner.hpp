@@ -16,16 +16,12 @@
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::drivers::loopback {
-class LoopbackDevice;
-}
-
 namespace hapticd::daemon {
 
-/// What the stability checks know about the device.
+/// What the stability checks know about the device, at the loop's period.
 struct DeviceModel {
-  drivers::DeviceInfo info;
-  world::LinearPlant plant;  ///< rigid from info, or the loopback's two-mass model
+  drivers::DeviceModel info;  ///< what the driver says (mass, damping, delay, optional plant)
+  world::LinearPlant plant;   ///< info.plant, or the rigid mass with its viscous damping
   world::Sensor sensor = world::Sensor::motor;
   double period_s = 1e-3;
   world::Motion motion() const noexcept {
@@ -35,8 +31,8 @@ struct DeviceModel {
   std::string describe() const;
 };
 
-DeviceModel make_device_model(const drivers::Device& device,
-                              const drivers::loopback::LoopbackDevice* loopback, double period_s);
+/// The model of a configured device for the gate.
+DeviceModel make_device_model(const drivers::Device& device, double period_s);
 
 /// The verdict that goes with a plan, reported to clients and recordings.
 struct StabilityVerdict {
