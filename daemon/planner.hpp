@@ -59,6 +59,9 @@ struct PlanRefusal {
   bool invalid = false;  ///< bad parameters (vs. valid but unstable)
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
   nlohmann::json data;   ///< e.g. {"limit": {"stiffness": ...}}
+  /// The given parameter at fault (world::SceneError::parameter); empty when
+  /// the set as a whole is refused (unstable, or it cannot be built).
+  std::string parameter{};
 };
 
 using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
