@@ -312,7 +312,10 @@ json Service::status() const {
   out["recording"] = {{"active", rec.recording},
                       {"path", rec.path.string()},
                       {"samples", rec.samples_written},
-                      {"dropped", rec.dropped_ring + rec.dropped_write}};
+                      {"dropped", rec.dropped_ring + rec.dropped_write},
+                      {"disk_full", rec.disk_full},
+                      {"resumed", rec.resumed},
+                      {"error", rec.error}};
   {
     std::lock_guard lock(latest_mutex_);
     if (latest_) out["last"] = sample_json(*latest_, {});
@@ -503,10 +506,14 @@ void Service::register_methods(control::ControlServer& server) {
         }
         return json{{"path", status.path.string()},
                     {"samples", status.samples_written},
+                    {"samples_received", status.samples_received},
                     {"sections", status.sections},
                     {"dropped_ring", status.dropped_ring},
                     {"dropped_write", status.dropped_write},
                     {"cycle_gaps", status.cycle_gaps},
+                    {"disk_full", status.disk_full},
+                    {"resumed", status.resumed},
+                    {"complete", status.complete},
                     {"error", status.error}};
       },
       Access::write);
@@ -746,7 +753,8 @@ void Service::shutdown() {
     if (recorder_->status().recording) {
       const auto s = recorder_->stop();
       std::cout << "hapticd: recording " << s.path.string() << ": " << s.samples_written << " samples, "
-                << s.dropped_ring + s.dropped_write << " dropped" << std::endl;
+                << s.dropped_ring + s.dropped_write << " dropped"
+                << (s.complete ? std::string() : "; incomplete (no trailer): " + s.error) << std::endl;
     }
     recorder_.reset();
   }
