@@ -3,8 +3,10 @@
 // and refused at the key's file:line:column with what is accepted.
 #include "daemon/config/host_checks.hpp"
 
+#include <grp.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstring>
@@ -135,18 +137,48 @@ TEST(HostChecks, RecordingDirectoryThatCannotExistIsRefusedAtTheKey) {
   EXPECT_EQ(is_file.rfind("h.toml:5:13: recorder.directory = ", 0), 0u) << is_file;
 }
 
+/// check_host's error as uid/gid 65534 (nobody) when running as root (root
+/// may write anywhere), else as ourselves.
+std::string error_as_unprivileged(const DaemonConfig& config) {
+  if (::geteuid() != 0) return error_of(config);
+  int fds[2];
+  if (::pipe(fds) != 0) return "pipe failed";
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::close(fds[0]);
+    if (::setgroups(0, nullptr) != 0 || ::setgid(65534) != 0 || ::setuid(65534) != 0) ::_exit(121);
+    const std::string message = error_of(config);
+    const ssize_t n = ::write(fds[1], message.data(), message.size());
+    ::_exit(n == static_cast<ssize_t>(message.size()) ? 0 : 122);
+  }
+  ::close(fds[1]);
+  std::string message;
+  char chunk[1024];
+  for (ssize_t n = 0; (n = ::read(fds[0], chunk, sizeof chunk)) > 0;)
+    message.append(chunk, static_cast<std::size_t>(n));
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return "child failed: " + std::to_string(status);
+  return message;
+}
+
 TEST(HostChecks, UnwritableRecordingDirectoryIsRefused) {
-  if (::geteuid() == 0) GTEST_SKIP() << "root may write into a mode 0500 directory";
   TempDir dir;
+  fs::permissions(dir.path, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                                fs::perms::others_read | fs::perms::others_exec);
   const fs::path locked = dir.path / "locked";
   fs::create_directory(locked);
-  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
-  const std::string message = error_of(config_with("", "", locked.string()));
+  // r-x for everyone: the owner too when not root; root checks as nobody.
+  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                              fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  const std::string message = error_as_unprivileged(config_with("", "", locked.string()));
   fs::permissions(locked, fs::perms::owner_all);
-  EXPECT_EQ(message.rfind("h.toml:5:13: recorder.directory = ", 0), 0u) << message;
-  EXPECT_NE(message.find("cannot create files in " + locked.string() + ": Permission denied"),
-            std::string::npos)
-      << message;
+  EXPECT_EQ(message,
+            "h.toml:5:13: recorder.directory = \"" + locked.string() + "\": cannot create files in " +
+                locked.string() +
+                ": Permission denied; accepted: \"\" ($STATE_DIRECTORY/recordings under systemd, else "
+                ".) or a directory the daemon can create files in (created if missing)");
 }
 
 TEST(HostChecks, DefaultRecordingDirectoryIsNamedWithWhereItComesFrom) {
