@@ -9,6 +9,8 @@
 #include <system_error>
 #include <vector>
 
+#include "client/socket_path.hpp"
+
 namespace hapticd::daemon::config {
 
 namespace {
@@ -43,12 +45,15 @@ std::string directory_problem(const std::filesystem::path& dir) {
 }
 
 void check_socket(const ControlConfig& control) {
-  if (control.socket.empty()) return;
   const std::string accepted =
       "; accepted: \"\" (the default path) or a path in an existing directory the daemon can create files "
       "in, free or holding a stale hapticd socket";
-  const std::string what = "control.socket = " + quoted(control.socket) + ": ";
-  const std::filesystem::path path(control.socket);
+  // The path the control server will bind: the default one for "".
+  const std::string resolved = client::resolve_socket_path(control.socket);
+  std::string what = "control.socket = " + quoted(control.socket);
+  if (control.socket.empty()) what += " (" + resolved + ")";
+  what += ": ";
+  const std::filesystem::path path(resolved);
   std::filesystem::path dir = path.parent_path();
   if (dir.empty()) dir = ".";
   if (const std::string problem = directory_problem(dir); !problem.empty()) {
@@ -57,7 +62,7 @@ void check_socket(const ControlConfig& control) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) == 0 && !S_ISSOCK(st.st_mode)) {
     throw ConfigError(control.socket_where, "control.socket",
-                      what + control.socket + " is " + std::string(file_kind(st.st_mode)) +
+                      what + resolved + " is " + std::string(file_kind(st.st_mode)) +
                           ", not a socket (hapticd never replaces it)" + accepted);
   }
 }

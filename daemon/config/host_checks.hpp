@@ -11,9 +11,10 @@ namespace hapticd::daemon::config {
 
 /// Checks, and throws ConfigError at the key's position naming what is
 /// accepted:
-///  - control.socket (when set): its directory exists and the daemon can
-///    create files in it; the path is free or an existing socket (a stale
-///    one is replaced at start-up, a live daemon's is refused then);
+///  - control.socket (for "", the default path the control server will
+///    bind, client::resolve_socket_path): its directory exists and the
+///    daemon can create files in it; the path is free or an existing socket
+///    (a stale one is replaced at start-up, a live daemon's is refused then);
 ///  - control.group (when set): the group exists;
 ///  - the recording directory (resolve_recording_directory): created if
 ///    missing, as start-up does; it must then be a directory the daemon can

@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -74,6 +75,28 @@ TEST(HostChecks, MissingSocketDirectoryIsRefusedAtTheKey) {
   const std::string message = error_of(config_with(under_file, "", dir.path.string()));
   EXPECT_EQ(message.rfind("h.toml:2:10: control.socket = ", 0), 0u) << message;
   EXPECT_NE(message.find("is a regular file, not a directory"), std::string::npos) << message;
+}
+
+TEST(HostChecks, DefaultSocketPathIsCheckedWhereItWillBeBound) {
+  // "" binds $RUNTIME_DIRECTORY/hapticd.sock, else $XDG_RUNTIME_DIR/hapticd.sock, else
+  // /tmp/hapticd-$UID.sock.
+  TempDir dir;
+  const char* runtime = std::getenv("RUNTIME_DIRECTORY");
+  const std::string saved = runtime != nullptr ? runtime : "";
+  const fs::path missing = dir.path / "run" / "user";
+  ::setenv("RUNTIME_DIRECTORY", missing.c_str(), 1);
+  const std::string message =
+      error_of(parse_config("[recorder]\ndirectory = \"" + dir.path.string() + "\"\n", "d.toml"));
+  if (runtime != nullptr) {
+    ::setenv("RUNTIME_DIRECTORY", saved.c_str(), 1);
+  } else {
+    ::unsetenv("RUNTIME_DIRECTORY");
+  }
+  EXPECT_EQ(message.rfind("d.toml: control.socket = \"\" (" + (missing / "hapticd.sock").string() +
+                              "): directory " + missing.string() + " does not exist; accepted: ",
+                          0),
+            0u)
+      << message;
 }
 
 TEST(HostChecks, SocketPathThatIsARegularFileIsRefused) {
