@@ -139,7 +139,7 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
                            const DeviceModel& device, bool force) {
   auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion());
   if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
-    return PlanRefusal{true, error->message, nullptr};
+    return PlanRefusal{true, error->message, nullptr, true, error->parameter};
   }
   PlannedScene planned{std::move(std::get<world::ScenePlan>(outcome)), {}, false};
   planned.stability = check_stability(planned.plan, device);

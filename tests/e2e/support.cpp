@@ -94,7 +94,8 @@ CommandResult run(const fs::path& program, const std::vector<std::string>& args,
   return {decode(status), slurp(out), slurp(err)};
 }
 
-Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args)
+Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args,
+               std::vector<std::string> launcher)
     : dir_(dir.path), socket_(dir.path / "hapticd.sock"), log_(dir.path / "hapticd.log") {
   std::string config = config_toml;
   if (config.find("[control]") == std::string::npos) {
@@ -107,7 +108,14 @@ Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<s
   std::ofstream(config_path) << config;
   std::vector<std::string> args{"--config", config_path.string()};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
-  pid_ = spawn(hapticd_binary(), args, log_, log_);
+  if (launcher.empty()) {
+    pid_ = spawn(hapticd_binary(), args, log_, log_);
+  } else {
+    std::vector<std::string> full(launcher.begin() + 1, launcher.end());
+    full.push_back(hapticd_binary().string());
+    full.insert(full.end(), args.begin(), args.end());
+    pid_ = spawn(launcher.front(), full, log_, log_);
+  }
   // Ready when the socket answers `status`, or when the process has exited.
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (std::chrono::steady_clock::now() < deadline) {

@@ -39,7 +39,10 @@ class Daemon {
  public:
   /// Writes `config_toml` to dir/hapticd.toml (its [control] socket and
   /// [recorder] directory are set to dir) and starts hapticd on it.
-  Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args = {});
+  /// launcher: a command line hapticd is run under (hapticd and its
+  /// arguments are appended), e.g. to give it its own mount namespace.
+  Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args = {},
+         std::vector<std::string> launcher = {});
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -53,6 +56,7 @@ class Daemon {
   int wait(std::chrono::seconds timeout = std::chrono::seconds(120));
   std::string log() const;  ///< everything hapticd printed so far (stdout+stderr)
   bool running() const;
+  pid_t pid() const { return pid_; }  ///< the process started (hapticd, or the launcher exec'ing it)
 
  private:
   std::filesystem::path dir_;
