@@ -27,6 +27,16 @@ void Dispatcher::add(const std::string& name, Handler handler, Access access) {
 std::optional<Dispatcher::Reply> Dispatcher::handle(std::string_view line, const PeerInfo& peer,
                                                     const WriteAccess& access,
                                                     const BuiltIn& built_in) const {
+  if (rpc::nests_deeper_than(line, rpc::max_nesting_depth)) {
+    // Refused unparsed: a deeper tree could not be copied, dumped or
+    // compared without unbounded recursion.
+    const auto limit = std::to_string(rpc::max_nesting_depth);
+    return error_reply(nullptr,
+                       RpcError(rpc::code::invalid_request,
+                                "the request nests arrays and objects more than " + limit +
+                                    " levels deep (the request object is level 1); the limit is " + limit,
+                                json{{"limit", rpc::max_nesting_depth}}));
+  }
   json request;
   try {
     request = json::parse(line);

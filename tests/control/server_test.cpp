@@ -249,6 +249,43 @@ TEST_F(ServerTest, OversizedLineIsRefusedAndConnectionClosed) {
   EXPECT_EQ(c.call("echo", {{"a", 1}})["a"], 1);
 }
 
+// Issue 6: `names` nested 60,000 levels deep crashed hapticd (SIGSEGV; here
+// 500,000 levels crash the test binary's server thread the same way):
+// nlohmann::json recurses once per level to copy, compare or dump a value.
+// Nesting is bounded before the line is parsed: -32600 naming the limit.
+TEST_F(ServerTest, NestingDeeperThanTheLimitIsRefusedBeforeParsing) {
+  ServerOptions o;
+  o.max_message_bytes = 1024 * 1024;  // allowed up to 16 MiB by the config
+  start(o);
+  RawPeer p(path);
+  auto request = [](const std::string& params_member) {
+    return R"({"jsonrpc":"2.0","id":7,"method":"echo","params":{"names":)" + params_member + "}}\n";
+  };
+  auto nested = [](std::size_t levels) { return std::string(levels, '[') + std::string(levels, ']'); };
+  for (const std::string& line : {request(nested(500000)), std::string(1000000, '[') + "\n",
+                                  R"({"jsonrpc":"2.0","method":"echo","id":)" + nested(500000) + "}\n"}) {
+    ASSERT_TRUE(p.send(line));
+    auto reply = parse(p.read_line());
+    ASSERT_TRUE(reply.is_object()) << "no reply: the server died?";
+    EXPECT_EQ(reply["error"]["code"], code::invalid_request);
+    EXPECT_EQ(reply["error"]["data"]["limit"], hapticd::rpc::max_nesting_depth);
+    EXPECT_NE(reply["error"]["message"].get<std::string>().find("64 levels"), std::string::npos)
+        << reply.dump();
+    EXPECT_EQ(reply["id"], nullptr);
+  }
+  // The limit counts the request object: 64 levels in all pass, 65 do not.
+  ASSERT_TRUE(p.send(request(nested(62))));
+  auto at_limit = parse(p.read_line());
+  EXPECT_EQ(at_limit["result"]["names"], json::parse(nested(62))) << at_limit.dump().substr(0, 200);
+  ASSERT_TRUE(p.send(request(nested(63))));
+  EXPECT_EQ(parse(p.read_line())["error"]["code"], code::invalid_request);
+  // Brackets inside strings are text, not nesting.
+  ASSERT_TRUE(p.send(request("\"" + nested(100) + "\\\"[[[\"")));
+  EXPECT_EQ(parse(p.read_line())["result"]["names"], nested(100) + "\"[[[");
+  auto c = connect();
+  EXPECT_EQ(c.call("echo", {{"ok", 1}})["ok"], 1);
+}
+
 TEST_F(ServerTest, TooManyClientsGetBusy) {
   ServerOptions o;
   o.max_clients = 2;
