@@ -1,5 +1,6 @@
 #include "daemon/control/connection.hpp"
 
+#include <algorithm>
 #include <cerrno>
 
 #include <sys/socket.h>
@@ -17,6 +18,7 @@ Connection::~Connection() {
 Connection::Received Connection::receive() {
   if (in_start_ > 0) {
     in_.erase(0, in_start_);
+    scanned_ -= std::min(scanned_, in_start_);
     in_start_ = 0;
   }
   char buf[65536];
@@ -32,8 +34,26 @@ Connection::Received Connection::receive() {
   }
 }
 
+std::size_t Connection::next_newline() {
+  // Remembers how far it looked: a long line arriving in pieces is not
+  // searched again from its start on every piece.
+  const std::size_t nl = in_.find('\n', std::max(in_start_, scanned_));
+  scanned_ = nl == std::string::npos ? in_.size() : nl;
+  return nl;
+}
+
+bool Connection::has_request(std::size_t max_message_bytes) {
+  return next_newline() != std::string::npos || in_.size() - in_start_ > max_message_bytes;
+}
+
+std::string_view Connection::peek_line() {
+  const std::size_t nl = next_newline();
+  if (nl == std::string::npos) return {};
+  return std::string_view(in_.data() + in_start_, nl - in_start_);
+}
+
 Connection::Line Connection::next_line(std::size_t max_message_bytes) {
-  const std::size_t nl = in_.find('\n', in_start_);
+  const std::size_t nl = next_newline();
   if (nl == std::string::npos) {
     if (in_.size() - in_start_ > max_message_bytes) return {Line::Kind::too_large, {}};
     return {Line::Kind::incomplete, {}};
@@ -53,6 +73,7 @@ std::string Connection::take_unterminated() {
 void Connection::discard_input() {
   in_.clear();
   in_start_ = 0;
+  scanned_ = 0;
 }
 
 void Connection::queue(std::string_view line) {

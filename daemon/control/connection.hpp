@@ -34,6 +34,11 @@ class Connection {
   /// One recv() into the input buffer (non-blocking).
   Received receive();
 
+  /// A request is waiting: a complete line, or more than max_message_bytes
+  /// without a '\n' (to be refused as too large).
+  bool has_request(std::size_t max_message_bytes);
+  /// The next complete line without taking it (empty when there is none).
+  std::string_view peek_line();
   /// The next request line: complete (without its '\n'), none yet, or a line
   /// longer than the limit (complete or not).
   struct Line {
@@ -59,7 +64,6 @@ class Connection {
   StreamSubscription stream;
   Clock::time_point last_activity = Clock::now();
   std::uint32_t events = 0;  ///< current epoll interest
-  bool paused = false;       ///< not reading: output queue above the limit
   bool closing = false;      ///< close once the queue is sent
   bool dead = false;         ///< closed at the end of this epoll batch
 
@@ -68,6 +72,9 @@ class Connection {
   PeerInfo peer_;
   std::string in_;
   std::size_t in_start_ = 0;  ///< bytes of in_ already taken as lines
+  std::size_t scanned_ = 0;   ///< in_[in_start_, scanned_) holds no '\n'
+  /// Position of the next '\n' after in_start_, or npos.
+  std::size_t next_newline();
   std::string out_;
   std::size_t out_offset_ = 0;  ///< bytes of out_ already sent
 };

@@ -44,6 +44,7 @@ json to_json(const ServerStats& s) {
           {"errors", s.errors},
           {"idle_disconnects", s.idle_disconnects},
           {"slow_disconnects", s.slow_disconnects},
+          {"evictions", s.evictions},
           {"notifications_sent", s.notifications_sent},
           {"notifications_dropped", s.notifications_dropped},
           {"clients", s.clients},
@@ -54,6 +55,8 @@ struct ControlServer::Impl {
   ServerOptions opts;
   std::string path;
   Dispatcher dispatcher;
+  /// `"name"` of each Precedence::first method, as it appears in a request line.
+  std::vector<std::string> first_method_needles;
   StreamSource source;
   std::optional<WriteAccess> access;  // from start()
 
@@ -81,15 +84,21 @@ struct ControlServer::Impl {
   void close_all();
 
   void run();
+  bool servable(Connection& c) const;
+  bool any_servable() const;
+  void serve_turn();
+  void serve_one(Connection& c);
+  bool calls_first_method(std::string_view line) const;
   int idle_wait_ms() const;
   void check_idle();
   void reap_dead();
   void accept_clients();
+  std::size_t live_clients() const;
+  bool evict_for_writer();
   void refuse_busy(int fd, std::size_t live);
   void on_socket_event(Connection& c, std::uint32_t ev);
   void on_timer(Connection& c);
   void read_input(Connection& c);
-  void process_lines(Connection& c);
   void handle_line(Connection& c, std::string_view line);
   std::optional<json> built_in(Connection& c, const std::string& name, const json& params);
   json stream_start(Connection& c, const json& params);
@@ -163,10 +172,15 @@ void ControlServer::Impl::check_idle() {
   }
 }
 
+// One turn: wait for events (not at all while requests are queued), read
+// what arrived, then serve_turn(). A turn is bounded: at most
+// requests_per_turn requests per client, so an estop that arrives during it
+// is served first in the next one.
 void ControlServer::Impl::run() {
   std::array<epoll_event, 64> events{};
   for (;;) {
-    int n = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), idle_wait_ms());
+    const int wait_ms = any_servable() ? 0 : idle_wait_ms();
+    int n = ::epoll_wait(epoll_fd, events.data(), static_cast<int>(events.size()), wait_ms);
     if (n < 0) {
       if (errno == EINTR) continue;
       std::fprintf(stderr, "hapticd: control: epoll_wait: %s; control plane stopped\n",
@@ -202,9 +216,75 @@ void ControlServer::Impl::run() {
         kill(*c);
       }
     }
+    serve_turn();
     check_idle();
     reap_dead();
   }
+}
+
+bool ControlServer::Impl::servable(Connection& c) const {
+  return !c.dead && !c.closing && c.pending() < opts.max_output_bytes &&
+         c.has_request(opts.max_message_bytes);
+}
+
+bool ControlServer::Impl::any_servable() const {
+  return std::any_of(conns.begin(), conns.end(),
+                     [this](const auto& entry) { return servable(*entry.second); });
+}
+
+void ControlServer::Impl::serve_turn() {
+  // First, every client whose next request is an estop (Precedence::first).
+  // Only a client's *next* request: within a connection the order stays, so
+  // an estop sent after a fault.clear is not undone by it.
+  for (auto& [fd, c] : conns) {
+    if (servable(*c) && calls_first_method(c->peek_line())) {
+      try {
+        serve_one(*c);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "hapticd: control: client %llu dropped: %s\n",
+                     static_cast<unsigned long long>(c->id()), e.what());
+        kill(*c);
+      }
+    }
+  }
+  // Then each client in turn, a few requests each. The rest of a pipelined
+  // burst waits for the next turn, unread beyond what is buffered (the
+  // client's writes block), instead of holding every other client up.
+  for (auto& [fd, c] : conns) {
+    try {
+      for (std::size_t i = 0; i < opts.requests_per_turn && servable(*c); ++i) serve_one(*c);
+      update_events(*c);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "hapticd: control: client %llu dropped: %s\n",
+                   static_cast<unsigned long long>(c->id()), e.what());
+      kill(*c);
+    }
+  }
+}
+
+bool ControlServer::Impl::calls_first_method(std::string_view line) const {
+  // A look for the quoted name, not a parse: a false match only serves
+  // that client's next request (whatever it is) a little early.
+  return std::any_of(
+      first_method_needles.begin(), first_method_needles.end(),
+      [line](const std::string& needle) { return line.find(needle) != std::string_view::npos; });
+}
+
+void ControlServer::Impl::serve_one(Connection& c) {
+  const auto line = c.next_line(opts.max_message_bytes);
+  if (line.kind == Connection::Line::Kind::incomplete) return;
+  if (line.kind == Connection::Line::Kind::too_large) {
+    send_error(c, nullptr,
+               RpcError(rpc::code::message_too_large,
+                        "request line longer than " + std::to_string(opts.max_message_bytes) +
+                            " bytes; closing the connection",
+                        json{{"limit", opts.max_message_bytes}}));
+    c.closing = true;
+    c.discard_input();
+    update_events(c);
+    return;
+  }
+  handle_line(c, line.text);
 }
 
 void ControlServer::Impl::reap_dead() {
@@ -230,15 +310,14 @@ void ControlServer::Impl::reap_dead() {
 void ControlServer::Impl::accept_clients() {
   for (int fd = listener.accept_one(); fd >= 0; fd = listener.accept_one()) {
     count([](ServerStats& s) { ++s.connections; });
-    std::size_t live = 0;
-    for (const auto& [cfd, c] : conns) live += c->dead ? 0 : 1;
-    if (live >= opts.max_clients) {
+    PeerInfo peer = read_peer_credentials(fd);
+    peer.can_write = access->permits(peer);
+    if (const std::size_t live = live_clients();
+        live >= opts.max_clients && !(peer.can_write && evict_for_writer())) {
       refuse_busy(fd, live);
       continue;
     }
-    PeerInfo peer = read_peer_credentials(fd);
     peer.client_id = next_client_id++;
-    peer.can_write = access->permits(peer);
     auto c = std::make_unique<Connection>(fd, peer);
     epoll_event ev{};
     ev.events = EPOLLIN;
@@ -247,6 +326,33 @@ void ControlServer::Impl::accept_clients() {
     c->events = EPOLLIN;
     conns.emplace(fd, std::move(c));
   }
+}
+
+std::size_t ControlServer::Impl::live_clients() const {
+  return static_cast<std::size_t>(
+      std::count_if(conns.begin(), conns.end(), [](const auto& entry) { return !entry.second->dead; }));
+}
+
+// Readers filling every slot must not keep a writer (root's estop, the
+// operator's fault.clear) out: the read-only connection idle the longest
+// makes room, one with an active stream only if there is no other.
+bool ControlServer::Impl::evict_for_writer() {
+  Connection* victim = nullptr;
+  auto rank = [](const Connection& c) { return std::pair(c.stream.active(), c.last_activity); };
+  for (auto& [fd, c] : conns) {
+    if (c->dead || c->peer().can_write) continue;
+    if (victim == nullptr || rank(*c) < rank(*victim)) victim = c.get();
+  }
+  if (victim == nullptr) return false;
+  send_error(*victim, nullptr,
+             RpcError(rpc::code::busy,
+                      "connection closed to make room for a client with write access: all " +
+                          std::to_string(opts.max_clients) +
+                          " slots were taken; read-only clients give way, the longest idle first",
+                      json{{"limit", opts.max_clients}}));
+  kill(*victim);
+  count([](ServerStats& s) { ++s.evictions; });
+  return true;
 }
 
 void ControlServer::Impl::refuse_busy(int fd, std::size_t live) {
@@ -269,18 +375,20 @@ void ControlServer::Impl::on_socket_event(Connection& c, std::uint32_t ev) {
   if (c.dead) return;
   if (ev & EPOLLIN) {
     read_input(c);
-  } else if (ev & (EPOLLHUP | EPOLLERR)) {
-    kill(c);  // peer gone while we were not reading
+  } else if ((ev & (EPOLLHUP | EPOLLERR)) && !servable(c)) {
+    // Peer gone while we were not reading. Requests it queued before it hung
+    // up are still served (a notification such as estop still acts).
+    kill(c);
   }
 }
 
 void ControlServer::Impl::read_input(Connection& c) {
-  // A bounded number of reads per wake-up keeps one busy client from starving the rest.
-  for (int round = 0; round < 8 && !c.dead && !c.closing && !c.paused; ++round) {
+  // Reads only while no request is waiting: the next ones stay in the
+  // kernel until serve_turn() has handled the queued ones.
+  for (int round = 0; round < 8 && !c.dead && !c.closing && !c.has_request(opts.max_message_bytes); ++round) {
     const auto received = c.receive();
     if (received == Connection::Received::data) {
       c.last_activity = Clock::now();
-      process_lines(c);
       continue;
     }
     if (received == Connection::Received::end_of_input) {
@@ -294,28 +402,6 @@ void ControlServer::Impl::read_input(Connection& c) {
     break;
   }
   if (!c.dead) update_events(c);
-}
-
-void ControlServer::Impl::process_lines(Connection& c) {
-  while (!c.dead && !c.closing) {
-    if (c.pending() >= opts.max_output_bytes) {
-      c.paused = true;
-      break;
-    }
-    const auto line = c.next_line(opts.max_message_bytes);
-    if (line.kind == Connection::Line::Kind::incomplete) break;
-    if (line.kind == Connection::Line::Kind::too_large) {
-      send_error(c, nullptr,
-                 RpcError(rpc::code::message_too_large,
-                          "request line longer than " + std::to_string(opts.max_message_bytes) +
-                              " bytes; closing the connection",
-                          json{{"limit", opts.max_message_bytes}}));
-      c.closing = true;
-      c.discard_input();
-      break;
-    }
-    handle_line(c, line.text);
-  }
 }
 
 void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
@@ -447,10 +533,6 @@ void ControlServer::Impl::flush(Connection& c) {
     kill(c);
     return;
   }
-  if (c.paused && c.pending() < opts.max_output_bytes) {
-    c.paused = false;
-    process_lines(c);  // lines read before the pause
-  }
   update_events(c);
 }
 
@@ -460,7 +542,11 @@ void ControlServer::Impl::update_events(Connection& c) {
     kill(c);
     return;
   }
-  std::uint32_t want = (c.paused || c.closing ? 0u : static_cast<std::uint32_t>(EPOLLIN)) |
+  // Not reading while a request waits (serve_turn() takes it) or while the
+  // output queue is above the limit (the client does not read its replies).
+  const bool reading =
+      !c.closing && c.pending() < opts.max_output_bytes && !c.has_request(opts.max_message_bytes);
+  std::uint32_t want = (reading ? static_cast<std::uint32_t>(EPOLLIN) : 0u) |
                        (c.pending() > 0 ? static_cast<std::uint32_t>(EPOLLOUT) : 0u);
   if (want == c.events) return;
   epoll_event ev{};
@@ -493,10 +579,12 @@ ControlServer::ControlServer(ServerOptions options) : impl_(std::make_unique<Imp
 
 ControlServer::~ControlServer() { stop(); }
 
-void ControlServer::register_method(const std::string& name, Handler handler, Access access) {
+void ControlServer::register_method(const std::string& name, Handler handler, Access access,
+                                    Precedence precedence) {
   if (impl_->started) throw std::logic_error("register_method('" + name + "') after start()");
   if (name == "stream" || name == "stream.stop") throw std::logic_error("'" + name + "' is built in");
   impl_->dispatcher.add(name, std::move(handler), access);
+  if (precedence == Precedence::first) impl_->first_method_needles.push_back(json(name).dump());
 }
 
 void ControlServer::set_stream_source(StreamSource source) {

@@ -1,9 +1,12 @@
 // ControlServer driven by the Client and by raw sockets.
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <fstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <grp.h>
 #include <pwd.h>
@@ -24,6 +27,7 @@ using hapticd::client::ConnectError;
 using hapticd::daemon::control::Access;
 using hapticd::daemon::control::ControlServer;
 using hapticd::daemon::control::PeerInfo;
+using hapticd::daemon::control::Precedence;
 using hapticd::daemon::control::ServerError;
 using hapticd::daemon::control::ServerOptions;
 using hapticd::daemon::control::test::eventually;
@@ -84,6 +88,20 @@ class ServerTest : public ::testing::Test {
         Access::read);
     server->register_method(
         "count", [this](const json&, const PeerInfo&) { return json(++counted); }, Access::read);
+    // Like `count`, but as slow as a real method (scene.list builds the whole catalog).
+    server->register_method(
+        "slow",
+        [this](const json&, const PeerInfo&) {
+          std::this_thread::sleep_for(20us);
+          return json(++counted);
+        },
+        Access::read);
+    // `mark` and `estop` note how many `count` requests were served before them.
+    server->register_method(
+        "mark", [this](const json&, const PeerInfo&) { return json(marked = counted.load()); }, Access::read);
+    server->register_method(
+        "estop", [this](const json&, const PeerInfo&) { return json(estopped = counted.load()); },
+        Access::read, Precedence::first);
     server->set_stream_source([](const std::vector<std::string>& channels) {
       json values = json::object();
       for (const auto& ch : channels.empty() ? std::vector<std::string>{"position"} : channels) {
@@ -104,6 +122,8 @@ class ServerTest : public ::testing::Test {
   std::string path;
   std::atomic<int> writes{0};
   std::atomic<int> counted{0};
+  std::atomic<int> marked{-1};
+  std::atomic<int> estopped{-1};
 };
 
 TEST_F(ServerTest, RoundTrip) {
@@ -312,6 +332,73 @@ TEST_F(ServerTest, TooManyClientsGetBusy) {
   auto again = connect();
   EXPECT_EQ(again.call("echo", {{"n", 3}})["n"], 3);
   EXPECT_EQ(server->stats().refused_busy, 1u);
+}
+
+// Issue 6: a client pipelining requests without waiting for replies delayed
+// every other client's reply, and an estop from another connection, by
+// ~770 ms: the loop handled all that one wake-up had read (up to 512 KiB,
+// thousands of requests) before it looked at anyone else. Measured here in requests the
+// flooder got served meanwhile, not in wall time (the median of 10 tries,
+// so a vCPU stall of the test thread cannot decide it).
+TEST_F(ServerTest, PipeliningClientStarvesNeitherOtherClientsNorEstop) {
+  start();
+  RawPeer flooder(path);
+  std::atomic<bool> stop{false};
+  std::thread flood([&] {
+    std::string burst;
+    for (int i = 0; i < 1000; ++i) burst += "{\"jsonrpc\":\"2.0\",\"method\":\"slow\"}\n";
+    while (!stop && flooder.send(burst)) {
+    }
+  });
+  struct StopFlood {
+    std::atomic<bool>& stop;
+    RawPeer& flooder;
+    std::thread& flood;
+    ~StopFlood() {
+      stop = true;
+      ::shutdown(flooder.fd(), SHUT_RDWR);  // unblocks the flooder's send()
+      flood.join();
+    }
+  } stop_flood{stop, flooder, flood};
+  ASSERT_TRUE(eventually([&] { return counted.load() > 2000; }, 10s)) << "the flood did not start";
+  auto c = Client::connect(path, 30s);  // before the fix a reply took seconds
+  std::vector<int> before_mark, before_estop;
+  for (int i = 0; i < 10; ++i) {
+    int before = counted.load();
+    c.call("mark");
+    before_mark.push_back(marked.load() - before);
+    before = counted.load();
+    c.call("estop");
+    before_estop.push_back(estopped.load() - before);
+  }
+  auto median = [](std::vector<int> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  auto text = [](const std::vector<int>& v) {
+    std::string t;
+    for (int x : v) t += std::to_string(x) + " ";
+    return t;
+  };
+  EXPECT_LT(median(before_mark), 1000) << "a reply waited for the flooder's requests: " << text(before_mark);
+  EXPECT_LT(median(before_estop), 1000) << "estop waited for the flooder's requests: " << text(before_estop);
+  EXPECT_GT(counted.load(), 2000);
+}
+
+// Within one connection, requests are answered in order even when estop
+// goes first among clients: estop after fault.clear on the same connection
+// must not be served before it.
+TEST_F(ServerTest, EstopKeepsItsPlaceWithinItsOwnConnection) {
+  start();
+  RawPeer p(path);
+  std::string lines;
+  for (int i = 0; i < 20; ++i)
+    lines += R"({"jsonrpc":"2.0","method":"count"})"
+             "\n";
+  lines += R"({"jsonrpc":"2.0","id":1,"method":"estop"})"
+           "\n";
+  ASSERT_TRUE(p.send(lines));
+  EXPECT_EQ(parse(p.read_line())["result"], 20);
 }
 
 TEST_F(ServerTest, IdleClientsAreDisconnectedButSubscribersAreNot) {
@@ -620,6 +707,72 @@ TEST_F(PermissionTest, PrimaryGroupMemberMayWrite) {
   auto r = call_as_nobody(path, group.second, {});
   EXPECT_EQ(r.write_code, 0) << r.message;
   EXPECT_EQ(writes.load(), 1);
+}
+
+// Issue 6: 16 idle connections from a user outside the group took every slot
+// and root's `hapticctl estop` got "too many clients". Readers still cannot
+// get past max_clients, but a writer takes the slot of the longest-idle
+// read-only connection.
+TEST_F(PermissionTest, ReadersHoldingEverySlotCannotLockAWriterOut) {
+  server->stop();
+  ServerOptions o;
+  o.group = group.first;
+  o.mode = 0666;
+  o.max_clients = 4;
+  start(o);
+  int to_child[2], from_child[2];
+  ASSERT_EQ(::pipe(to_child), 0);
+  ASSERT_EQ(::pipe(from_child), 0);
+  const uid_t nobody = ::getpwnam("nobody")->pw_uid;
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    // As nobody: hold every slot, check a fifth reader is refused, then
+    // after the writer came, count the connections closed for it.
+    ::close(to_child[1]);
+    ::close(from_child[0]);
+    if (::setgroups(0, nullptr) != 0 || ::setgid(nogroup) != 0 || ::setuid(nobody) != 0) ::_exit(100);
+    std::vector<std::unique_ptr<RawPeer>> held;
+    for (int i = 0; i < 4; ++i) {
+      held.push_back(std::make_unique<RawPeer>(path));
+      held.back()->send(R"({"jsonrpc":"2.0","id":1,"method":"echo"})"
+                        "\n");
+      if (!held.back()->read_line()) ::_exit(101);  // accepted and served
+    }
+    RawPeer fifth(path);
+    json busy = parse(fifth.read_line());
+    char go = 0;
+    [[maybe_unused]] auto w = ::write(from_child[1], "r", 1);
+    if (::read(to_child[0], &go, 1) != 1) ::_exit(102);
+    int evicted = 0;
+    for (auto& peer : held) {
+      auto line = peer->read_line(500ms);
+      if (line && parse(line)["error"]["code"] == code::busy && peer->closed_within(500ms)) ++evicted;
+    }
+    std::string out = json{{"fifth", busy}, {"evicted", evicted}}.dump();
+    w = ::write(from_child[1], out.data(), out.size());
+    ::_exit(0);
+  }
+  ::close(to_child[0]);
+  ::close(from_child[1]);
+  char ready = 0;
+  ASSERT_EQ(::read(from_child[0], &ready, 1), 1) << "the child (as nobody) failed";
+  // The writer (root) gets in and stops the device.
+  auto writer = connect();
+  EXPECT_NO_THROW(writer.call("estop"));
+  ASSERT_EQ(::write(to_child[1], "g", 1), 1);
+  std::string text;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::read(from_child[0], buf, sizeof(buf))) > 0) text.append(buf, static_cast<std::size_t>(n));
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ::close(to_child[1]);
+  ::close(from_child[0]);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "child status " << status << " " << text;
+  json r = json::parse(text);
+  EXPECT_EQ(r["fifth"]["error"]["code"], code::busy) << "a fifth reader got in";
+  EXPECT_EQ(r["evicted"], 1) << "exactly one reader makes room for the writer";
+  EXPECT_EQ(server->stats().evictions, 1u);
 }
 
 }  // namespace

@@ -5,11 +5,22 @@
 
 #include <gtest/gtest.h>
 
+#include <grp.h>
+#include <signal.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "support.hpp"
 
@@ -99,6 +110,126 @@ TEST(Attack, DeeplyNestedRequestIsRefusedAndTheDaemonRunsOn) {
     EXPECT_EQ(status.exit_code, 0) << status.err;
     EXPECT_EQ(d->stop(), 0) << d->log();
   }
+}
+
+/// A client pipelining `scene.list` as fast as the daemon reads, never
+/// waiting for a reply (a second thread throws the replies away).
+class Flooder {
+ public:
+  explicit Flooder(const std::filesystem::path& socket) : connection_(socket) {
+    writer_ = std::thread([this] {
+      std::string burst;
+      for (int i = 0; i < 200; ++i)
+        burst += R"({"jsonrpc":"2.0","id":1,"method":"scene.list"})"
+                 "\n";
+      while (!stop_ && connection_.send(burst)) {
+      }
+    });
+    reader_ = std::thread([this] {
+      while (!stop_ && !connection_.read_line(1s).empty()) ++replies_;
+    });
+  }
+  ~Flooder() {
+    stop_ = true;
+    ::shutdown(connection_.fd(), SHUT_RDWR);
+    writer_.join();
+    reader_.join();
+  }
+  Flooder(const Flooder&) = delete;
+  Flooder& operator=(const Flooder&) = delete;
+  int replies() const { return replies_; }
+
+ private:
+  RawConnection connection_;
+  std::atomic<bool> stop_{false};
+  std::atomic<int> replies_{0};
+  std::thread writer_, reader_;
+};
+
+/// Wall time from connecting to the reply of `method`, in ms.
+double reply_ms(const Daemon& d, const std::string& method) {
+  const auto t0 = std::chrono::steady_clock::now();
+  RawConnection c(d.socket());
+  c.send(R"({"jsonrpc":"2.0","id":1,"method":")" + method + "\"}\n");
+  const json reply = json::parse(c.read_line(10s), nullptr, false);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(reply.is_object() && reply.contains("result")) << method << ": " << reply.dump();
+  return ms;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// Issue 6, defect 2: a client pipelining scene.list delayed every other
+// client's replies to ~770 ms (0.24 ms without it), and an estop from
+// another connection took 770-820 ms. The bound here is generous (the VM
+// stalls); the failure it guards against is seconds.
+TEST(Attack, PipeliningClientDelaysNeitherOthersNorEstop) {
+  TempDir dir;
+  Daemon d(dir, device_config());
+  ASSERT_TRUE(d.running()) << d.log();
+  Flooder flooder(d.socket());
+  const auto t0 = std::chrono::steady_clock::now();
+  while (flooder.replies() < 2000 && std::chrono::steady_clock::now() - t0 < 20s)
+    std::this_thread::sleep_for(10ms);
+  ASSERT_GE(flooder.replies(), 2000) << "the flood did not get going";
+  std::vector<double> status_ms, estop_ms;
+  for (int i = 0; i < 5; ++i) {
+    status_ms.push_back(reply_ms(d, "status"));
+    estop_ms.push_back(reply_ms(d, "estop"));
+  }
+  EXPECT_LT(median(status_ms), 100.0) << "status under the flood";
+  EXPECT_LT(median(estop_ms), 100.0) << "estop under the flood";
+  // The real hapticctl too (not timed: it includes starting a process).
+  const auto estop = d.ctl({"estop"});
+  EXPECT_EQ(estop.exit_code, 0) << estop.err;
+  EXPECT_EQ(json::parse(d.ctl({"status", "--json"}).out, nullptr, false)["fault"], "estop");
+  std::printf("under the flood: status median %.2f ms, estop median %.2f ms\n", median(status_ms),
+              median(estop_ms));
+}
+
+// Issue 6, defect 2: 16 idle connections from a user outside the group took
+// every slot (max_clients) and root's `hapticctl estop` failed with "too
+// many clients". A writer now takes the slot of the longest-idle reader.
+TEST(Attack, ReadersHoldingEverySlotCannotKeepRootsEstopOut) {
+  if (geteuid() != 0) GTEST_SKIP() << "needs root to hold the slots as nobody";
+  TempDir dir;
+  Daemon d(dir, device_config());
+  ASSERT_TRUE(d.running()) << d.log();
+  chmod(dir.path.c_str(), 0755);    // nobody must reach the socket...
+  chmod(d.socket().c_str(), 0666);  // ...and connect (read access only)
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(ready[0]);
+    if (setgroups(0, nullptr) != 0 || setgid(65534) != 0 || setuid(65534) != 0) _exit(121);
+    std::vector<std::unique_ptr<RawConnection>> held;
+    for (int i = 0; i < 20; ++i) {  // more than max_clients: the extra ones are refused
+      try {
+        held.push_back(std::make_unique<RawConnection>(d.socket()));
+      } catch (const std::exception&) {
+      }
+    }
+    [[maybe_unused]] auto w = write(ready[1], "r", 1);
+    pause();  // until killed
+    _exit(0);
+  }
+  close(ready[1]);
+  char r = 0;
+  ASSERT_EQ(read(ready[0], &r, 1), 1) << "the child could not run as nobody";
+  close(ready[0]);
+  std::this_thread::sleep_for(200ms);  // the daemon accepts them all
+  const json stats = json::parse(d.ctl({"stats", "--json"}).out, nullptr, false);
+  const auto estop = d.ctl({"estop"});
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  EXPECT_EQ(estop.exit_code, 0) << estop.err;
+  EXPECT_EQ(json::parse(d.ctl({"status", "--json"}).out, nullptr, false)["fault"], "estop");
+  // `stats` itself was let in the same way (root is a writer).
+  EXPECT_GE(stats["control"]["refused_busy"].get<int>(), 4) << stats["control"].dump();
 }
 
 }  // namespace
