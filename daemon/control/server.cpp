@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <mutex>
 #include <optional>
+#include <sstream>
 #include <system_error>
 #include <thread>
 #include <unordered_map>
@@ -35,6 +36,13 @@ using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
 std::string errno_text(int e) { return std::generic_category().message(e); }
+
+/// 6 significant digits, no trailing zeros: 0.1, 1000, 1e-300.
+std::string number_text(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
 }  // namespace
 
 json to_json(const ServerStats& s) {
@@ -430,11 +438,13 @@ json ControlServer::Impl::stream_start(Connection& c, const json& params) {
   if (rate == params.end() || !rate->is_number()) {
     throw RpcError(rpc::code::invalid_params, "stream needs \"rate_hz\" (a number of samples per second)");
   }
-  double hz = rate->get<double>();
-  if (!(hz > 0.0) || hz > opts.max_stream_rate_hz) {
+  const double hz = rate->get<double>();
+  if (!(hz >= opts.min_stream_rate_hz && hz <= opts.max_stream_rate_hz)) {
     throw RpcError(rpc::code::invalid_params,
-                   "rate_hz must be > 0 and <= " + json(opts.max_stream_rate_hz).dump(),
-                   json{{"limit", opts.max_stream_rate_hz}});
+                   "rate_hz must be from " + number_text(opts.min_stream_rate_hz) + " to " +
+                       number_text(opts.max_stream_rate_hz) + " samples per second; " + number_text(hz) +
+                       " is not",
+                   json{{"minimum", opts.min_stream_rate_hz}, {"maximum", opts.max_stream_rate_hz}});
   }
   std::vector<std::string> channels;
   if (auto ch = params.find("channels"); ch != params.end() && !ch->is_null()) {
@@ -571,9 +581,14 @@ void ControlServer::Impl::kill(Connection& c) {
 ControlServer::ControlServer(ServerOptions options) : impl_(std::make_unique<Impl>()) {
   impl_->opts = std::move(options);
   impl_->path = client::resolve_socket_path(impl_->opts.socket_path);
-  if (impl_->opts.max_message_bytes == 0 || impl_->opts.max_clients == 0 ||
-      impl_->opts.max_output_bytes == 0) {
+  const auto& o = impl_->opts;
+  if (o.max_message_bytes == 0 || o.max_clients == 0 || o.max_output_bytes == 0 || o.requests_per_turn == 0) {
     throw ServerError("control server limits must be positive");
+  }
+  // What StreamSubscription can turn into a timer period.
+  if (!(o.min_stream_rate_hz >= 1e-3 && o.min_stream_rate_hz <= o.max_stream_rate_hz &&
+        o.max_stream_rate_hz <= 1e6)) {
+    throw ServerError("control server stream rates must satisfy 0.001 <= minimum <= maximum <= 1e6 Hz");
   }
 }
 

@@ -54,7 +54,10 @@ struct ServerOptions {
   /// (and counted) and requests are no longer read until it drains; a client
   /// whose queue reaches four times this (replies it never reads) is disconnected.
   std::size_t max_output_bytes = 1024 * 1024;
-  /// Highest stream rate a client may ask for.
+  /// Stream rates a client may ask for; outside: -32602 naming the range.
+  /// The lower bound keeps the timer period (1 / rate) a sane number: below
+  /// ~1.1e-10 Hz it no longer fits the timer and became a 1 ns timer.
+  double min_stream_rate_hz = 0.1;
   double max_stream_rate_hz = 1000.0;
 };
 

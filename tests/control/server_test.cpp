@@ -489,6 +489,32 @@ TEST_F(ServerTest, StreamValidatesItsParams) {
   EXPECT_EQ(c.unsubscribe()["subscription"], nullptr);
 }
 
+// Issue 6: `stream` with rate_hz 1e-300 (any reader may ask) became a 1 ns
+// timer: 1e9 / 1e-300 overflowed the period, clamped to 1 ns, and the
+// server sent ~430,000 notifications in 10 s on a full core. Any rate below
+// about 1.1e-10 Hz did the same. The range is now 0.1 to 1000 Hz.
+TEST_F(ServerTest, StreamRateOutsideItsRangeIsRefused) {
+  start();
+  auto c = connect();
+  for (double hz : {1e-300, 1e-12, 1e-10, 0.0999, 1000.001, 1e300}) {
+    try {
+      c.subscribe(hz);
+      ADD_FAILURE() << "rate_hz " << hz << " accepted";
+    } catch (const RpcError& e) {
+      EXPECT_EQ(e.code(), code::invalid_params) << hz;
+      EXPECT_NE(std::string(e.what()).find("from 0.1 to 1000"), std::string::npos) << e.what();
+      EXPECT_EQ(e.data()["minimum"], 0.1) << e.data().dump();
+      EXPECT_EQ(e.data()["maximum"], 1000.0) << e.data().dump();
+    }
+  }
+  EXPECT_FALSE(c.read_notification(300ms).has_value()) << "a refused stream sent samples";
+  EXPECT_EQ(c.subscribe(0.1)["rate_hz"], 0.1);
+  EXPECT_FALSE(c.read_notification(500ms).has_value()) << "0.1 Hz: the first sample is due after 10 s";
+  EXPECT_EQ(c.subscribe(1000)["rate_hz"], 1000.0);
+  EXPECT_TRUE(c.read_notification(2s).has_value());
+  EXPECT_NO_THROW(c.unsubscribe());
+}
+
 TEST_F(ServerTest, SlowStreamReaderGetsDropsCountedNotUnboundedMemory) {
   ServerOptions o;
   o.max_output_bytes = 4096;

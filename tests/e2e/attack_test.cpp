@@ -6,16 +6,19 @@
 #include <gtest/gtest.h>
 
 #include <grp.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -230,6 +233,116 @@ TEST(Attack, ReadersHoldingEverySlotCannotKeepRootsEstopOut) {
   EXPECT_EQ(json::parse(d.ctl({"status", "--json"}).out, nullptr, false)["fault"], "estop");
   // `stats` itself was let in the same way (root is a writer).
   EXPECT_GE(stats["control"]["refused_busy"].get<int>(), 4) << stats["control"].dump();
+}
+
+// Issue 6, defect 3: `hapticctl stream --rate 1e-300` (any reader may) made a
+// 1 ns timer: 431,484 notifications in 10 s and a full core. Rates outside
+// 0.1..1000 Hz are refused, naming the range.
+TEST(Attack, StreamRateOutsideItsRangeIsRefused) {
+  TempDir dir;
+  Daemon d(dir, device_config());
+  ASSERT_TRUE(d.running()) << d.log();
+  RawConnection c(d.socket());
+  ASSERT_TRUE(c.send(R"({"jsonrpc":"2.0","id":1,"method":"stream","params":{"rate_hz":1e-300}})"
+                     "\n"));
+  const json reply = json::parse(c.read_line(), nullptr, false);
+  EXPECT_EQ(reply["error"]["code"], -32602) << reply.dump();
+  EXPECT_NE(reply["error"]["message"].get<std::string>().find("from 0.1 to 1000"), std::string::npos)
+      << reply.dump();
+  EXPECT_EQ(c.read_line(1s), "") << "samples after a refused stream";
+
+  // hapticctl: a sample every 1e300 s could never arrive within --timeout.
+  const auto tiny = d.ctl({"stream", "--rate", "1e-300", "--count", "1"});
+  EXPECT_EQ(tiny.exit_code, 2) << tiny.out << tiny.err;
+  EXPECT_NE(tiny.err.find("--timeout"), std::string::npos) << tiny.err;
+  // Within --timeout but outside the daemon's range: the daemon's refusal.
+  for (const char* rate : {"0.05", "2000"}) {
+    const auto r = d.ctl({"stream", "--rate", rate, "--count", "1", "--timeout", "30"});
+    EXPECT_EQ(r.exit_code, 1) << rate << ": " << r.out << r.err;
+    EXPECT_NE(r.err.find("from 0.1 to 1000"), std::string::npos) << r.err;
+  }
+  const auto ok = d.ctl({"stream", "--rate", "1000", "--count", "5"});
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_TRUE(d.running()) << d.log();
+}
+
+/// A daemon that accepts `stream` and then never sends a sample.
+class SilentDaemon {
+ public:
+  explicit SilentDaemon(const std::filesystem::path& socket) {
+    listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    const std::string text = socket.string();
+    std::memcpy(addr.sun_path, text.c_str(), text.size() + 1);
+    if (::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
+        ::listen(listen_fd_, 4) != 0)
+      throw std::runtime_error("silent daemon: bind/listen failed");
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~SilentDaemon() {
+    stop_ = true;
+    thread_.join();
+    ::close(listen_fd_);
+  }
+  SilentDaemon(const SilentDaemon&) = delete;
+  SilentDaemon& operator=(const SilentDaemon&) = delete;
+
+ private:
+  void serve() {
+    int fd = -1;
+    std::string buffer;
+    while (!stop_) {
+      pollfd p{fd >= 0 ? fd : listen_fd_, POLLIN, 0};
+      if (::poll(&p, 1, 50) <= 0) continue;
+      if (fd < 0) {
+        fd = ::accept(listen_fd_, nullptr, nullptr);
+        continue;
+      }
+      char chunk[4096];
+      const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
+      if (n <= 0) {
+        ::close(fd);
+        fd = -1;
+        continue;
+      }
+      buffer.append(chunk, static_cast<std::size_t>(n));
+      for (auto nl = buffer.find('\n'); nl != std::string::npos; nl = buffer.find('\n')) {
+        const json request = json::parse(buffer.substr(0, nl), nullptr, false);
+        buffer.erase(0, nl + 1);
+        const json result = request.value("method", "") == "stream"
+                                ? json{{"subscription", 1},
+                                       {"rate_hz", request["params"]["rate_hz"]},
+                                       {"channels", json::array()}}
+                                : json{{"subscription", 1}, {"sent", 0}, {"dropped", 0}};
+        const std::string line =
+            json{{"jsonrpc", "2.0"}, {"id", request["id"]}, {"result", result}}.dump() + "\n";
+        [[maybe_unused]] auto sent = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+      }
+    }
+    if (fd >= 0) ::close(fd);
+  }
+  int listen_fd_ = -1;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// Issue 6, defect 3: hapticctl stream waited 1/rate + --timeout before it
+// called the daemon silent (and 1/rate overflowed at tiny rates). --timeout
+// is now the longest silence accepted: at 0.25 Hz with --timeout 5, exit 3
+// after 5 s (it was 9 s).
+TEST(Attack, StreamTimeoutIsTheSilenceAccepted) {
+  TempDir dir;
+  const auto socket = dir.path / "silent.sock";
+  SilentDaemon silent(socket);
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r =
+      run(hapticctl_binary(), {"--socket", socket.string(), "stream", "--rate", "0.25", "--timeout", "5"});
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(r.exit_code, 3) << r.out << r.err;
+  EXPECT_NE(r.err.find("no telemetry from hapticd for 5 s"), std::string::npos) << r.err;
+  EXPECT_GE(waited, 5.0);
+  EXPECT_LT(waited, 7.5) << "hapticctl waited 1/rate + --timeout (9 s)";
 }
 
 }  // namespace
