@@ -57,6 +57,15 @@ std::optional<Dispatcher::Reply> Dispatcher::handle(std::string_view line, const
     return error_reply(nullptr,
                        RpcError(rpc::code::invalid_request, "\"id\" must be a string, a number or null"));
   }
+  if (id.is_number_float()) {
+    // nlohmann::json holds a fraction, an exponent or an integer beyond 64
+    // bits as a double: -9223372036854775809 would come back as
+    // -9.223372036854776e+18, not the id the client sent.
+    return error_reply(
+        nullptr, RpcError(rpc::code::invalid_request,
+                          "a numeric \"id\" is echoed exactly only as an integer from "
+                          "-9223372036854775808 to 18446744073709551615; send a string for anything else"));
+  }
   auto version = request.find("jsonrpc");
   if (version == request.end() || !version->is_string() || *version != rpc::version) {
     return error_reply(id, RpcError(rpc::code::invalid_request, "\"jsonrpc\" must be \"2.0\""));

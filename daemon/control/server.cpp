@@ -106,6 +106,7 @@ struct ControlServer::Impl {
   void refuse_busy(int fd, std::size_t live);
   void on_socket_event(Connection& c, std::uint32_t ev);
   void on_timer(Connection& c);
+  void count_dropped(Connection& c, std::uint64_t samples);
   void read_input(Connection& c);
   void handle_line(Connection& c, std::string_view line);
   std::optional<json> built_in(Connection& c, const std::string& name, const json& params);
@@ -491,31 +492,33 @@ void ControlServer::Impl::on_timer(Connection& c) {
   const std::uint64_t expirations = c.stream.take_expirations();
   if (expirations == 0) return;
   // Ticks this thread slept through are samples the client did not get.
-  std::uint64_t lost = expirations - 1;
+  count_dropped(c, expirations - 1);
   if (c.pending() >= opts.max_output_bytes || c.closing) {
-    lost += 1;
-  } else {
-    json params;
-    try {
-      params = source(c.stream.channels());
-    } catch (const std::exception&) {
-      lost += 1;  // the source could not produce this sample
-      params = nullptr;
-    }
-    if (!params.is_null()) {
-      if (!params.is_object()) params = json{{"value", std::move(params)}};
-      c.stream.dropped += lost;
-      lost = 0;
-      params["seq"] = c.stream.seq++;
-      params["dropped"] = c.stream.dropped;
-      enqueue(c, rpc::make_notification(rpc::telemetry_method, std::move(params)));
-      count([](ServerStats& s) { ++s.notifications_sent; });
-    }
+    count_dropped(c, 1);  // the client does not read: no sample queued above the limit
+    return;
   }
-  if (lost > 0) {
-    c.stream.dropped += lost;
-    count([lost](ServerStats& s) { s.notifications_dropped += lost; });
+  json params;
+  try {
+    params = source(c.stream.channels());
+  } catch (const std::exception&) {
+    count_dropped(c, 1);  // the source could not produce this sample
+    return;
   }
+  if (params.is_null()) return;
+  if (!params.is_object()) params = json{{"value", std::move(params)}};
+  params["seq"] = c.stream.seq++;
+  params["dropped"] = c.stream.dropped;
+  enqueue(c, rpc::make_notification(rpc::telemetry_method, std::move(params)));
+  count([](ServerStats& s) { ++s.notifications_sent; });
+}
+
+// The one place a lost sample is counted: the subscription's `dropped`
+// (telemetry, stream.stop) and the server's notifications_dropped (stats)
+// cannot disagree.
+void ControlServer::Impl::count_dropped(Connection& c, std::uint64_t samples) {
+  if (samples == 0) return;
+  c.stream.dropped += samples;
+  count([samples](ServerStats& s) { s.notifications_dropped += samples; });
 }
 
 // ---- output -----------------------------------------------------------------------

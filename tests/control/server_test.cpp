@@ -96,6 +96,14 @@ class ServerTest : public ::testing::Test {
           return json(++counted);
         },
         Access::read);
+    // Holds the server thread, as a long handler does.
+    server->register_method(
+        "nap",
+        [](const json&, const PeerInfo&) {
+          std::this_thread::sleep_for(300ms);
+          return json(true);
+        },
+        Access::read);
     // `mark` and `estop` note how many `count` requests were served before them.
     server->register_method(
         "mark", [this](const json&, const PeerInfo&) { return json(marked = counted.load()); }, Access::read);
@@ -202,6 +210,39 @@ TEST_F(ServerTest, MalformedRequestsGetStandardErrors) {
   auto ok = parse(p.read_line());
   EXPECT_EQ(ok["id"], "abc");
   EXPECT_EQ(ok["result"]["v"], 1);
+}
+
+// Issue 6: the id -9223372036854775809 came back as -9.223372036854776e+18.
+// Integer ids in the 64-bit range are echoed exactly; a number with a
+// fraction or exponent, or a larger integer, cannot be (nlohmann::json holds
+// it as a double) and is refused with -32600 saying so.
+TEST_F(ServerTest, NumericIdsAreEchoedExactlyOrRefused) {
+  start();
+  RawPeer p(path);
+  auto raw_reply = [&](const std::string& id) {
+    EXPECT_TRUE(p.send(R"({"jsonrpc":"2.0","method":"echo","id":)" + id + "}\n"));
+    return p.read_line().value_or("");
+  };
+  for (const char* id :
+       {"-9223372036854775808", "18446744073709551615", "9223372036854775807", "0", "-1", "7"}) {
+    const std::string reply = raw_reply(id);
+    EXPECT_NE(reply.find(std::string("\"id\":") + id + ","), std::string::npos) << id << " -> " << reply;
+    EXPECT_TRUE(json::parse(reply).contains("result")) << reply;
+  }
+  for (const char* id : {"-9223372036854775809", "18446744073709551616", "99999999999999999999999999", "1.5",
+                         "1e3", "1.0", "-0.0"}) {
+    const std::string text = raw_reply(id);
+    json reply = json::parse(text, nullptr, false);
+    if (!reply.contains("error")) {
+      ADD_FAILURE() << "id " << id << " -> " << text;
+      continue;
+    }
+    EXPECT_EQ(reply["error"]["code"], code::invalid_request) << id << " -> " << text;
+    EXPECT_EQ(reply["id"], nullptr) << id;
+    EXPECT_NE(reply["error"]["message"].get<std::string>().find("exactly"), std::string::npos)
+        << reply.dump();
+  }
+  EXPECT_EQ(parse(p.read_line(100ms)), json()) << "one reply per request";
 }
 
 TEST_F(ServerTest, NotificationsFromClientsAreExecutedWithoutReply) {
@@ -533,6 +574,24 @@ TEST_F(ServerTest, SlowStreamReaderGetsDropsCountedNotUnboundedMemory) {
   }
   EXPECT_GT(dropped, 0u);
   EXPECT_NO_THROW(c.unsubscribe());
+}
+
+// Issue 6: stats.control.notifications_dropped stayed 0 while stream.stop
+// reported drops: the ticks the server thread slept through were added to
+// the subscription's count only. One place now counts a drop for both.
+TEST_F(ServerTest, DroppedSamplesAgreeBetweenStreamStopAndStats) {
+  start();
+  auto c = connect();
+  c.subscribe(1000);
+  auto other = connect();
+  other.call("nap");  // 300 ms without the server thread: ~300 ticks missed
+  auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < 300ms) c.read_notification(50ms);
+  auto stop = c.unsubscribe();
+  const auto stats = server->stats();
+  EXPECT_GT(stop["dropped"].get<std::uint64_t>(), 0u) << "the nap dropped nothing?";
+  EXPECT_EQ(stats.notifications_dropped, stop["dropped"].get<std::uint64_t>());
+  EXPECT_EQ(stats.notifications_sent, stop["sent"].get<std::uint64_t>());
 }
 
 TEST_F(ServerTest, StopRemovesSocketAndClosesClients) {
