@@ -95,6 +95,8 @@ struct ControlServer::Impl {
   bool servable(Connection& c) const;
   bool any_servable() const;
   void serve_turn();
+  template <typename Work>
+  void for_client(Connection& c, Work&& work);
   void serve_one(Connection& c);
   bool calls_first_method(std::string_view line) const;
   int idle_wait_ms() const;
@@ -213,17 +215,7 @@ void ControlServer::Impl::run() {
         timer = true;
       }
       if (c == nullptr || c->dead) continue;
-      try {
-        if (timer) {
-          on_timer(*c);
-        } else {
-          on_socket_event(*c, ev);
-        }
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "hapticd: control: client %llu dropped: %s\n",
-                     static_cast<unsigned long long>(c->id()), e.what());
-        kill(*c);
-      }
+      for_client(*c, [&] { timer ? on_timer(*c) : on_socket_event(*c, ev); });
     }
     serve_turn();
     check_idle();
@@ -243,31 +235,33 @@ bool ControlServer::Impl::any_servable() const {
 
 void ControlServer::Impl::serve_turn() {
   // First, every client whose next request is an estop (Precedence::first).
-  // Only a client's *next* request: within a connection the order stays, so
-  // an estop sent after a fault.clear is not undone by it.
-  for (auto& [fd, c] : conns) {
-    if (servable(*c) && calls_first_method(c->peek_line())) {
-      try {
-        serve_one(*c);
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "hapticd: control: client %llu dropped: %s\n",
-                     static_cast<unsigned long long>(c->id()), e.what());
-        kill(*c);
-      }
-    }
+  // Only the *next* one: a client's requests keep their order, so a
+  // fault.clear it sent before its estop cannot clear that estop.
+  for (auto& entry : conns) {
+    Connection& c = *entry.second;
+    if (servable(c) && calls_first_method(c.peek_line())) for_client(c, [&] { serve_one(c); });
   }
   // Then each client in turn, a few requests each. The rest of a pipelined
   // burst waits for the next turn, unread beyond what is buffered (the
   // client's writes block), instead of holding every other client up.
-  for (auto& [fd, c] : conns) {
-    try {
-      for (std::size_t i = 0; i < opts.requests_per_turn && servable(*c); ++i) serve_one(*c);
-      update_events(*c);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "hapticd: control: client %llu dropped: %s\n",
-                   static_cast<unsigned long long>(c->id()), e.what());
-      kill(*c);
-    }
+  for (auto& entry : conns) {
+    Connection& c = *entry.second;
+    for_client(c, [&] {
+      for (std::size_t i = 0; i < opts.requests_per_turn && servable(c); ++i) serve_one(c);
+      update_events(c);
+    });
+  }
+}
+
+template <typename Work>
+void ControlServer::Impl::for_client(Connection& c, Work&& work) {
+  try {
+    work();
+  } catch (const std::exception& e) {
+    // Whatever escaped the handlers (e.g. bad_alloc) ends this client only.
+    std::fprintf(stderr, "hapticd: control: client %llu dropped: %s\n",
+                 static_cast<unsigned long long>(c.id()), e.what());
+    kill(c);
   }
 }
 
