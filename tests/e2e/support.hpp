@@ -66,6 +66,23 @@ class Daemon {
   int status_ = -1;
 };
 
+/// A raw connection to a socket, for sending what hapticctl never would.
+class RawConnection {
+ public:
+  explicit RawConnection(const std::filesystem::path& socket);  ///< throws if it cannot connect
+  ~RawConnection();
+  RawConnection(const RawConnection&) = delete;
+  RawConnection& operator=(const RawConnection&) = delete;
+  bool send(const std::string& bytes);  ///< false when the peer is gone
+  /// The next '\n'-terminated line without it; "" on timeout or end of input.
+  std::string read_line(std::chrono::milliseconds timeout = std::chrono::seconds(10));
+  int fd() const { return fd_; }
+
+ private:
+  int fd_ = -1;
+  std::string buffer_;
+};
+
 /// A CSV recording: '# key: value' header lines, one column-name line, numbers.
 struct Recording {
   std::map<std::string, std::string> header;
