@@ -79,7 +79,7 @@ void LoopbackConfig::validate() const {
     const bool above = low_inclusive ? value >= low : value > low;
     if (!above || !(value <= high)) {
       fail(key, std::string(key) + " must be " + (low_inclusive ? ">= " : "> ") + bound_text(low) +
-           " and <= " + bound_text(high) + " (got " + number_text(value) + ")");
+                    " and <= " + bound_text(high) + " (got " + number_text(value) + ")");
     }
   };
   auto mass_like = [&](std::string_view key, double value) {
@@ -126,7 +126,8 @@ std::vector<DriverParameter> loopback_parameters() {
            " kg m^2) or mass (linear default " + number_text(linear.mass) + " kg)" + masses},
       {"damping", "number", number_text(rotary.damping), "N m s/rad | N s/m",
        "rigid plant: viscous damping to ground (rotary default " + number_text(rotary.damping) +
-           " N m s/rad of bearing friction, linear default " + number_text(linear.damping) + " N s/m)" + dampings},
+           " N m s/rad of bearing friction, linear default " + number_text(linear.damping) + " N s/m)" +
+           dampings},
       {"coulomb", "number", "0", "N m | N",
        "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables; 0 to " +
            bound_text(r::max_force)},
@@ -149,7 +150,8 @@ std::vector<DriverParameter> loopback_parameters() {
            number_text(linear.counts) + " = 1/3.14 um); 1 to " + bound_text(max_counts)},
       {"max_force", "number", number_text(rotary.max_force), "N m | N",
        "actuator saturation |force| (rotary default " + number_text(rotary.max_force) +
-           " N m, linear default " + number_text(linear.max_force) + " N); > 0 to " + bound_text(r::max_force)},
+           " N m, linear default " + number_text(linear.max_force) + " N); > 0 to " +
+           bound_text(r::max_force)},
       {"delay", "integer", "0", "periods",
        "extra output delay: a force written in period n is applied in period n+delay (0.." +
            std::to_string(max_delay_periods) + ")"},
