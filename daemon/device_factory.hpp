@@ -27,6 +27,7 @@ BuiltDevice build_device(const config::DaemonConfig& config);
 config::SourcePosition device_key_position(const config::DeviceConfig& device, const std::string& key);
 
 /// A DeviceError as a config error at its key.
-config::ConfigError device_config_error(const config::DeviceConfig& device, const drivers::DeviceError& error);
+config::ConfigError device_config_error(const config::DeviceConfig& device,
+                                        const drivers::DeviceError& error);
 
 }  // namespace hapticd::daemon

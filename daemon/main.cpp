@@ -28,13 +28,14 @@ void list_drivers(const std::string& format) {
     return;
   }
   for (const auto& d : drivers::driver_registry()) {
-    std::cout << d.name << (d.ready ? "" : " (planned: not built in this version)") << ": " << d.summary << "\n";
+    std::cout << d.name << (d.ready ? "" : " (planned: not built in this version)") << ": " << d.summary
+              << "\n";
     for (const auto& p : d.parameters) {
       std::string def = p.default_value ? drivers::to_text(*p.default_value)
                                         : (p.type == drivers::ParameterType::table ? "-" : "required");
       if (!p.default_note.empty()) def += " (" + p.default_note + ")";
-      std::cout << "  " << p.name << ": " << drivers::accepted_text(p) << "; default " << def << ". " << p.help
-                << "\n";
+      std::cout << "  " << p.name << ": " << drivers::accepted_text(p) << "; default " << def << ". "
+                << p.help << "\n";
     }
   }
 }
@@ -134,7 +135,10 @@ int main(int argc, char** argv) {
       }
       loop.duration_s = *d;
     }
-    if (!socket.empty()) options.config.control.socket = socket;
+    if (!socket.empty()) {
+      options.config.control.socket = socket;
+      options.config.control.socket_where = {"--socket", 0, 0};  // errors name the flag, not the file
+    }
     options.record_name = record;
     hapticd::daemon::Service service(std::move(options));
     if (check_config) {

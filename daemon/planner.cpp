@@ -2,9 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
-
-#include <Eigen/Eigenvalues>
 
 #include "analysis/closed_loop.hpp"
 #include "analysis/wall_stability.hpp"
@@ -33,12 +32,6 @@ std::string radius(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.9f", v);
   return b;
-}
-
-double radius_of(const Eigen::MatrixXd& a) {
-  if (a.size() == 0) return 0.0;
-  const Eigen::VectorXcd ev = a.eigenvalues();
-  return ev.cwiseAbs().maxCoeff();
 }
 
 std::string stiffness_unit(const world::ScenePlan& plan) {
@@ -84,13 +77,25 @@ StabilityVerdict check_stability(const world::ScenePlan& plan, const DeviceModel
     return v;
   }
   v.checked = true;
-  v.scene_radius = radius_of(plan.linear->a);
-  const auto closed = analysis::analyze_closed_loop(device.plant, device.sensor, *plan.linear,
-                                                    device.period_s, device.info.delay_periods);
+  analysis::NumericRecord scene_record;
+  const analysis::Spectrum held =
+      analysis::spectrum("the scene's state matrix", plan.linear->a, scene_record);
+  const auto closed = analysis::analyze_closed_loop(
+      device.plant, device.sensor, *plan.linear, device.period_s, device.info.delay_periods, drift_tolerance);
+  const analysis::Verdict& verdict = analysis::worse(
+      analysis::judge_radius(held.radius, scene_tolerance, device.period_s, scene_record), closed.verdict);
+  v.verdict = verdict.state;
+  v.reason = verdict.reason;
+  v.stable = verdict.stable();
+  v.scene_radius = held.radius;
   v.closed_loop_radius = closed.pole_radius;
+  if (!verdict.assessed()) {
+    v.growth_per_second = std::numeric_limits<double>::quiet_NaN();
+    v.summary = "stability cannot be assessed on this device (" + device.describe() + "): " + verdict.reason;
+    return v;
+  }
   const double worst = std::max(v.scene_radius, v.closed_loop_radius);
   v.growth_per_second = std::pow(worst, 1.0 / device.period_s);
-  v.stable = v.scene_radius <= 1.0 + scene_tolerance && v.closed_loop_radius <= 1.0 + drift_tolerance;
   if (v.stable) {
     v.summary = "stable on this device: pole radius " + radius(v.closed_loop_radius) + " (released), " +
                 radius(v.scene_radius) + " (held)";
@@ -131,11 +136,20 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
                            const DeviceModel& device, bool force) {
   auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion());
   if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
-    return PlanRefusal{true, error->message, nullptr};
+    return PlanRefusal{true, error->message, nullptr, true, error->parameter};
   }
   PlannedScene planned{std::move(std::get<world::ScenePlan>(outcome)), {}, false};
   planned.stability = check_stability(planned.plan, device);
   if (planned.stability.stable) return planned;
+  if (planned.stability.verdict == analysis::VerdictState::cannot_assess) {
+    // Not forceable: a scene whose numbers overflow or lost precision renders
+    // nothing the analysis could describe (it may emit NaN).
+    PlanRefusal refusal;
+    refusal.assessed = false;
+    refusal.message = std::string(scene) + ": " + planned.stability.summary;
+    refusal.data = {{"stability", to_json(planned.stability)}};
+    return refusal;
+  }
   if (force) {
     planned.forced = true;
     return planned;
@@ -162,8 +176,8 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
   // The wall on a rigid device without mechanical damping is exactly Hulin's
   // problem: say what his region allows.
   if (scene == "wall" && device.plant.dynamics.a.rows() == 2 && device.info.viscous_damping == 0.0) {
-    const int d = static_cast<int>(std::get<double>(planned.plan.parameters.at("delay"))) +
-                  device.info.delay_periods;
+    const int d =
+        static_cast<int>(std::get<double>(planned.plan.parameters.at("delay"))) + device.info.delay_periods;
     const auto verdict = analysis::analyze_wall(device.info.effective_mass, device.period_s, d,
                                                 std::get<double>(planned.plan.parameters.at("stiffness")),
                                                 std::get<double>(planned.plan.parameters.at("damping")));
@@ -178,16 +192,20 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
 }
 
 std::string refusal_text(const PlanRefusal& refusal, std::string_view how) {
-  if (refusal.invalid) return refusal.message;
+  if (refusal.invalid || !refusal.assessed) return refusal.message;
   return refusal.message + ". " + std::string(how) + " to load it anyway; the torque limit still holds";
 }
 
 nlohmann::json to_json(const StabilityVerdict& v) {
+  // NaN (not assessed) and inf (growth that overflows) as null, explicitly.
+  const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
   return {{"checked", v.checked},
+          {"verdict", v.checked ? nlohmann::json(analysis::to_string(v.verdict)) : nlohmann::json(nullptr)},
+          {"reason", v.reason.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.reason)},
           {"stable", v.stable},
-          {"scene_radius", v.scene_radius},
-          {"closed_loop_radius", v.closed_loop_radius},
-          {"growth_per_second", v.growth_per_second},
+          {"scene_radius", number(v.scene_radius)},
+          {"closed_loop_radius", number(v.closed_loop_radius)},
+          {"growth_per_second", number(v.growth_per_second)},
           {"summary", v.summary}};
 }
 

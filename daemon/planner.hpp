@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/verdict.hpp"
 #include "drivers/device.hpp"
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
@@ -37,6 +38,10 @@ DeviceModel make_device_model(const drivers::Device& device, double period_s);
 /// The verdict that goes with a plan, reported to clients and recordings.
 struct StabilityVerdict {
   bool checked = false;  ///< false for scenes without a linear model (relay, free)
+  /// The worse of the scene's and the closed loop's analysis::Verdict; stable
+  /// is set from it only (never true for cannot_assess).
+  analysis::VerdictState verdict = analysis::VerdictState::stable;
+  std::string reason;  ///< why it cannot be assessed (an overflow, a NaN pole, lost precision); else empty
   bool stable = true;
   double scene_radius = 0.0;        ///< largest |eigenvalue| of the scene alone (device held)
   double closed_loop_radius = 0.0;  ///< largest |pole| with the device released (worst case, Hulin 2)
@@ -55,6 +60,10 @@ struct PlanRefusal {
   bool invalid = false;  ///< bad parameters (vs. valid but unstable)
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
   nlohmann::json data;   ///< e.g. {"limit": {"stiffness": ...}}
+  bool assessed = true;  ///< false: no stability verdict could be computed; force does not apply
+  /// The given parameter at fault (world::SceneError::parameter); empty when
+  /// the set as a whole is refused (unstable, or it cannot be built).
+  std::string parameter{};
 };
 
 using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
@@ -63,8 +72,8 @@ using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
 inline constexpr std::string_view force_over_rpc = "Send force=true (hapticctl --force)";
 inline constexpr std::string_view force_in_config = "Set force = true in [scene]";
 
-/// The refusal's message, plus for an unstable (not invalid) set how to load
-/// it anyway (`how`: force_over_rpc or force_in_config).
+/// The refusal's message, plus for an unstable (not invalid, assessed) set
+/// how to load it anyway (`how`: force_over_rpc or force_in_config).
 std::string refusal_text(const PlanRefusal& refusal, std::string_view how);
 
 /// Plans `scene` with `parameters` (missing ones take their defaults) for the device.

@@ -59,7 +59,7 @@ struct DeviceModel {
   std::optional<world::LinearPlant> plant;
   world::Sensor sensor = world::Sensor::motor;  ///< where the position comes from (with `plant`)
   std::string source = "config";                ///< "config", "device", "identified: <file>"
-  std::string description;                      ///< a few words, e.g. "rotary, two-mass" or "Copley Accelnet, node 3"
+  std::string description;  ///< a few words, e.g. "rotary, two-mass" or "Copley Accelnet, node 3"
 };
 
 enum class DeviceState { closed, configured, enabled, fault };

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <sstream>
 
-#include "drivers/device.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::drivers {
@@ -215,8 +214,8 @@ DriverParameters::DriverParameters(std::string driver, const std::vector<Paramet
     if (spec == nullptr) {
       std::vector<std::string> names;
       for (const auto& s : specs) names.push_back(s.name);
-      throw DeviceError(key_of(key) + " is not a parameter of the " + driver_ + " driver; accepted: " + join(names),
-                        key);
+      throw ParameterError(
+          key, key_of(key) + " is not a parameter of the " + driver_ + " driver; accepted: " + join(names));
     }
     if (!entry.empty()) {
       const auto* text = std::get_if<std::string>(&raw);
@@ -226,7 +225,7 @@ DriverParameters::DriverParameters(std::string driver, const std::vector<Paramet
     }
     auto checked = check(*spec, raw);
     if (const auto* reason = std::get_if<std::string>(&checked)) {
-      throw DeviceError(key_of(key) + " = " + to_text(raw) + " " + *reason, key);
+      throw ParameterError(key, key_of(key) + " = " + to_text(raw) + " " + *reason);
     }
     values_[spec->name] = std::get<ParameterValue>(checked);
     given_.push_back(spec->name);
@@ -235,7 +234,7 @@ DriverParameters::DriverParameters(std::string driver, const std::vector<Paramet
     if (values_.contains(s.name) || tables_.contains(s.name)) continue;
     if (s.type == ParameterType::table) continue;  // an empty table
     if (!s.default_value) {
-      throw DeviceError(key_of(s.name) + " is required; accepted: " + accepted_text(s), s.name);
+      throw ParameterError(s.name, key_of(s.name) + " is required; accepted: " + accepted_text(s));
     }
     values_[s.name] = *s.default_value;
   }

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -16,6 +17,22 @@
 #include <nlohmann/json.hpp>
 
 namespace hapticd::drivers {
+
+/// A driver parameter (or a key of a table parameter, such as the loopback's
+/// hand script) is refused. It names the key structurally, so whoever holds
+/// the key's source position (the daemon's config, the CLI) points at it
+/// without reading the message.
+class ParameterError : public std::invalid_argument {
+ public:
+  /// key: the key as written ("damping", "hand.amplitude"); empty when no
+  /// key can be named (malformed text).
+  ParameterError(std::string key, const std::string& message)
+      : std::invalid_argument(message), key_(std::move(key)) {}
+  const std::string& key() const noexcept { return key_; }
+
+ private:
+  std::string key_;
+};
 
 /// Same alternatives as world::ParameterValue and the config's values (a
 /// TOML integer arrives as a double).
@@ -70,7 +87,7 @@ std::string to_text(const ParameterValue& value);
 /// arrive flattened ("hand.mode") and are kept as text for the driver.
 class DriverParameters {
  public:
-  /// Throws DeviceError naming the key (unknown key, wrong type, out of
+  /// Throws ParameterError naming the key (unknown key, wrong type, out of
   /// range, missing required key) and what is accepted. `driver` is used in
   /// messages ("device.loopback.mass").
   DriverParameters(std::string driver, const std::vector<ParameterSpec>& specs,

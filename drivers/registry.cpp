@@ -10,11 +10,8 @@ namespace hapticd::drivers {
 const std::vector<DriverDescription>& driver_registry() {
   // One line per driver; a driver issue replaces its planned entry here.
   static const std::vector<DriverDescription> drivers{
-      loopback::loopback_driver(),
-      planned::usb_hid_driver(),
-      planned::canopen_driver(),
-      planned::modbus_driver(),
-      planned::gpio_pwm_driver(),
+      loopback::loopback_driver(), planned::usb_hid_driver(),  planned::canopen_driver(),
+      planned::modbus_driver(),    planned::gpio_pwm_driver(),
   };
   return drivers;
 }
@@ -55,7 +52,8 @@ std::string to_markdown(const std::vector<DriverDescription>& drivers) {
     out << "\n## " << d.name << (d.ready ? "" : " (planned: not built in this version)") << "\n\n"
         << d.summary << "\n\n| key | accepted | default | help |\n|---|---|---|---|\n";
     for (const auto& p : d.parameters) {
-      std::string def = p.default_value ? to_text(*p.default_value) : (p.type == ParameterType::table ? "-" : "required");
+      std::string def =
+          p.default_value ? to_text(*p.default_value) : (p.type == ParameterType::table ? "-" : "required");
       if (!p.default_note.empty()) def += " (" + p.default_note + ")";
       out << "| `" << p.name << "` | " << accepted_text(p) << " | " << def << " | " << p.help << " |\n";
     }

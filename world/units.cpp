@@ -37,9 +37,9 @@ std::optional<double> parse_duration_s(std::string_view text) noexcept {
 
 std::string format_duration(double seconds) {
   const double magnitude = std::abs(seconds);
-  const auto [scale, unit] = magnitude != 0.0 && magnitude < 1e-3 ? std::pair{1e6, "us"}
+  const auto [scale, unit] = magnitude != 0.0 && magnitude < 1e-3  ? std::pair{1e6, "us"}
                              : magnitude != 0.0 && magnitude < 1.0 ? std::pair{1e3, "ms"}
-                                                                    : std::pair{1.0, "s"};
+                                                                   : std::pair{1.0, "s"};
   char buffer[32];
   // 12 significant digits: 250e-6 * 1e6 prints as 250, not 250.00000000000003.
   const auto [end, ec] =

@@ -4,9 +4,9 @@
 
 namespace hapticd::daemon {
 
-using nlohmann::json;
 using control::Access;
 using control::PeerInfo;
+using nlohmann::json;
 
 // The device: what it is (device.describe) and the methods its driver adds
 // (the loopback's hand.set and fault.inject, a CANopen SDO read ...). The

@@ -41,8 +41,9 @@ void Service::register_fault_methods(control::ControlServer& server) {
         return json{{"fault", std::string(engine::to_string(engine_->fault()))}, {"cycle", engine_->cycle()}};
       },
       // Read access by design (docs/protocol.md): anyone who can connect may
-      // stop the device; only writers can clear it (fault.clear).
-      Access::read);
+      // stop the device; only writers can clear it (fault.clear). Served
+      // before other clients' queued requests, whatever their load.
+      Access::read, control::Precedence::first);
 }
 
 }  // namespace hapticd::daemon

@@ -30,7 +30,8 @@ inline void reject_unknown_keys(const char* method, const nlohmann::json& params
 /// The optional "force" member (load an unstable set on purpose).
 inline bool get_force(const nlohmann::json& params) {
   if (!params.contains("force")) return false;
-  if (!params["force"].is_boolean()) throw rpc::RpcError(rpc::code::invalid_params, "force must be true or false");
+  if (!params["force"].is_boolean())
+    throw rpc::RpcError(rpc::code::invalid_params, "force must be true or false");
   return params["force"].get<bool>();
 }
 

@@ -37,10 +37,14 @@ void Service::register_record_methods(control::ControlServer& server) {
         }
         return json{{"path", status.path.string()},
                     {"samples", status.samples_written},
+                    {"samples_received", status.samples_received},
                     {"sections", status.sections},
                     {"dropped_ring", status.dropped_ring},
                     {"dropped_write", status.dropped_write},
                     {"cycle_gaps", status.cycle_gaps},
+                    {"disk_full", status.disk_full},
+                    {"resumed", status.resumed},
+                    {"complete", status.complete},
                     {"error", status.error}};
       },
       Access::write);

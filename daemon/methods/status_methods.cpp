@@ -96,7 +96,10 @@ json Service::status() const {
   out["recording"] = {{"active", rec.recording},
                       {"path", rec.path.string()},
                       {"samples", rec.samples_written},
-                      {"dropped", rec.dropped_ring + rec.dropped_write}};
+                      {"dropped", rec.dropped_ring + rec.dropped_write},
+                      {"disk_full", rec.disk_full},
+                      {"resumed", rec.resumed},
+                      {"error", rec.error}};
   {
     std::lock_guard lock(latest_mutex_);
     if (latest_) out["last"] = sample_json(*latest_, {});

@@ -4,6 +4,7 @@
 
 #include "drivers/loopback/loopback_device.hpp"
 #include "drivers/simulation/key_value.hpp"
+#include "world/scene_catalog.hpp"
 
 namespace hapticd::drivers::loopback {
 
@@ -12,6 +13,9 @@ namespace {
 using P = ParameterSpec;
 
 std::vector<ParameterSpec> make_parameters() {
+  // Ranges: world::parameter_range, as for the scenes (a value outside is a
+  // typo, not a device); PlantConfig::validate() checks the same.
+  namespace r = world::parameter_range;
   const LoopbackConfig rotary = LoopbackConfig::defaults(Motion::rotary);
   const LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
   const world::TwoMassPlant tm{};
@@ -27,44 +31,62 @@ std::vector<ParameterSpec> make_parameters() {
           .defaults_to("rigid"),
       P::number("mass", "kg m^2 | kg", "rigid plant: moving inertia (rotary) or mass (linear)")
           .defaults_to(rotary.mass, note(linear.mass, "kg"))
-          .above(0.0),
+          .at_least(r::min_mass)
+          .at_most(r::max_mass),
       P::number("damping", "N m s/rad | N s/m", "rigid plant: viscous damping to ground")
-          .defaults_to(rotary.damping)
-          .at_least(0.0),
-      P::number("coulomb", "N m | N",
-                "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables")
+          .defaults_to(rotary.damping, note(linear.damping, "N s/m"))
+          .at_least(0.0)
+          .at_most(r::max_damping),
+      P::number(
+          "coulomb", "N m | N",
+          "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables")
           .defaults_to(0.0)
-          .at_least(0.0),
-      P::number("motor_mass", "kg", "two-mass: motor-side mass m_m (Table I)").defaults_to(tm.motor_mass).above(0.0),
-      P::number("body_mass", "kg", "two-mass: body (handle) mass m_d (Table I)").defaults_to(tm.body_mass).above(0.0),
+          .at_least(0.0)
+          .at_most(r::max_force),
+      P::number("motor_mass", "kg", "two-mass: motor-side mass m_m (Table I)")
+          .defaults_to(tm.motor_mass)
+          .at_least(r::min_mass)
+          .at_most(r::max_mass),
+      P::number("body_mass", "kg", "two-mass: body (handle) mass m_d (Table I)")
+          .defaults_to(tm.body_mass)
+          .at_least(r::min_mass)
+          .at_most(r::max_mass),
       P::number("motor_damping", "N s/m", "two-mass: motor damping b_m (Table I)")
           .defaults_to(tm.motor_damping)
-          .at_least(0.0),
+          .at_least(0.0)
+          .at_most(r::max_damping),
       P::number("body_damping", "N s/m", "two-mass: body damping b_d (Table I)")
           .defaults_to(tm.body_damping)
-          .at_least(0.0),
+          .at_least(0.0)
+          .at_most(r::max_damping),
       P::number("cable_stiffness", "N/m", "two-mass: cable stiffness k_c (Table I)")
           .defaults_to(tm.cable_stiffness)
-          .above(0.0),
+          .above(0.0)
+          .at_most(r::max_stiffness),
       P::number("cable_damping", "N s/m", "two-mass: cable damping b_c (Table I)")
           .defaults_to(tm.cable_damping)
-          .at_least(0.0),
+          .at_least(0.0)
+          .at_most(r::max_damping),
       P::choice("sensor", {"motor", "body"},
                 "two-mass: position read() returns: motor (collocated) or body (non-collocated)")
           .defaults_to("motor"),
       P::number("counts", "1/rev | 1/m", "encoder counts per revolution (rotary) or per metre (linear)")
           .defaults_to(rotary.counts, note(linear.counts, "1/m"))
-          .above(0.0),
+          .at_least(1.0)
+          .at_most(simulation::max_counts),
       P::number("max_force", "N m | N", "actuator saturation |force|")
           .defaults_to(rotary.max_force, note(linear.max_force, "N"))
-          .above(0.0),
-      P::integer("delay", "periods", "extra output delay: a force written in period n is applied in period n+delay")
+          .above(0.0)
+          .at_most(r::max_force),
+      P::integer("delay", "periods",
+                 "extra output delay: a force written in period n is applied in period n+delay")
           .defaults_to(0.0)
           .at_least(0.0)
           .at_most(static_cast<double>(max_delay_periods)),
-      P::table("hand",
-               "the scripted hand, e.g. [device.loopback.hand] mode = \"hold\", trajectory = \"step\", "
-               "amplitude = 0.785, at = 0.5 (or hand = \"mode=hold ...\"); hapticctl hand changes it at run time"),
+      P::table(
+          "hand",
+          "the scripted hand, e.g. [device.loopback.hand] mode = \"hold\", trajectory = \"step\", "
+          "amplitude = 0.785, at = 0.5 (or hand = \"mode=hold ...\"); hapticctl hand changes it at run time"),
   };
 }
 
@@ -95,31 +117,31 @@ LoopbackConfig loopback_config_from(const DriverParameters& p) {
   set("counts", config.counts);
   set("max_force", config.max_force);
   config.delay = static_cast<int>(p.integer("delay"));
-  try {
-    config.validate();
-  } catch (const std::invalid_argument& e) {
-    throw DeviceError(e.what());
-  }
+  config.validate();  // ParameterError naming the key
   return config;
 }
 
 simulation::HandScript hand_script_from(const DriverParameters& p) {
+  const auto entries = p.table("hand");
   std::string text;
-  for (const auto& [key, value] : p.table("hand")) text += (key.empty() ? value : key + "=" + value) + " ";
+  for (const auto& [key, value] : entries) text += (key.empty() ? value : key + "=" + value) + " ";
   if (text.empty()) return {};
   try {
     return simulation::parse_hand_script(text);
-  } catch (const std::invalid_argument& e) {
-    throw DeviceError(std::string("device.loopback.hand: ") + e.what(), "hand");
+  } catch (const ParameterError& e) {
+    // Blame the [device.loopback.hand] key at fault if it was written as
+    // one, else the hand as a whole (a one-line `hand = "..."`).
+    std::string blamed = "hand";
+    for (const auto& entry : entries) {
+      if (!e.key().empty() && entry.first == e.key()) blamed = "hand." + entry.first;
+    }
+    throw ParameterError(blamed, std::string("device.loopback.") + e.what());
   }
 }
 
 DriverDescription loopback_driver() {
-  return {"loopback",
-          "simulated plant (rigid or two-mass), scripted hand, fault injection: tests and demos",
-          true,
-          loopback_parameters(),
-          [](const DriverParameters& p) -> std::unique_ptr<Device> {
+  return {"loopback", "simulated plant (rigid or two-mass), scripted hand, fault injection: tests and demos",
+          true, loopback_parameters(), [](const DriverParameters& p) -> std::unique_ptr<Device> {
             return std::make_unique<LoopbackDevice>(loopback_config_from(p), hand_script_from(p));
           }};
 }

@@ -30,14 +30,14 @@ DriverDescription loopback_driver();
 
 /// The plant configuration from checked parameters: "motion" selects the
 /// defaults (mass, counts, max_force differ), the keys written override
-/// them. Throws DeviceError naming the key.
+/// them. Throws ParameterError naming the key.
 LoopbackConfig loopback_config_from(const DriverParameters& parameters);
 /// The hand script from the `hand` table (or its one-line text); throws
-/// DeviceError naming the key.
+/// ParameterError naming the key ("hand.amplitude").
 simulation::HandScript hand_script_from(const DriverParameters& parameters);
 
 /// From "key=value key=value ..." text (space separated), through the same
-/// typed parameters; for tests and tools. Throws DeviceError.
+/// typed parameters; for tests and tools. Throws ParameterError.
 LoopbackConfig parse_loopback_config(std::string_view text);
 
 }  // namespace hapticd::drivers::loopback

@@ -122,33 +122,33 @@ DeviceStatus LoopbackDevice::status() const {
 }
 
 std::vector<DeviceMethod> LoopbackDevice::methods() {
-  DeviceMethod hand{"hand.set", true, "script the simulated hand (docs/protocol.md)", [this](const json& params) {
-                      std::string text;
-                      if (params.contains("text")) {
-                        if (!params["text"].is_string())
-                          throw RpcError(code::invalid_params, "text must be a string");
-                        text = params["text"].get<std::string>();
-                      } else {
-                        for (const auto& [k, v] : params.items()) {
-                          if (v.is_structured())
-                            throw RpcError(code::invalid_params, "hand.set: " + k + " must be a scalar");
-                          const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
-                          // The script is key=value text: a space or '=' inside a
-                          // value would smuggle in another key.
-                          if (value.find_first_of(" \t\n=") != std::string::npos) {
-                            throw RpcError(code::invalid_params,
-                                           "hand.set: " + k + " = '" + value + "' may not contain spaces or '='");
-                          }
-                          text += k + "=" + value + " ";
-                        }
-                      }
-                      try {
-                        simulator_->set_hand(text);
-                      } catch (const std::invalid_argument& e) {
-                        throw RpcError(code::invalid_params, e.what());
-                      }
-                      return json{{"hand", simulator_->hand().to_text()}};
-                    }};
+  DeviceMethod hand{
+      "hand.set", true, "script the simulated hand (docs/protocol.md)", [this](const json& params) {
+        std::string text;
+        if (params.contains("text")) {
+          if (!params["text"].is_string()) throw RpcError(code::invalid_params, "text must be a string");
+          text = params["text"].get<std::string>();
+        } else {
+          for (const auto& [k, v] : params.items()) {
+            if (v.is_structured())
+              throw RpcError(code::invalid_params, "hand.set: " + k + " must be a scalar");
+            const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+            // The script is key=value text: a space or '=' inside a
+            // value would smuggle in another key.
+            if (value.find_first_of(" \t\n=") != std::string::npos) {
+              throw RpcError(code::invalid_params,
+                             "hand.set: " + k + " = '" + value + "' may not contain spaces or '='");
+            }
+            text += k + "=" + value + " ";
+          }
+        }
+        try {
+          simulator_->set_hand(text);
+        } catch (const std::invalid_argument& e) {
+          throw RpcError(code::invalid_params, e.what());
+        }
+        return json{{"hand", simulator_->hand().to_text()}};
+      }};
   DeviceMethod fault{
       "fault.inject", true, "make the simulated device fail (docs/protocol.md)", [this](const json& params) {
         const std::string kind = params.value("kind", std::string());

@@ -56,7 +56,9 @@ class LoopbackDevice final : public Device {
   void set_hand(const HandScript& script) { simulator_->set_hand(script); }
   void set_hand(std::string_view text) { simulator_->set_hand(text); }
   HandScript hand() const { return simulator_->hand(); }
-  void inject_fault(Fault fault, std::int64_t amount = -1) noexcept { simulator_->inject_fault(fault, amount); }
+  void inject_fault(Fault fault, std::int64_t amount = -1) noexcept {
+    simulator_->inject_fault(fault, amount);
+  }
   void clear_faults() noexcept { simulator_->clear_faults(); }
   PlantSnapshot snapshot() const noexcept { return simulator_->snapshot(); }
   /// Only while disabled (the RT thread is not stepping the plant).
