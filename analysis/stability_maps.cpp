@@ -40,9 +40,16 @@ WallRegionMap wall_region_map(int max_delay, int points, StudyProgress& progress
   for (int d = 0; d <= max_delay; ++d) {
     progress.stage("wall region d = " + std::to_string(d));
     const double top = beta_max_at_zero_stiffness(d);
-    for (int i = 0; i < points; ++i) {
-      // log-spaced from top * 1e-4 to just below top (alpha_max -> 0 there).
-      const double beta = top * std::pow(1e-4, 1.0 - static_cast<double>(i) / (points - 1)) * (1.0 - 1e-9);
+    // Half the points log-spaced from top * 1e-4 to top / 2, half crowding
+    // toward top (top - beta log-spaced down to 1e-6 top), where alpha_max
+    // falls steeply to 0.
+    const int half = points / 2;
+    for (int i = 0; i < half; ++i) {
+      const double beta = top * 0.5 * std::pow(2e-4, 1.0 - static_cast<double>(i) / half);
+      map.boundary.push_back({d, beta, alpha_max(beta, d)});
+    }
+    for (int i = 0; i <= points - half; ++i) {
+      const double beta = top * (1.0 - 0.5 * std::pow(2e-6, static_cast<double>(i) / (points - half)));
       map.boundary.push_back({d, beta, alpha_max(beta, d)});
     }
     progress.advance(1);

@@ -22,7 +22,7 @@ void add_report_stability(CLI::App& report);
 /// Exit code of a report stopped with Ctrl-C (128 + SIGINT, as a shell reports it).
 inline constexpr int exit_interrupted = 130;
 
-/// Column-aligned text for the terminal: first column left, others right.
+/// Column-aligned text for the terminal: columns of numbers right-aligned, text left.
 class TextTable {
  public:
   explicit TextTable(std::vector<std::string> header) : header_(std::move(header)) {}

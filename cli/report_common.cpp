@@ -5,6 +5,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <iostream>
 #include <sstream>
@@ -31,9 +32,24 @@ void add_report_command(CLI::App& app) {
       "report", "Offline studies as figures (PNG via gnuplot, CSV, JSON, .gp) and tables (no daemon needed)");
   report->require_subcommand(1);
   add_report_accuracy(*report);
+  add_report_stability(*report);
 }
 
+namespace {
+/// A cell that reads as a number (or a placeholder for one): right-aligned.
+bool numeric_cell(const std::string& cell) {
+  if (cell.empty() || cell == "-" || cell == "inf" || cell == "-inf") return true;
+  char* end = nullptr;
+  std::strtod(cell.c_str(), &end);
+  return end != cell.c_str() && (*end == '\0' || *end == '*' || *end == ' ');
+}
+}  // namespace
+
 void TextTable::print(std::ostream& out, const std::string& indent) const {
+  std::vector<bool> right(header_.size(), true);
+  for (const auto& r : rows_) {
+    for (std::size_t i = 0; i < r.size() && i < right.size(); ++i) right[i] = right[i] && numeric_cell(r[i]);
+  }
   std::vector<std::size_t> width(header_.size(), 0);
   const auto measure = [&](const std::vector<std::string>& cells) {
     for (std::size_t i = 0; i < cells.size() && i < width.size(); ++i)
@@ -46,7 +62,7 @@ void TextTable::print(std::ostream& out, const std::string& indent) const {
     for (std::size_t i = 0; i < width.size(); ++i) {
       const std::string cell = i < cells.size() ? cells[i] : "";
       const std::string pad(width[i] - cell.size(), ' ');
-      text += i == 0 ? cell + pad : "  " + pad + cell;
+      text += (i == 0 ? "" : "  ") + (right[i] ? pad + cell : cell + pad);
     }
     while (!text.empty() && text.back() == ' ') text.pop_back();
     out << text << "\n";

@@ -236,10 +236,11 @@ std::string FigureWriter::script(const Figure& f) {
       }
     }
     const std::string x = "$" + std::to_string(f.data.column(c.x));
-    const std::string y = "$" + std::to_string(f.data.column(c.y));
+    std::string y = "($" + std::to_string(f.data.column(c.y)) + ")";
+    if (!c.y2.empty()) y += ":($" + std::to_string(f.data.column(c.y2)) + ")";
     s << (i ? ", \\\n     " : "") << (i ? "''" : "data") << " skip 1 using ("
-      << (condition.empty() ? x : "(" + condition + ") ? " + x + " : NaN") << "):(" << y << ") with "
-      << c.style << " "
+      << (condition.empty() ? x : "(" + condition + ") ? " + x + " : NaN") << "):" << y << " with " << c.style
+      << " "
       << (c.title.empty() ? std::string("notitle") : "title " + gnuplot_quote(c.title) + " noenhanced");
   }
   s << "\n";

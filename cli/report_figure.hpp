@@ -46,7 +46,8 @@ struct Curve {
   std::vector<Match> where;
   std::string x;
   std::string y;
-  std::string style;  ///< gnuplot "with ..." text, e.g. "linespoints pt 7 lc rgb '#1b9e77'"
+  std::string style;    ///< gnuplot "with ..." text, e.g. "linespoints pt 7 lc rgb '#1b9e77'"
+  std::string y2 = {};  ///< a second y column (filledcurves between y and y2)
 };
 
 struct Axis {
