@@ -151,18 +151,18 @@ std::string Method::label() const {
 bool discretization_stable(const AccuracyCase& c, const Method& method, double period_s) {
   try {
     if (method.kind == Method::Kind::integrator) {
-      return analyze_integrator({c.stiffness, c.inertia, c.damping, period_s, method.integrator}).stable;
+      return analyze_integrator({c.stiffness, c.inertia, c.damping, period_s, method.integrator}).stable();
     }
     if (method.kind == Method::Kind::odeint_rk4) {
       // Odeint's RK4 on the continuous problem is our rk4 on the same body.
       const SecondOrderStep r = reference_problem(c, period_s);
       const double wn = r.natural_frequency;
-      return analyze_integrator({wn * wn, 1.0, 2.0 * r.decay, period_s, world::Integrator::rk4}).stable;
+      return analyze_integrator({wn * wn, 1.0, 2.0 * r.decay, period_s, world::Integrator::rk4}).stable();
     }
     if (method.kind == Method::Kind::sampled_wall) {
       return analyze_closed_loop(c.device.model(), world::Sensor::motor,
                                  detail::wall_linear_model(c, period_s), period_s)
-          .stable;
+          .stable();
     }
   } catch (const std::exception&) {
     return false;  // a verdict that cannot be formed is not "stable"

@@ -2,8 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
-
-#include <Eigen/Eigenvalues>
+#include <limits>
 
 #include "analysis/closed_loop.hpp"
 #include "analysis/wall_stability.hpp"
@@ -32,12 +31,6 @@ std::string radius(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.9f", v);
   return b;
-}
-
-double radius_of(const Eigen::MatrixXd& a) {
-  if (a.size() == 0) return 0.0;
-  const Eigen::VectorXcd ev = a.eigenvalues();
-  return ev.cwiseAbs().maxCoeff();
 }
 
 std::string stiffness_unit(const world::ScenePlan& plan) {
@@ -101,13 +94,24 @@ SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDev
     return v;
   }
   v.checked = true;
-  v.scene_radius = radius_of(plan.linear->a);
-  const auto closed =
-      analyze_closed_loop(device.plant, device.sensor, *plan.linear, device.period_s, device.delay_samples);
+  NumericRecord scene_record;
+  const Spectrum held = spectrum("the scene's state matrix", plan.linear->a, scene_record);
+  const auto closed = analyze_closed_loop(device.plant, device.sensor, *plan.linear, device.period_s,
+                                          device.delay_samples, drift_tolerance);
+  const Verdict& verdict =
+      worse(judge_radius(held.radius, scene_tolerance, device.period_s, scene_record), closed.verdict);
+  v.verdict = verdict.state;
+  v.reason = verdict.reason;
+  v.stable = verdict.stable();
+  v.scene_radius = held.radius;
   v.closed_loop_radius = closed.pole_radius;
+  if (!verdict.assessed()) {
+    v.growth_per_second = std::numeric_limits<double>::quiet_NaN();
+    v.summary = "stability cannot be assessed on this device (" + device.describe() + "): " + verdict.reason;
+    return v;
+  }
   const double worst = std::max(v.scene_radius, v.closed_loop_radius);
   v.growth_per_second = std::pow(worst, 1.0 / device.period_s);
-  v.stable = v.scene_radius <= 1.0 + scene_tolerance && v.closed_loop_radius <= 1.0 + drift_tolerance;
   if (v.stable) {
     v.summary = "stable on this device: pole radius " + radius(v.closed_loop_radius) + " (released), " +
                 radius(v.scene_radius) + " (held)";
@@ -130,6 +134,15 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
   GateAccepted accepted{std::move(std::get<world::ScenePlan>(outcome)), {}, false};
   accepted.stability = check_scene_stability(accepted.plan, device);
   if (accepted.stability.stable) return accepted;
+  if (accepted.stability.verdict == VerdictState::cannot_assess) {
+    // Not forceable: a scene whose numbers overflow or lost precision renders
+    // nothing the analysis could describe (it may emit NaN).
+    GateRefusal refusal;
+    refusal.assessed = false;
+    refusal.message = std::string(scene) + ": " + accepted.stability.summary;
+    refusal.stability = accepted.stability;
+    return refusal;
+  }
   if (force) {
     accepted.forced = true;
     return accepted;

@@ -16,6 +16,7 @@
 #include <variant>
 
 #include "analysis/polynomial.hpp"
+#include "analysis/verdict.hpp"
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
 
@@ -41,6 +42,10 @@ GateDevice rigid_device(double mass, double damping, double period_s, int delay_
 /// The verdict that goes with a plan.
 struct SceneStability {
   bool checked = false;  ///< false for scenes without a linear model (relay, free)
+  /// The worse of the scene's and the closed loop's Verdict; stable is set
+  /// from it only (never true for cannot_assess).
+  VerdictState verdict = VerdictState::stable;
+  std::string reason;  ///< why it cannot be assessed (an overflow, a NaN pole, lost precision); else empty
   bool stable = true;
   double scene_radius = 0.0;        ///< largest |eigenvalue| of the scene alone (device held)
   double closed_loop_radius = 0.0;  ///< largest |pole| with the device released (worst case, Hulin 2)
@@ -66,6 +71,7 @@ struct WallLimits {
 
 struct GateRefusal {
   bool invalid = false;  ///< bad parameters (vs. valid but unstable)
+  bool assessed = true;  ///< false: no stability verdict could be computed; force does not apply
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
   /// Unstable sets only: the largest stable stiffness with the other
   /// parameters fixed, if the scene has a stiffness and one exists.
@@ -76,7 +82,8 @@ struct GateRefusal {
 
 using GateOutcome = std::variant<GateAccepted, GateRefusal>;
 
-/// Plans `scene` with `parameters` (missing ones take their defaults) for the device.
+/// Plans `scene` with `parameters` (missing ones take their defaults) for the
+/// device. A set whose stability cannot be assessed is refused even when forced.
 GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parameters,
                        const GateDevice& device, bool force);
 

@@ -79,7 +79,7 @@ bool integrator_stable(world::Integrator integrator, double wn_t, double zeta) {
   // A unit inertia and period: only w_n T and zeta matter.
   const SpringScene scene{wn_t * wn_t, 1.0, 2.0 * zeta * wn_t, 1.0, integrator};
   try {
-    return analyze_integrator(scene).stable;
+    return analyze_integrator(scene).stable();
   } catch (const std::exception&) {
     return false;
   }
@@ -150,10 +150,12 @@ std::vector<CriticalStiffnessRow> critical_stiffness_curves(double period_s, dou
                                std::numeric_limits<double>::quiet_NaN()};
       try {
         const CriticalStiffness k = critical_stiffness(c.plant, c.sensor, period_s, td);
-        row.k_cr = k.k_cr;
-        row.crossover_hz = k.crossover_hz;
+        if (k.assessed()) {
+          row.k_cr = k.k_cr;
+          row.crossover_hz = k.crossover_hz;
+        }
       } catch (const std::exception&) {
-        // no finite K_CR: stays NaN
+        // a delay beyond the analysis' range: no K_CR (NaN)
       }
       rows.push_back(row);
       progress.advance(1);

@@ -6,8 +6,6 @@
 #include <limits>
 #include <numbers>
 
-#include <Eigen/Eigenvalues>
-
 #include "analysis/closed_loop.hpp"
 #include "analysis/wall_stability.hpp"
 #include "world/any_scene.hpp"
@@ -39,26 +37,24 @@ Prediction predict(const SweepCase& c, const world::ScenePlan& plan) {
     p.reason = "no linear model";
     return p;
   }
+  // The same spectra, and the same rule for "not computable", as the gate.
   std::vector<std::complex<double>> poles;
   if (c.mode == SweepMode::held) {
-    const Eigen::MatrixXd& a = plan.linear->a;
-    if (!a.allFinite()) {
-      p.reason = "the scene's matrix is not finite";
+    NumericRecord record;
+    poles = spectrum("the scene's state matrix", plan.linear->a, record).eigenvalues;
+    if (!record.clean()) {
+      p.reason = record.reason();
       return p;
-    }
-    if (a.size() > 0) {
-      const Eigen::VectorXcd ev = a.eigenvalues();
-      poles.assign(ev.data(), ev.data() + ev.size());
     }
   } else {
-    if (!c.device.plant.dynamics.a.allFinite() || !c.device.plant.dynamics.b.allFinite()) {
-      p.reason = "the plant's matrices are not finite";
-      return p;
-    }
     try {
-      poles = analyze_closed_loop(c.device.plant, c.device.sensor, *plan.linear, c.device.period_s,
-                                  c.device.delay_samples)
-                  .eigenvalues;
+      const ClosedLoopVerdict closed = analyze_closed_loop(c.device.plant, c.device.sensor, *plan.linear,
+                                                           c.device.period_s, c.device.delay_samples);
+      if (!closed.verdict.assessed()) {
+        p.reason = closed.verdict.reason;
+        return p;
+      }
+      poles = closed.eigenvalues;
     } catch (const std::exception& e) {
       p.reason = e.what();
       return p;

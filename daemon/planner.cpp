@@ -48,6 +48,8 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
   }
   const auto& refused = std::get<analysis::GateRefusal>(outcome);
   if (refused.invalid) return PlanRefusal{true, refused.message, nullptr};
+  if (!refused.assessed)
+    return PlanRefusal{false, refused.message, {{"stability", to_json(*refused.stability)}}, false};
   nlohmann::json limit = nlohmann::json::object();
   if (refused.stiffness_limit) limit["stiffness"] = *refused.stiffness_limit;
   if (refused.hulin) {
@@ -61,16 +63,20 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
 }
 
 std::string refusal_text(const PlanRefusal& refusal, std::string_view how) {
-  if (refusal.invalid) return refusal.message;
+  if (refusal.invalid || !refusal.assessed) return refusal.message;
   return refusal.message + ". " + std::string(how) + " to load it anyway; the torque limit still holds";
 }
 
 nlohmann::json to_json(const StabilityVerdict& v) {
+  // NaN (not assessed) and inf (growth that overflows) as null, explicitly.
+  const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
   return {{"checked", v.checked},
+          {"verdict", v.checked ? nlohmann::json(analysis::to_string(v.verdict)) : nlohmann::json(nullptr)},
+          {"reason", v.reason.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.reason)},
           {"stable", v.stable},
-          {"scene_radius", v.scene_radius},
-          {"closed_loop_radius", v.closed_loop_radius},
-          {"growth_per_second", v.growth_per_second},
+          {"scene_radius", number(v.scene_radius)},
+          {"closed_loop_radius", number(v.closed_loop_radius)},
+          {"growth_per_second", number(v.growth_per_second)},
           {"summary", v.summary}};
 }
 

@@ -56,6 +56,7 @@ struct PlanRefusal {
   bool invalid = false;  ///< bad parameters (vs. valid but unstable)
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
   nlohmann::json data;   ///< e.g. {"limit": {"stiffness": ...}}
+  bool assessed = true;  ///< false: no stability verdict could be computed; force does not apply
 };
 
 using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
@@ -64,8 +65,8 @@ using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
 inline constexpr std::string_view force_over_rpc = "Send force=true (hapticctl --force)";
 inline constexpr std::string_view force_in_config = "Set force = true in [scene]";
 
-/// The refusal's message, plus for an unstable (not invalid) set how to load
-/// it anyway (`how`: force_over_rpc or force_in_config).
+/// The refusal's message, plus for an unstable (not invalid, assessed) set
+/// how to load it anyway (`how`: force_over_rpc or force_in_config).
 std::string refusal_text(const PlanRefusal& refusal, std::string_view how);
 
 /// Plans `scene` with `parameters` (missing ones take their defaults) for the

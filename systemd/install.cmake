@@ -13,10 +13,22 @@ set(HAPTICD_SYSUSERS_DIR "${CMAKE_INSTALL_PREFIX}/lib/sysusers.d" CACHE PATH
 
 set(HAPTICD_BINARY "${CMAKE_INSTALL_FULL_BINDIR}/hapticd")
 set(HAPTICD_DOC_DIR "${CMAKE_INSTALL_FULL_DOCDIR}")
+# One source, two units: the plain unit for one device and the template
+# hapticd@.service for several devices on one machine (%i names the
+# instance: its config file, socket directory and recording directory).
 set(HAPTICD_GENERATED_UNIT "${PROJECT_BINARY_DIR}/systemd/hapticd.service")
+set(HAPTICD_UNIT_DESCRIPTION "hapticd real-time haptics daemon")
+set(HAPTICD_CONFIG_NAME "hapticd")
+set(HAPTICD_INSTANCE_DIRECTORY "hapticd")
 configure_file(${CMAKE_CURRENT_LIST_DIR}/hapticd.service.in ${HAPTICD_GENERATED_UNIT} @ONLY)
+set(HAPTICD_GENERATED_TEMPLATE_UNIT "${PROJECT_BINARY_DIR}/systemd/hapticd@.service")
+set(HAPTICD_UNIT_DESCRIPTION "hapticd real-time haptics daemon, device %i")
+set(HAPTICD_CONFIG_NAME "%i")
+set(HAPTICD_INSTANCE_DIRECTORY "hapticd/%i")
+configure_file(${CMAKE_CURRENT_LIST_DIR}/hapticd.service.in ${HAPTICD_GENERATED_TEMPLATE_UNIT} @ONLY)
 
-install(FILES ${HAPTICD_GENERATED_UNIT} DESTINATION ${HAPTICD_SYSTEMD_UNIT_DIR} COMPONENT systemd)
+install(FILES ${HAPTICD_GENERATED_UNIT} ${HAPTICD_GENERATED_TEMPLATE_UNIT} DESTINATION ${HAPTICD_SYSTEMD_UNIT_DIR}
+        COMPONENT systemd)
 install(FILES ${CMAKE_CURRENT_LIST_DIR}/hapticd.sysusers DESTINATION ${HAPTICD_SYSUSERS_DIR}
         RENAME hapticd.conf COMPONENT systemd)
 

@@ -21,8 +21,16 @@ add_test(NAME systemd_unit_verify
 add_test(NAME systemd_unit_verify_detects_typo
          COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_verify.sh ${HAPTICD_GENERATED_UNIT} "${_hapticd_verify_binary}"
                  --inject-typo)
-set_tests_properties(systemd_unit_verify systemd_unit_verify_detects_typo PROPERTIES LABELS systemd)
-set_tests_properties(systemd_unit_verify_detects_typo PROPERTIES WILL_FAIL TRUE)
+# The template for several devices on one machine, and its typo check.
+add_test(NAME systemd_template_unit_verify
+         COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_verify.sh ${HAPTICD_GENERATED_TEMPLATE_UNIT} "${_hapticd_verify_binary}")
+add_test(NAME systemd_template_unit_verify_detects_typo
+         COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_verify.sh ${HAPTICD_GENERATED_TEMPLATE_UNIT} "${_hapticd_verify_binary}"
+                 --inject-typo)
+set_tests_properties(systemd_unit_verify systemd_unit_verify_detects_typo systemd_template_unit_verify
+                     systemd_template_unit_verify_detects_typo PROPERTIES LABELS systemd)
+set_tests_properties(systemd_unit_verify_detects_typo systemd_template_unit_verify_detects_typo
+                     PROPERTIES WILL_FAIL TRUE)
 
 # The sysusers.d entry parses and creates the hapticd user and group
 # (dry run in an empty root; warnings fail the test).

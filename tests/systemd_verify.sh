@@ -6,7 +6,7 @@
 # about other units (dependencies loaded from the host) are shown and ignored.
 #
 # usage: systemd_verify.sh UNIT_FILE [BINARY] [--inject-typo]
-#   UNIT_FILE  the generated unit (build/systemd/hapticd.service)
+#   UNIT_FILE  the generated unit (build/systemd/hapticd.service or hapticd@.service)
 #   BINARY     executable to put in ExecStart (the built hapticd); empty or
 #              missing: a temporary dummy executable
 #   --inject-typo  add an unknown key to the copy: the check must then fail
@@ -28,7 +28,10 @@ if [[ -z $binary ]]; then
 fi
 [[ -x $binary ]] || { echo "systemd_verify: $binary is not executable" >&2; exit 2; }
 
-unit=$work/hapticd.service
+# A template (hapticd@.service) is checked as an instance of itself: systemd
+# parses hapticd@verify.service with %i = verify, so every key is checked.
+unit_name=$(basename "$unit_src")
+unit=$work/${unit_name/@./@verify.}
 # Point ExecStart at an executable that exists here (verify checks it).
 sed -E "s|^ExecStart=[^ ]+|ExecStart=${binary}|" "$unit_src" >"$unit"
 grep -q "^ExecStart=${binary} " "$unit" || { echo "systemd_verify: no ExecStart= in $unit_src" >&2; exit 2; }

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "drivers/loopback/key_value.hpp"
+#include "world/scene_catalog.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::drivers::loopback {
@@ -19,6 +20,13 @@ constexpr double linear_default_counts = 1.0 / 3.14e-6;  // LHifAM: 3.14 um per 
 std::string number_text(double value) {
   std::ostringstream out;
   out.precision(12);
+  out << value;
+  return out.str();
+}
+
+/// Range bounds as in the scene catalog's messages: 1e-09, 1e+06.
+std::string bound_text(double value) {
+  std::ostringstream out;
   out << value;
   return out.str();
 }
@@ -60,29 +68,37 @@ double LoopbackConfig::total_damping() const noexcept {
 }
 
 void LoopbackConfig::validate() const {
-  auto positive = [](std::string_view key, double value) {
-    if (!(value > 0.0) || !std::isfinite(value))
-      fail(std::string(key) + " must be > 0 (got " + number_text(value) + ")");
+  // Physically meaningful, generous ranges (world::parameter_range, as for
+  // the scenes): a value outside is a typo, not a device.
+  namespace r = world::parameter_range;
+  auto within = [](std::string_view key, double value, double low, bool low_inclusive, double high) {
+    const bool above = low_inclusive ? value >= low : value > low;
+    if (!above || !(value <= high)) {
+      fail(std::string(key) + " must be " + (low_inclusive ? ">= " : "> ") + bound_text(low) +
+           " and <= " + bound_text(high) + " (got " + number_text(value) + ")");
+    }
   };
-  auto non_negative = [](std::string_view key, double value) {
-    if (!(value >= 0.0) || !std::isfinite(value))
-      fail(std::string(key) + " must be >= 0 (got " + number_text(value) + ")");
+  auto mass_like = [&](std::string_view key, double value) {
+    within(key, value, r::min_mass, true, r::max_mass);
+  };
+  auto damping_like = [&](std::string_view key, double value) {
+    within(key, value, 0.0, true, r::max_damping);
   };
   if (plant == PlantKind::rigid) {
-    positive("mass", mass);
-    non_negative("damping", damping);
+    mass_like("mass", mass);
+    damping_like("damping", damping);
   } else {
-    positive("motor_mass", two_mass.motor_mass);
-    positive("body_mass", two_mass.body_mass);
-    non_negative("motor_damping", two_mass.motor_damping);
-    non_negative("body_damping", two_mass.body_damping);
-    positive("cable_stiffness", two_mass.cable_stiffness);
-    non_negative("cable_damping", two_mass.cable_damping);
+    mass_like("motor_mass", two_mass.motor_mass);
+    mass_like("body_mass", two_mass.body_mass);
+    damping_like("motor_damping", two_mass.motor_damping);
+    damping_like("body_damping", two_mass.body_damping);
+    within("cable_stiffness", two_mass.cable_stiffness, 0.0, false, r::max_stiffness);
+    damping_like("cable_damping", two_mass.cable_damping);
   }
-  non_negative("coulomb", coulomb);
-  positive("counts", counts);
-  positive("max_force", max_force);
-  positive("period", period_s);
+  within("coulomb", coulomb, 0.0, true, r::max_force);
+  within("counts", counts, 1.0, true, max_counts);
+  within("max_force", max_force, 0.0, false, r::max_force);
+  within("period", period_s, min_period_s, true, max_period_s);
   if (delay < 0 || delay > max_delay_periods) {
     fail("delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " +
          std::to_string(delay) + ")");
@@ -90,9 +106,12 @@ void LoopbackConfig::validate() const {
 }
 
 std::vector<DriverParameter> loopback_parameters() {
+  namespace r = world::parameter_range;
   const LoopbackConfig rotary = LoopbackConfig::defaults(Motion::rotary);
   const LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
   const world::TwoMassPlant tm{};
+  const std::string masses = "; " + bound_text(r::min_mass) + " to " + bound_text(r::max_mass);
+  const std::string dampings = "; 0 to " + bound_text(r::max_damping);
   return {
       {"motion", "string", "rotary", "",
        "rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below"},
@@ -100,32 +119,36 @@ std::vector<DriverParameter> loopback_parameters() {
        "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)"},
       {"mass", "number", number_text(rotary.mass), "kg m^2 | kg",
        "rigid plant: moving inertia (rotary default " + number_text(rotary.mass) +
-           " kg m^2) or mass (linear default " + number_text(linear.mass) + " kg)"},
-      {"damping", "number", "0", "N m s/rad | N s/m", "rigid plant: viscous damping to ground"},
+           " kg m^2) or mass (linear default " + number_text(linear.mass) + " kg)" + masses},
+      {"damping", "number", "0", "N m s/rad | N s/m", "rigid plant: viscous damping to ground" + dampings},
       {"coulomb", "number", "0", "N m | N",
-       "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables"},
-      {"motor_mass", "number", number_text(tm.motor_mass), "kg", "two-mass: motor-side mass m_m (Table I)"},
-      {"body_mass", "number", number_text(tm.body_mass), "kg", "two-mass: body (handle) mass m_d (Table I)"},
+       "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables; 0 to " +
+           bound_text(r::max_force)},
+      {"motor_mass", "number", number_text(tm.motor_mass), "kg",
+       "two-mass: motor-side mass m_m (Table I)" + masses},
+      {"body_mass", "number", number_text(tm.body_mass), "kg",
+       "two-mass: body (handle) mass m_d (Table I)" + masses},
       {"motor_damping", "number", number_text(tm.motor_damping), "N s/m",
-       "two-mass: motor damping b_m (Table I)"},
+       "two-mass: motor damping b_m (Table I)" + dampings},
       {"body_damping", "number", number_text(tm.body_damping), "N s/m",
-       "two-mass: body damping b_d (Table I)"},
+       "two-mass: body damping b_d (Table I)" + dampings},
       {"cable_stiffness", "number", number_text(tm.cable_stiffness), "N/m",
-       "two-mass: cable stiffness k_c (Table I)"},
+       "two-mass: cable stiffness k_c (Table I); > 0 to " + bound_text(r::max_stiffness)},
       {"cable_damping", "number", number_text(tm.cable_damping), "N s/m",
-       "two-mass: cable damping b_c (Table I)"},
+       "two-mass: cable damping b_c (Table I)" + dampings},
       {"sensor", "string", "motor", "",
        "two-mass: position read() returns: motor (collocated) or body (non-collocated)"},
       {"counts", "number", number_text(rotary.counts), "1/rev | 1/m",
        "encoder counts per revolution (rotary, default 4096*4) or per metre (linear, default " +
-           number_text(linear.counts) + " = 1/3.14 um)"},
+           number_text(linear.counts) + " = 1/3.14 um); 1 to " + bound_text(max_counts)},
       {"max_force", "number", number_text(rotary.max_force), "N m | N",
        "actuator saturation |force| (rotary default 0.8 N m, linear default " +
-           number_text(linear.max_force) + " N)"},
+           number_text(linear.max_force) + " N); > 0 to " + bound_text(r::max_force)},
       {"delay", "integer", "0", "periods",
        "extra output delay: a force written in period n is applied in period n+delay (0.." +
            std::to_string(max_delay_periods) + ")"},
-      {"period", "number", "0.001", "s", "simulation period T (accepts 1ms, 250us); time = writes * T"},
+      {"period", "number", "0.001", "s",
+       "simulation period T (accepts 1ms, 250us); time = writes * T; 1us to 1s"},
   };
 }
 

@@ -22,6 +22,12 @@ std::string_view to_string(Motion motion) noexcept;
 
 /// Longest extra output delay the device accepts, in periods (fixed-size delay line).
 inline constexpr int max_delay_periods = 64;
+/// Accepted simulation periods (s) and encoder resolutions (counts per
+/// revolution or metre: 1 to 1e12, a picometre encoder). Masses, dampings,
+/// stiffness and forces follow world::parameter_range.
+inline constexpr double min_period_s = 1e-6;
+inline constexpr double max_period_s = 1.0;
+inline constexpr double max_counts = 1e12;
 
 struct LoopbackConfig {
   Motion motion = Motion::rotary;
