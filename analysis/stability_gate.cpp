@@ -95,10 +95,16 @@ SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDev
   }
   v.checked = true;
   NumericRecord scene_record;
+  // The plant was built from these: 1 / inf = 0 would make finite matrices
+  // (a device that never moves) out of a non-finite number.
+  scene_record.check_finite("the device's mass or inertia", device.mass);
+  scene_record.check_finite("the device's damping", device.damping);
   const Spectrum held = spectrum("the scene's state matrix", plan.linear->a, scene_record);
   const auto closed = analyze_closed_loop(device.plant, device.sensor, *plan.linear, device.period_s,
                                           device.delay_samples, drift_tolerance);
-  const Verdict& verdict =
+  // A copy: worse() returns a reference to one of its arguments, and
+  // judge_radius()'s is a temporary that ends with this statement.
+  const Verdict verdict =
       worse(judge_radius(held.radius, scene_tolerance, device.period_s, scene_record), closed.verdict);
   v.verdict = verdict.state;
   v.reason = verdict.reason;
