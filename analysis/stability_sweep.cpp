@@ -38,6 +38,10 @@ Prediction predict(const SweepCase& c, const world::ScenePlan& plan) {
     return p;
   }
   // The same spectra, and the same rule for "not computable", as the gate.
+  if (!std::isfinite(c.device.mass) || !std::isfinite(c.device.damping)) {
+    p.reason = "the device's mass or damping is not finite";
+    return p;
+  }
   std::vector<std::complex<double>> poles;
   if (c.mode == SweepMode::held) {
     NumericRecord record;
@@ -366,7 +370,9 @@ void plan_gate(const SweepCase& c, SweepResult& r) {
   const GateOutcome outcome = gate_scene(c.scene, c.parameters, c.device, false);
   if (const auto* refused = std::get_if<GateRefusal>(&outcome)) {
     r.gate_accepts = false;
-    r.gate_decision = refused->invalid ? "refused (invalid)" : "refused (unstable)";
+    r.gate_decision = refused->invalid     ? "refused (invalid)"
+                      : !refused->assessed ? "refused (cannot assess)"
+                                           : "refused (unstable)";
     r.gate_reason = refused->message;
   } else {
     r.gate_accepts = true;
@@ -375,15 +381,17 @@ void plan_gate(const SweepCase& c, SweepResult& r) {
   }
 }
 
-void judge(SweepResult& r, const Measured& m) {
+}  // namespace
+
+void judge_growth(SweepResult& r, long window, bool bound_only) {
   const double g = r.predicted_log_growth;
   const double measured = r.measured_log_growth;
   if (std::abs(r.predicted_radius - 1.0) <= marginal_band) {
     r.agreement = SweepAgreement::marginal;
     return;
   }
-  r.tolerance = (std::isfinite(g) ? 0.05 * std::abs(g) : 0.0) +
-                (m.window > 0 ? 4.0 / static_cast<double>(m.window) : inf);
+  r.tolerance =
+      (std::isfinite(g) ? 0.05 * std::abs(g) : 0.0) + (window > 0 ? 4.0 / static_cast<double>(window) : inf);
   if (!std::isfinite(measured)) {
     r.agreement = SweepAgreement::disagree;
     r.why = "the run gave no growth to compare";
@@ -401,7 +409,7 @@ void judge(SweepResult& r, const Measured& m) {
       return;
     }
   } else {  // stable: the run decays at least as fast as the slowest pole
-    const bool too_slow = m.bound_only ? !(measured < 0.0) : measured > g + r.tolerance;
+    const bool too_slow = bound_only ? !(measured < 0.0) : measured > g + r.tolerance;
     if (too_slow) {
       r.agreement = SweepAgreement::disagree;
       r.why = "predicted decay " + fmt(g) + " per period, measured " + fmt(measured);
@@ -410,8 +418,6 @@ void judge(SweepResult& r, const Measured& m) {
   }
   r.agreement = SweepAgreement::agree;
 }
-
-}  // namespace
 
 std::string_view to_string(SweepAgreement agreement) noexcept {
   switch (agreement) {
@@ -493,7 +499,7 @@ SweepResult run_sweep_case(const SweepCase& c, const SweepOptions& options) {
   if (c.fault == MeasurementFault::encoder_jump) {
     r.run_note += "; peak |F| " + fmt(outcome.peak_force) + " after the jump (the torque limit caps it)";
   }
-  judge(r, m);
+  judge_growth(r, m.window, m.bound_only);
   return r;
 }
 

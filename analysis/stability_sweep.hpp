@@ -79,13 +79,26 @@ struct SweepResult {
   std::string run_note;              ///< how the run ended, faults seen, peak force
   double peak_force = 0.0;           ///< largest |F| commanded (N or N m)
   // planned
-  std::string gate_decision;  ///< "accepted", "refused (unstable)", "refused (invalid)", "accepted (forced)"
+  std::string
+      gate_decision;  ///< "accepted", "refused (unstable)", "refused (invalid)", "refused (cannot assess)"
   std::string gate_reason;
   bool gate_accepts = false;
   // verdict
   SweepAgreement agreement = SweepAgreement::agree;
   std::string why;  ///< for disagree: what differs
 };
+
+/// The rule, on r.predicted_radius, r.predicted_log_growth (ln r per period),
+/// r.measured_log_growth (fitted over `window` periods) and r.gate_accepts:
+/// marginal if |r - 1| <= 1e-6; else the tolerance is
+/// 0.05 |ln r| + 4 / window (block maxima of an oscillation wander by up to a
+/// factor e^4 over the fit); unstable: |measured - predicted| <= tolerance
+/// (the growing mode dominates) and the gate must refuse; stable: measured
+/// <= predicted + tolerance (the run decays at least as fast as the slowest
+/// pole: a mode the disturbance does not excite may decay faster), or just
+/// < 0 when the run hit its rounding floor too soon to fit (bound_only).
+/// Sets r.agreement, r.tolerance and r.why.
+void judge_growth(SweepResult& r, long window, bool bound_only);
 
 /// ln r per period as growth per second: r^(1/T) as log10, finite even when r^(1/T) overflows.
 double log10_growth_per_second(double log_growth_per_period, double period_s);

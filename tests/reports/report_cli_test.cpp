@@ -216,5 +216,65 @@ TEST(ReportAccuracyCli, BadArgumentsAreUsageErrors) {
   EXPECT_NE(wrong.err.find("--inertia: not a parameter of wall"), std::string::npos) << wrong.err;
 }
 
+// The test suite runs the sweep: any case where analysis, run and gate
+// disagree fails here (hapticctl exits 1 and lists it first).
+TEST(ReportStabilityCli, QuickSweepHasNoDisagreementAndTheMapsMatchThePapers) {
+  TempDir dir;
+  const auto r =
+      run(hapticctl_binary(), {"report", "stability", "--quick", "--out", dir.path.string(), "--json"}, 120s);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out.substr(0, 2000);
+  const auto result = nlohmann::json::parse(r.out);
+  std::cout << "report stability --quick: " << result["cases"].get<int>() << " cases, sweep "
+            << result["sweep_seconds"].get<double>() << " s, report " << result["elapsed_s"].get<double>()
+            << " s\n";
+  EXPECT_EQ(result["disagreements"].get<int>(), 0);
+  EXPECT_GT(result["cases"].get<int>(), 50);
+
+  const Csv sweep = read_csv(dir.path / "stability_sweep.csv");
+  ASSERT_EQ(static_cast<int>(sweep.rows.size()), result["cases"].get<int>());
+  for (std::size_t i = 0; i < sweep.rows.size(); ++i) {
+    EXPECT_NE(sweep.text(i, "agreement"), "DISAGREE") << sweep.text(i, "name");
+    EXPECT_FALSE(sweep.text(i, "gate").empty()) << sweep.text(i, "name");
+  }
+  // Hulin Remark 2 in the wall map's data.
+  const Csv wall = read_csv(dir.path / "stability_wall_region.csv");
+  int maxima = 0;
+  for (std::size_t i = 0; i < wall.rows.size(); ++i) {
+    if (wall.text(i, "curve") != "maximum-stiffness") continue;
+    if (wall.number(i, "delay") == 0) {
+      EXPECT_NEAR(wall.number(i, "alpha"), 12 - 8 * std::sqrt(2.0), 1e-9);
+      EXPECT_NEAR(wall.number(i, "beta"), 2 * std::sqrt(2.0) - 2, 1e-6);
+    }
+    if (wall.number(i, "delay") == 1) {
+      EXPECT_NEAR(wall.number(i, "alpha"), 0.144469, 1e-6);
+      EXPECT_NEAR(wall.number(i, "beta"), 0.424694, 1e-6);
+    }
+    ++maxima;
+  }
+  EXPECT_EQ(maxima, 9);  // d = 0 .. 8
+  // Freudenberg 2.14 in the integrator map: forward Euler needs zeta > w_n T / 2.
+  const Csv integrators = read_csv(dir.path / "stability_integrator_regions.csv");
+  int euler = 0;
+  for (std::size_t i = 0; i < integrators.rows.size(); ++i) {
+    if (integrators.text(i, "integrator") != "forward-euler" || integrators.number(i, "wn_t") > 1) continue;
+    const double h = integrators.number(i, "wn_t");
+    EXPECT_NEAR(integrators.number(i, "zeta_lower") / (h / 2), 1.0, 3e-12 / (h * h) + 1e-8) << h;
+    ++euler;
+  }
+  EXPECT_GT(euler, 10);
+  // The Jury closed form at td = 0 (rigid LHifAM: m = 5.4 kg, b = 3.5 N s/m, T = 1 ms).
+  const double m = 5.4, b = 3.5, t = 1e-3, c = b / m, a = std::exp(-c * t);
+  const double jury = (1 - a) / (((1 - a) - c * t * a) / (m * c * c));
+  const Csv kcr = read_csv(dir.path / "stability_critical_stiffness.csv");
+  bool found = false;
+  for (std::size_t i = 0; i < kcr.rows.size(); ++i) {
+    if (kcr.text(i, "plant") == "rigid" && kcr.number(i, "delay_ms") == 0.0) {
+      EXPECT_NEAR(kcr.number(i, "k_cr") / jury, 1.0, 1e-6);
+      found = true;
+    }
+  }
+  EXPECT_TRUE(found);
+}
+
 }  // namespace
 }  // namespace hapticd::e2e
