@@ -254,15 +254,19 @@ Figure growth_figure(const AccuracyStudy& s, const AccuracyCase& c) {
     const std::string label = g.method.label();
     if (std::find(seen.begin(), seen.end(), label) != seen.end()) continue;
     seen.push_back(label);
-    const bool dashed =
-        g.method.kind == Method::Kind::odeint_dopri5 || g.method.kind == Method::Kind::odeint_rk4;
+    const bool dopri = g.method.kind == Method::Kind::odeint_dopri5;
+    const bool dashed = dopri || g.method.kind == Method::Kind::odeint_rk4;
     f.curves.push_back({(g.method.kind == Method::Kind::sampled_wall ? method_title(g.method) : label) +
                             (g.run.stable ? "" : " (unstable)"),
                         {{"series", label}},
                         "time_s",
                         "error",
                         std::string("lines lw 2 ") + (dashed ? "dt 2 " : "") + "lc rgb '" +
-                            colour_for(g.method.name()) + "'"});
+                            // each dopri5 tolerance its own grey
+                            (dopri && g.method.tolerance < s.options.growth_tolerances.front()
+                                 ? std::string("#aaaaaa")
+                                 : colour_for(g.method.name())) +
+                            "'"});
   }
   f.meta = {{"scene", scene_name(c)}, {"case", describe(c)}, {"error_unit", u.scale}};
   return f;

@@ -65,7 +65,7 @@ struct Figure {
   std::vector<Curve> curves;
   std::vector<std::string> decorations;            ///< gnuplot commands before `plot` (limits, labels)
   nlohmann::json meta = nlohmann::json::object();  ///< written into NAME.json beside the data
-  std::string key = "outside right top";
+  std::string key = "outside below center horizontal maxcols 3";
 };
 
 /// A colour per method or series name, the same in every figure.
