@@ -69,6 +69,9 @@ using detail::time_per_step;
 
 constexpr long progress_chunk = 1L << 16;
 
+/// Periods already reported as progress after n periods (whole chunks).
+long whole_chunks(long n) { return (n / progress_chunk) * progress_chunk; }
+
 template <class Scene>
 RunResult run_spring(const AccuracyCase& c, const Scene& initial, const RunOptions& options,
                      StudyProgress& progress) {
@@ -83,7 +86,7 @@ RunResult run_spring(const AccuracyCase& c, const Scene& initial, const RunOptio
     if ((n + 1) % progress_chunk == 0) progress.advance(progress_chunk);
   }
   tracker.finish(n);
-  progress.advance(static_cast<double>(tracker.last() + 1 - n / progress_chunk * progress_chunk));
+  progress.advance(static_cast<double>(tracker.last() + 1 - whole_chunks(n)));
   if (options.timing_steps <= 0) return result;
   Scene timed = initial;
   timed.reset(0.0);
@@ -128,7 +131,7 @@ RunResult run_wall(const AccuracyCase& c, const Wall& initial, const RunOptions&
     if ((n + 1) % progress_chunk == 0) progress.advance(progress_chunk);
   }
   tracker.finish(n);
-  progress.advance(static_cast<double>(tracker.last() + 1 - n / progress_chunk * progress_chunk));
+  progress.advance(static_cast<double>(tracker.last() + 1 - whole_chunks(n)));
   if (options.timing_steps <= 0 || replay.empty()) return result;
   Wall timed = initial;
   timed.reset(0.0);

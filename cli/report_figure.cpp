@@ -8,11 +8,11 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 
 extern char** environ;
 
@@ -65,7 +65,7 @@ std::optional<std::string> run_gnuplot(const std::string& assignments, const std
   posix_spawn_file_actions_destroy(&actions);
   if (spawned != 0) {
     if (spawned == ENOENT) missing = true;
-    return "cannot start gnuplot: " + std::string(std::strerror(spawned));
+    return "cannot start gnuplot: " + std::error_code(spawned, std::generic_category()).message();
   }
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
@@ -169,13 +169,13 @@ StagedFiles::~StagedFiles() {
 
 std::filesystem::path StagedFiles::reserve(const std::string& name) {
   const std::filesystem::path final_path = dir_ / name;
-  const std::filesystem::path temporary = dir_ / temporary_name(final_path);
+  std::filesystem::path temporary = dir_ / temporary_name(final_path);
   staged_.emplace_back(temporary, final_path);
   return temporary;
 }
 
 std::filesystem::path StagedFiles::stage(const std::string& name, std::string_view content) {
-  const std::filesystem::path temporary = reserve(name);
+  std::filesystem::path temporary = reserve(name);
   std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
   out.write(content.data(), static_cast<std::streamsize>(content.size()));
   out.close();
