@@ -455,9 +455,25 @@ int run_stability(const StabilityArgs& a) {
   int disagreements = 0;
   for (const auto& r : results) disagreements += r.agreement == SweepAgreement::disagree;
   if (a.json) {
-    nlohmann::json out{{"sweep", sweep_json(results)},   {"cases", results.size()},
-                       {"disagreements", disagreements}, {"sweep_seconds", sweep_seconds},
-                       {"elapsed_s", elapsed},           {"files", nlohmann::json::array()}};
+    nlohmann::json wall = nlohmann::json::array();
+    for (const auto& p : maps.wall.maximum_stiffness) {
+      wall.push_back({{"delay", p.delay},
+                      {"alpha_max", p.alpha},
+                      {"beta_at_alpha_max", p.beta},
+                      {"beta_max_at_zero_stiffness", analysis::beta_max_at_zero_stiffness(p.delay)}});
+    }
+    nlohmann::json critical = nlohmann::json::array();
+    for (const auto& r : maps.critical) {
+      critical.push_back(
+          {{"plant", r.plant},
+           {"sensor", world::to_string(r.sensor)},
+           {"delay_s", r.delay_s},
+           {"k_cr", std::isfinite(r.k_cr) ? nlohmann::json(r.k_cr) : nlohmann::json(nullptr)}});
+    }
+    nlohmann::json out{
+        {"wall_maxima", wall},     {"critical_stiffness", critical},  {"sweep", sweep_json(results)},
+        {"cases", results.size()}, {"disagreements", disagreements},  {"sweep_seconds", sweep_seconds},
+        {"elapsed_s", elapsed},    {"files", nlohmann::json::array()}};
     for (const auto& f : written) out["files"].push_back(f.string());
     std::cout << out.dump(1) << "\n";
   } else {

@@ -85,6 +85,7 @@ TEST(ReportAccuracyCli, FigureDataFollowTheDerivedCurves) {
           {"report", "accuracy", "--quick", "--scene", "spring-wheel", "--out", dir.path.string(), "--json"},
           120s);
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find('\r'), std::string::npos) << "progress drawn on a stderr that is not a terminal";
   const auto study = nlohmann::json::parse(r.out);
   std::cout << "report accuracy --quick --scene spring-wheel: " << study["elapsed_s"].get<double>() << " s\n";
 
@@ -228,6 +229,7 @@ TEST(ReportStabilityCli, QuickSweepHasNoDisagreementAndTheMapsMatchThePapers) {
             << result["sweep_seconds"].get<double>() << " s, report " << result["elapsed_s"].get<double>()
             << " s\n";
   EXPECT_EQ(result["disagreements"].get<int>(), 0);
+  EXPECT_NEAR(result["wall_maxima"][1]["alpha_max"].get<double>(), 0.144469, 1e-6);
   EXPECT_GT(result["cases"].get<int>(), 50);
 
   const Csv sweep = read_csv(dir.path / "stability_sweep.csv");
