@@ -135,6 +135,7 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
     GateRefusal invalid;
     invalid.invalid = true;
     invalid.message = error->message;
+    invalid.parameter = error->parameter;
     return invalid;
   }
   GateAccepted accepted{std::move(std::get<world::ScenePlan>(outcome)), {}, false};

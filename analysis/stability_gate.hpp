@@ -73,6 +73,9 @@ struct GateRefusal {
   bool invalid = false;  ///< bad parameters (vs. valid but unstable)
   bool assessed = true;  ///< false: no stability verdict could be computed; force does not apply
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
+  /// The given parameter at fault (world::SceneError::parameter); empty when
+  /// the set as a whole is refused (unstable, or it cannot be built).
+  std::string parameter;
   /// Unstable sets only: the largest stable stiffness with the other
   /// parameters fixed, if the scene has a stiffness and one exists.
   std::optional<double> stiffness_limit;

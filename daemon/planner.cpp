@@ -47,7 +47,7 @@ PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& pa
     return PlannedScene{std::move(accepted->plan), std::move(accepted->stability), accepted->forced};
   }
   const auto& refused = std::get<analysis::GateRefusal>(outcome);
-  if (refused.invalid) return PlanRefusal{true, refused.message, nullptr};
+  if (refused.invalid) return PlanRefusal{true, refused.message, nullptr, true, refused.parameter};
   if (!refused.assessed)
     return PlanRefusal{false, refused.message, {{"stability", to_json(*refused.stability)}}, false};
   nlohmann::json limit = nlohmann::json::object();

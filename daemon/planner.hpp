@@ -57,6 +57,9 @@ struct PlanRefusal {
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
   nlohmann::json data;   ///< e.g. {"limit": {"stiffness": ...}}
   bool assessed = true;  ///< false: no stability verdict could be computed; force does not apply
+  /// The given parameter at fault (world::SceneError::parameter); empty when
+  /// the set as a whole is refused (unstable, or it cannot be built).
+  std::string parameter{};
 };
 
 using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;

@@ -360,7 +360,8 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
       std::vector<std::string> names;
       for (const auto& p : description->parameters) names.push_back(p.name);
       return SceneError{"unknown parameter '" + key + "' for scene " + description->name +
-                        "; accepted: " + (names.empty() ? std::string("none") : join(names))};
+                            "; accepted: " + (names.empty() ? std::string("none") : join(names)),
+                        key};
     }
   }
 
@@ -374,8 +375,8 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
     }
     auto canonical = validate(p, it->second);
     if (!canonical) {
-      return SceneError{p.name + ": " + format_value(it->second) + " is not accepted; " +
-                        accepted_text(p, motion)};
+      return SceneError{
+          p.name + ": " + format_value(it->second) + " is not accepted; " + accepted_text(p, motion), p.name};
     }
     plan.parameters[p.name] = std::move(*canonical);
   }

@@ -57,6 +57,8 @@ struct ChannelDescription {
 
 struct SceneError {
   std::string message;  ///< one line, names the bad parameter and what is accepted
+  /// The given parameter at fault; empty when no single one is (unknown scene, build failure).
+  std::string parameter{};
 };
 
 struct ScenePlan {

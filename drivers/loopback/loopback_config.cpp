@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "drivers/loopback/key_value.hpp"
+#include "drivers/loopback/parameter_error.hpp"
 #include "world/scene_catalog.hpp"
 #include "world/units.hpp"
 
@@ -15,7 +16,9 @@ namespace {
 
 constexpr double linear_default_counts = 1.0 / 3.14e-6;  // LHifAM: 3.14 um per count
 
-[[noreturn]] void fail(const std::string& message) { throw std::invalid_argument("loopback: " + message); }
+[[noreturn]] void fail(std::string_view key, const std::string& message) {
+  throw ParameterError(std::string(key), "loopback: " + message);
+}
 
 std::string number_text(double value) {
   std::ostringstream out;
@@ -33,7 +36,7 @@ std::string bound_text(double value) {
 
 double parse_number(std::string_view key, std::string_view value) {
   const auto parsed = world::units::parse_finite(value);
-  if (!parsed) fail(std::string(key) + "=" + std::string(value) + " is not a finite number");
+  if (!parsed) fail(key, std::string(key) + "=" + std::string(value) + " is not a finite number");
   return *parsed;
 }
 
@@ -49,6 +52,7 @@ LoopbackConfig LoopbackConfig::defaults(Motion motion) {
   config.motion = motion;
   if (motion == Motion::linear) {
     config.mass = 0.1;
+    config.damping = 0.0;
     config.counts = linear_default_counts;
     config.max_force = 10.0;
   }
@@ -74,8 +78,8 @@ void LoopbackConfig::validate() const {
   auto within = [](std::string_view key, double value, double low, bool low_inclusive, double high) {
     const bool above = low_inclusive ? value >= low : value > low;
     if (!above || !(value <= high)) {
-      fail(std::string(key) + " must be " + (low_inclusive ? ">= " : "> ") + bound_text(low) +
-           " and <= " + bound_text(high) + " (got " + number_text(value) + ")");
+      fail(key, std::string(key) + " must be " + (low_inclusive ? ">= " : "> ") + bound_text(low) +
+                    " and <= " + bound_text(high) + " (got " + number_text(value) + ")");
     }
   };
   auto mass_like = [&](std::string_view key, double value) {
@@ -100,8 +104,8 @@ void LoopbackConfig::validate() const {
   within("max_force", max_force, 0.0, false, r::max_force);
   within("period", period_s, min_period_s, true, max_period_s);
   if (delay < 0 || delay > max_delay_periods) {
-    fail("delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " +
-         std::to_string(delay) + ")");
+    fail("delay", "delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " +
+                      std::to_string(delay) + ")");
   }
 }
 
@@ -120,7 +124,10 @@ std::vector<DriverParameter> loopback_parameters() {
       {"mass", "number", number_text(rotary.mass), "kg m^2 | kg",
        "rigid plant: moving inertia (rotary default " + number_text(rotary.mass) +
            " kg m^2) or mass (linear default " + number_text(linear.mass) + " kg)" + masses},
-      {"damping", "number", "0", "N m s/rad | N s/m", "rigid plant: viscous damping to ground" + dampings},
+      {"damping", "number", number_text(rotary.damping), "N m s/rad | N s/m",
+       "rigid plant: viscous damping to ground (rotary default " + number_text(rotary.damping) +
+           " N m s/rad of bearing friction, linear default " + number_text(linear.damping) + " N s/m)" +
+           dampings},
       {"coulomb", "number", "0", "N m | N",
        "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables; 0 to " +
            bound_text(r::max_force)},
@@ -142,8 +149,9 @@ std::vector<DriverParameter> loopback_parameters() {
        "encoder counts per revolution (rotary, default 4096*4) or per metre (linear, default " +
            number_text(linear.counts) + " = 1/3.14 um); 1 to " + bound_text(max_counts)},
       {"max_force", "number", number_text(rotary.max_force), "N m | N",
-       "actuator saturation |force| (rotary default 0.8 N m, linear default " +
-           number_text(linear.max_force) + " N); > 0 to " + bound_text(r::max_force)},
+       "actuator saturation |force| (rotary default " + number_text(rotary.max_force) +
+           " N m, linear default " + number_text(linear.max_force) + " N); > 0 to " +
+           bound_text(r::max_force)},
       {"delay", "integer", "0", "periods",
        "extra output delay: a force written in period n is applied in period n+delay (0.." +
            std::to_string(max_delay_periods) + ")"},
@@ -161,7 +169,7 @@ LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, st
     } else if (value == "linear") {
       motion = Motion::linear;
     } else {
-      fail("motion=" + value + " is not one of rotary, linear");
+      fail(key, "motion=" + value + " is not one of rotary, linear");
     }
   }
   LoopbackConfig config = LoopbackConfig::defaults(motion);
@@ -173,7 +181,7 @@ LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, st
       } else if (value == "two-mass" || value == "two_mass") {
         config.plant = PlantKind::two_mass;
       } else {
-        fail("plant=" + value + " is not one of rigid, two-mass");
+        fail(key, "plant=" + value + " is not one of rigid, two-mass");
       }
     } else if (key == "mass") {
       config.mass = parse_number(key, value);
@@ -195,7 +203,7 @@ LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, st
       config.two_mass.cable_damping = parse_number(key, value);
     } else if (key == "sensor") {
       const auto sensor = world::parse_sensor(value);
-      if (!sensor) fail("sensor=" + value + " is not one of motor, body");
+      if (!sensor) fail(key, "sensor=" + value + " is not one of motor, body");
       config.sensor = *sensor;
     } else if (key == "counts") {
       config.counts = parse_number(key, value);
@@ -205,12 +213,12 @@ LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, st
       int delay = 0;
       const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), delay);
       if (ec != std::errc{} || end != value.data() + value.size()) {
-        fail("delay=" + value + " is not an integer number of periods");
+        fail(key, "delay=" + value + " is not an integer number of periods");
       }
       config.delay = delay;
     } else if (key == "period") {
       const auto period = world::units::parse_duration_s(value);
-      if (!period) fail("period=" + value + " is not a duration (e.g. 0.001, 1ms, 250us)");
+      if (!period) fail(key, "period=" + value + " is not a duration (e.g. 0.001, 1ms, 250us)");
       config.period_s = *period;
     } else {
       std::string accepted;
@@ -218,7 +226,7 @@ LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, st
         if (!accepted.empty()) accepted += ", ";
         accepted += parameter.name;
       }
-      fail("unknown key '" + key + "'; accepted: " + accepted);
+      fail(key, "unknown key '" + key + "'; accepted: " + accepted);
     }
   }
   config.validate();

@@ -235,7 +235,8 @@ TEST(LoopbackConfigKeys, MotionSelectsDefaultsAndKeysOverride) {
   EXPECT_EQ(rotary.motion, Motion::rotary);
   EXPECT_EQ(rotary.mass, 0.01);
   EXPECT_EQ(rotary.counts, 16384.0);
-  EXPECT_EQ(rotary.max_force, 0.8);
+  EXPECT_EQ(rotary.max_force, 1.2);
+  EXPECT_EQ(rotary.damping, 0.002);
 }
 
 void expect_config_error(std::string_view text, std::string_view fragment) {
