@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "cli/analyze.hpp"
+#include "cli/report.hpp"
 #include "cli/usage_error.hpp"
 #include "cli/verbs.hpp"
 
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
   hapticctl::CommonOptions options;
   hapticctl::add_daemon_commands(app, options);
   hapticd::cli::add_analyze_command(app);
+  hapticd::cli::add_report_command(app);
   try {
     return hapticctl::run(app, argc, argv);
   } catch (const hapticd::cli::CannotAssess& e) {

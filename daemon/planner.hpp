@@ -1,10 +1,11 @@
 #pragma once
 /// \file
-/// Off-RT planning of a scene for the device at hand: validate the parameters
-/// (world/scene_catalog), then check numerical and closed-loop stability
-/// (analysis/) with the device's mass or inertia, period and delay, before
-/// anything reaches the RT thread. Unstable sets are refused with the limit
-/// that would have held, unless forced (to show an instability on purpose).
+/// Off-RT planning of a scene for the device at hand, before anything reaches
+/// the RT thread: the stability gate of analysis/stability_gate.hpp (validate
+/// the parameters, check numerical and closed-loop stability with the
+/// device's mass or inertia, period and delay; refuse unstable sets with the
+/// limit that would have held, unless forced), on the driver's DeviceModel,
+/// with the answers in the protocol's JSON.
 
 #include <string>
 #include <string_view>
@@ -12,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/verdict.hpp"
+#include "analysis/stability_gate.hpp"
 #include "drivers/device.hpp"
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
@@ -28,6 +29,8 @@ struct DeviceModel {
   world::Motion motion() const noexcept {
     return info.motion == drivers::Motion::rotary ? world::Motion::rotary : world::Motion::linear;
   }
+  /// The same device as the stability gate (analysis/stability_gate.hpp) sees it.
+  analysis::GateDevice gate() const;
   /// "J = 0.01 kg m^2, b = 0 N m s/rad, T = 1 ms, d = 0" (or m = ... kg for a linear device).
   std::string describe() const;
 };
@@ -36,18 +39,7 @@ struct DeviceModel {
 DeviceModel make_device_model(const drivers::Device& device, double period_s);
 
 /// The verdict that goes with a plan, reported to clients and recordings.
-struct StabilityVerdict {
-  bool checked = false;  ///< false for scenes without a linear model (relay, free)
-  /// The worse of the scene's and the closed loop's analysis::Verdict; stable
-  /// is set from it only (never true for cannot_assess).
-  analysis::VerdictState verdict = analysis::VerdictState::stable;
-  std::string reason;  ///< why it cannot be assessed (an overflow, a NaN pole, lost precision); else empty
-  bool stable = true;
-  double scene_radius = 0.0;        ///< largest |eigenvalue| of the scene alone (device held)
-  double closed_loop_radius = 0.0;  ///< largest |pole| with the device released (worst case, Hulin 2)
-  double growth_per_second = 1.0;   ///< amplitude factor per second of the worst mode
-  std::string summary;              ///< one sentence
-};
+using StabilityVerdict = analysis::SceneStability;
 nlohmann::json to_json(const StabilityVerdict& verdict);
 
 struct PlannedScene {
@@ -76,7 +68,8 @@ inline constexpr std::string_view force_in_config = "Set force = true in [scene]
 /// how to load it anyway (`how`: force_over_rpc or force_in_config).
 std::string refusal_text(const PlanRefusal& refusal, std::string_view how);
 
-/// Plans `scene` with `parameters` (missing ones take their defaults) for the device.
+/// Plans `scene` with `parameters` (missing ones take their defaults) for the
+/// device: analysis::gate_scene, with the refusal's limits as JSON.
 PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters,
                            const DeviceModel& device, bool force);
 
