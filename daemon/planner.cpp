@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <stdexcept>
 
-
 namespace hapticd::daemon {
 
 std::string DeviceModel::describe() const { return gate().describe(); }

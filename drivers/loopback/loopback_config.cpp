@@ -67,8 +67,9 @@ std::vector<ParameterSpec> make_parameters() {
           .defaults_to(tm.cable_damping)
           .at_least(0.0)
           .at_most(r::max_damping),
-      P::choice("sensor", {"motor", "body"},
-                "two-mass: position read() returns: motor (collocated) or body (non-collocated)")
+      P::choice(
+          "sensor", {"motor", "body", "hand", "user"},
+          "two-mass: position read() returns: motor (collocated) or body (non-collocated; also hand, user)")
           .defaults_to("motor"),
       P::number("counts", "1/rev | 1/m", "encoder counts per revolution (rotary) or per metre (linear)")
           .defaults_to(rotary.counts, note(linear.counts, "1/m"))
@@ -113,7 +114,7 @@ LoopbackConfig loopback_config_from(const DriverParameters& p) {
   set("body_damping", config.two_mass.body_damping);
   set("cable_stiffness", config.two_mass.cable_stiffness);
   set("cable_damping", config.two_mass.cable_damping);
-  config.sensor = p.text("sensor") == "body" ? world::Sensor::body : world::Sensor::motor;
+  config.sensor = world::parse_sensor(p.text("sensor")).value_or(world::Sensor::motor);
   set("counts", config.counts);
   set("max_force", config.max_force);
   config.delay = static_cast<int>(p.integer("delay"));

@@ -60,7 +60,9 @@ std::string LoopbackDevice::clear_fault() {
 
 void LoopbackDevice::disable() noexcept {
   DeviceState expected = DeviceState::enabled;
-  state_.compare_exchange_strong(expected, DeviceState::configured, std::memory_order_acq_rel);
+  if (state_.compare_exchange_strong(expected, DeviceState::configured, std::memory_order_acq_rel)) {
+    simulator_->reset_actuator();  // the amplifier is off: nothing is applied any more
+  }
 }
 
 void LoopbackDevice::close() noexcept {
