@@ -213,6 +213,7 @@ DriverParameters::DriverParameters(std::string driver, const std::vector<Paramet
     }
     if (spec == nullptr) {
       std::vector<std::string> names;
+      names.reserve(specs.size());
       for (const auto& s : specs) names.push_back(s.name);
       throw ParameterError(
           key, key_of(key) + " is not a parameter of the " + driver_ + " driver; accepted: " + join(names));
@@ -287,7 +288,9 @@ bool DriverParameters::given(std::string_view name) const {
 
 nlohmann::json DriverParameters::to_json() const {
   nlohmann::json out = nlohmann::json::object();
-  for (const auto& [name, v] : values_) std::visit([&](const auto& x) { out[name] = x; }, v);
+  for (const auto& entry : values_) {
+    std::visit([&out, &entry](const auto& x) { out[entry.first] = x; }, entry.second);
+  }
   for (const auto& [name, entries] : tables_) {
     std::string text;
     for (const auto& [k, v] : entries) text += (text.empty() ? "" : " ") + k + "=" + v;
