@@ -257,6 +257,7 @@ void Service::start_recorder() {
   recorder::RecorderOptions ro;
   ro.directory = directory;
   ro.flush_interval_s = cfg.recorder.flush_interval_s;
+  if (cfg.recorder.cpu >= 0) ro.cpus = {cfg.recorder.cpu};
   recorder_ = std::make_unique<recorder::Recorder>(
       [engine = engine_.get()](std::span<TelemetrySample> out) { return engine->drain(out); }, ro);
   recorder_->set_ring_drop_counter([engine = engine_.get()] { return engine->counters().telemetry_dropped; });
@@ -289,6 +290,7 @@ bool Service::start_control() {
   so.max_clients = cfg.control.max_clients;
   so.max_message_bytes = cfg.control.max_message_bytes;
   so.idle_timeout = std::chrono::milliseconds(static_cast<std::int64_t>(cfg.control.idle_timeout_s * 1e3));
+  if (cfg.control.cpu >= 0) so.cpus = {cfg.control.cpu};
   server_ = std::make_unique<control::ControlServer>(so);
   register_methods(*server_);
   try {
@@ -378,6 +380,11 @@ void Service::shutdown() {
   // Order matters: no new requests, then the loop stops, then the device is
   // zeroed, disabled and closed, then the recorder drains what the loop produced.
   if (server_) server_->stop();
+  if (engine_ && !engine_->finished()) {
+    engine_->stop();
+    // What a recording from launch must hold, row for row (tests/e2e).
+    if (engine_->cycle() > 0) std::cout << "hapticd: loop stopped after " << engine_->cycle() << " cycles" << std::endl;
+  }
   if (engine_) engine_->stop();
   if (device_.device) {
     device_.device->disable();

@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# The sanitizer stages CI runs (scripts/test.sh), each timed:
+#   asan  build-asan: clang, AddressSanitizer + UndefinedBehaviorSanitizer,
+#         -O1, no recovery (the first finding fails), instrumented for
+#         libFuzzer too; builds and runs the WHOLE test suite (ctest), the
+#         kept fuzz crashers included.
+#   fuzz  the same build: every fuzz target for FUZZ_SECONDS (tests/run_fuzz.sh).
+#   tsan  build-tsan: ThreadSanitizer, -O1; builds only target tsan_tests
+#         (tests/CMakeLists.txt) and runs the tests labelled rt, daemon,
+#         control, recorder and drivers: where threads meet.
+# usage: tests/run_sanitizers.sh [asan] [fuzz] [tsan]   (default: all three)
+# env: FUZZ_SECONDS (20), JOBS (nproc), ASAN_BUILD (build-asan), TSAN_BUILD (build-tsan)
+#
+# Findings are fixed, not suppressed. A suppression needs a comment saying
+# why the finding is a false positive (none so far).
+set -uo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+asan_build="${ASAN_BUILD:-$here/build-asan}"
+tsan_build="${TSAN_BUILD:-$here/build-tsan}"
+jobs="${JOBS:-$(nproc 2>/dev/null || echo 2)}"
+stages=("$@")
+[[ ${#stages[@]} -eq 0 ]] && stages=(asan fuzz tsan)
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
+# TSan's shadow memory breaks with the high mmap randomization of recent
+# kernels ("FATAL: ThreadSanitizer: unexpected memory mapping"); running
+# with ASLR off avoids it without touching sysctls. ctest and everything it
+# starts inherit the personality.
+no_aslr=()
+setarch "$(uname -m)" -R true 2>/dev/null && no_aslr=(setarch "$(uname -m)" -R)
+
+export ASAN_OPTIONS="${ASAN_OPTIONS:-halt_on_error=1:abort_on_error=1:detect_leaks=1:detect_stack_use_after_return=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
+export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}"
+
+status=0
+timings=()
+stage() {  # name command...
+  local name="$1" start=$SECONDS
+  shift
+  echo "=== sanitizers: $name"
+  if "$@"; then
+    timings+=("$name: $((SECONDS - start)) s, passed")
+    return 0
+  fi
+  timings+=("$name: $((SECONDS - start)) s, FAILED")
+  status=1
+  return 1
+}
+
+configure_asan() {
+  CC=clang CXX=clang++ cmake -S "$here" -B "$asan_build" -G Ninja "${launcher[@]}" \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+    -DHAPTICD_SANITIZE=address,undefined -DHAPTICD_FUZZ=ON -DHAPTICD_BENCH=OFF >/dev/null
+}
+asan_build_all() { configure_asan && ninja -C "$asan_build" -j"$jobs"; }
+asan_tests() { (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j"$jobs"); }
+fuzz() { FUZZ_BUILD="$asan_build" bash "$here/tests/run_fuzz.sh"; }
+
+tsan_build_targets() {
+  cmake -S "$here" -B "$tsan_build" -G Ninja "${launcher[@]}" \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+    -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF >/dev/null && ninja -C "$tsan_build" -j"$jobs" tsan_tests
+}
+tsan_tests() {
+  (cd "$tsan_build" &&
+    "${no_aslr[@]}" ctest --output-on-failure --timeout 1200 -j"$jobs" -L '^(rt|daemon|control|recorder|drivers)$' -LE '^docs$')
+}
+
+for s in "${stages[@]}"; do
+  case "$s" in
+    asan) stage "asan+ubsan build" asan_build_all && stage "asan+ubsan tests" asan_tests ;;
+    fuzz) [[ -d "$asan_build" ]] || stage "asan+ubsan build" asan_build_all; stage "fuzz" fuzz ;;
+    tsan) stage "tsan build" tsan_build_targets && stage "tsan tests" tsan_tests ;;
+    *) echo "unknown stage $s (asan, fuzz, tsan)" >&2; exit 2 ;;
+  esac
+done
+echo "=== sanitizer stage times"
+printf '  %s\n' "${timings[@]}"
+exit "$status"
