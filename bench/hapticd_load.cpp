@@ -15,11 +15,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
-#include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <map>
@@ -192,10 +192,11 @@ int main(int argc, char** argv) {
   std::vector<double> ack_ms;
   std::string first_error;
   const auto t0 = Clock::now();
-  const auto send_until = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));
-  const auto set_every = o.sets_per_second > 0
-                             ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / o.sets_per_second))
-                             : Clock::duration::max();
+  const auto send_until =
+      t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.duration_s));
+  const auto set_every = o.sets_per_second > 0 ? std::chrono::duration_cast<Clock::duration>(
+                                                     std::chrono::duration<double>(1.0 / o.sets_per_second))
+                                               : Clock::duration::max();
   auto next_set = t0;
   bool stopping = false;
   auto stop_deadline = Clock::time_point::max();
@@ -208,7 +209,8 @@ int main(int argc, char** argv) {
       for (auto& s : streams) s->send(request(2, "stream.stop", json::object()));
     }
     if (stopping) {
-      const bool streams_done = std::all_of(counts.begin(), counts.end(), [](const StreamCount& c) { return c.closed; });
+      const bool streams_done =
+          std::all_of(counts.begin(), counts.end(), [](const StreamCount& c) { return c.closed; });
       if ((streams_done && outstanding.empty()) || now >= stop_deadline) break;
     }
     // param.set on schedule, whether or not the previous reply is in (at most 64 in flight).
@@ -221,11 +223,14 @@ int main(int argc, char** argv) {
       next_set += set_every;
     }
     std::vector<pollfd> fds;
-    for (auto& s : streams) fds.push_back({s->fd(), static_cast<short>(POLLIN | (s->wants_write() ? POLLOUT : 0)), 0});
-    if (setter) fds.push_back({setter->fd(), static_cast<short>(POLLIN | (setter->wants_write() ? POLLOUT : 0)), 0});
+    for (auto& s : streams)
+      fds.push_back({s->fd(), static_cast<short>(POLLIN | (s->wants_write() ? POLLOUT : 0)), 0});
+    if (setter)
+      fds.push_back({setter->fd(), static_cast<short>(POLLIN | (setter->wants_write() ? POLLOUT : 0)), 0});
     int timeout_ms = 10;
     if (setter && !stopping) {
-      const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next_set - Clock::now()).count();
+      const auto wait =
+          std::chrono::duration_cast<std::chrono::milliseconds>(next_set - Clock::now()).count();
       timeout_ms = static_cast<int>(std::clamp<long long>(wait, 0, 10));
     }
     if (::poll(fds.data(), fds.size(), timeout_ms) < 0 && errno != EINTR) break;
@@ -295,25 +300,28 @@ int main(int argc, char** argv) {
     least = std::min(least, c.received);
     streams_started += c.started ? 1 : 0;
   }
-  const json summary{
-      {"duration_s", o.duration_s},
-      {"elapsed_s", seconds},
-      {"streams", o.streams},
-      {"streams_started", streams_started},
-      {"stream_rate_hz", o.stream_rate_hz},
-      {"notifications_received", received},
-      {"notifications_received_least", o.streams > 0 ? least : 0},
-      {"notifications_dropped_by_daemon", dropped},
-      {"sets_per_second", o.sets_per_second},
-      {"sets_sent", sets_sent},
-      {"sets_acknowledged", sets_acked},
-      {"sets_without_cycle", sets_unnamed},
-      {"sets_failed", sets_failed},
-      {"sets_unanswered", outstanding.size()},
-      {"effective_cycle_went_back", cycles_backwards},
-      {"ack_ms", {{"p50", percentile(ack_ms, 0.5)}, {"p99", percentile(ack_ms, 0.99)}, {"max", percentile(ack_ms, 1.0)}}},
-      {"first_error", first_error}};
+  const json summary{{"duration_s", o.duration_s},
+                     {"elapsed_s", seconds},
+                     {"streams", o.streams},
+                     {"streams_started", streams_started},
+                     {"stream_rate_hz", o.stream_rate_hz},
+                     {"notifications_received", received},
+                     {"notifications_received_least", o.streams > 0 ? least : 0},
+                     {"notifications_dropped_by_daemon", dropped},
+                     {"sets_per_second", o.sets_per_second},
+                     {"sets_sent", sets_sent},
+                     {"sets_acknowledged", sets_acked},
+                     {"sets_without_cycle", sets_unnamed},
+                     {"sets_failed", sets_failed},
+                     {"sets_unanswered", outstanding.size()},
+                     {"effective_cycle_went_back", cycles_backwards},
+                     {"ack_ms",
+                      {{"p50", percentile(ack_ms, 0.5)},
+                       {"p99", percentile(ack_ms, 0.99)},
+                       {"max", percentile(ack_ms, 1.0)}}},
+                     {"first_error", first_error}};
   std::cout << summary.dump() << std::endl;
-  const bool all_acked = sets_acked == sets_sent && outstanding.empty() && sets_failed == 0 && sets_unnamed == 0;
+  const bool all_acked =
+      sets_acked == sets_sent && outstanding.empty() && sets_failed == 0 && sets_unnamed == 0;
   return all_acked && streams_started == o.streams ? 0 : 1;
 }

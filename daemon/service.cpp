@@ -383,7 +383,8 @@ void Service::shutdown() {
   if (engine_ && !engine_->finished()) {
     engine_->stop();
     // What a recording from launch must hold, row for row (tests/e2e).
-    if (engine_->cycle() > 0) std::cout << "hapticd: loop stopped after " << engine_->cycle() << " cycles" << std::endl;
+    if (engine_->cycle() > 0)
+      std::cout << "hapticd: loop stopped after " << engine_->cycle() << " cycles" << std::endl;
   }
   if (engine_) engine_->stop();
   if (device_.device) {

@@ -174,7 +174,8 @@ class Parser {
 
   /// A thread's CPU: -1 (anywhere) or an index.
   int get_cpu(const toml::node& node, const std::string& key) const {
-    return static_cast<int>(get_integer(node, key, -1, 1023, "-1 (no pinning) or a CPU index from 0 to 1023"));
+    return static_cast<int>(
+        get_integer(node, key, -1, 1023, "-1 (no pinning) or a CPU index from 0 to 1023"));
   }
 
   double get_number(const toml::node& node, const std::string& key, std::string_view accepted) const {

@@ -620,7 +620,8 @@ void ControlServer::start() {
     impl->run();
   });
   const auto problem = hapticd::daemon::system::pin_thread(impl_->thread.native_handle(), impl_->opts.cpus);
-  if (!problem.empty()) std::fprintf(stderr, "hapticd: control thread: %s; it runs on any CPU\n", problem.c_str());
+  if (!problem.empty())
+    std::fprintf(stderr, "hapticd: control thread: %s; it runs on any CPU\n", problem.c_str());
 }
 
 void ControlServer::stop() {

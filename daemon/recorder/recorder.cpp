@@ -392,7 +392,8 @@ Recorder::Recorder(DrainFn drain, RecorderOptions options)
     run();
   });
   const auto problem = hapticd::daemon::system::pin_thread(thread_.native_handle(), options_.cpus);
-  if (!problem.empty()) std::fprintf(stderr, "hapticd: recorder thread: %s; it runs on any CPU\n", problem.c_str());
+  if (!problem.empty())
+    std::fprintf(stderr, "hapticd: recorder thread: %s; it runs on any CPU\n", problem.c_str());
 }
 
 Recorder::~Recorder() {

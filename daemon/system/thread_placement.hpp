@@ -36,7 +36,8 @@ inline std::string pin_thread(pthread_t thread, const std::vector<int>& cpus) {
   const int e = valid ? pthread_setaffinity_np(thread, sizeof set, &set) : EINVAL;
   if (e == 0) return {};
   return "CPU affinity {" + list + "} not set (" + std::generic_category().message(e) +
-         "): the CPUs must exist and be in this process's allowed set (taskset -p, cpuset.cpus, AllowedCPUs=)";
+         "): the CPUs must exist and be in this process's allowed set (taskset -p, cpuset.cpus, "
+         "AllowedCPUs=)";
 }
 
 /// Names the calling thread; at most 15 bytes are kept.

@@ -246,8 +246,9 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
   EXPECT_EQ(error_of("[control]\n  maxclients = 3"),
             "t.toml:2:3: unknown key 'maxclients' in [control]; accepted: socket, group, max_clients, "
             "max_message_bytes, idle_timeout, cpu");
-  EXPECT_EQ(error_of("[recorder]\ndir = \"x\""),
-            "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
+  EXPECT_EQ(
+      error_of("[recorder]\ndir = \"x\""),
+      "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
             "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, and a table "
             "[device.<driver>] for the selected driver");
@@ -275,12 +276,12 @@ TEST(ConfigErrors, WrongTypesAndRanges) {
   EXPECT_EQ(
       error_of("[loop]\ncpu = -2"),
       "t.toml:2:7: loop.cpu = -2 is out of range; accepted: -1 (no pinning) or a CPU index from 0 to 1023");
-  EXPECT_EQ(
-      error_of("[control]\ncpu = 1024"),
-      "t.toml:2:7: control.cpu = 1024 is out of range; accepted: -1 (no pinning) or a CPU index from 0 to 1023");
-  EXPECT_EQ(
-      error_of("[recorder]\ncpu = \"0\""),
-      "t.toml:2:7: recorder.cpu = \"0\" has the wrong type; accepted: -1 (no pinning) or a CPU index from 0 to 1023");
+  EXPECT_EQ(error_of("[control]\ncpu = 1024"),
+            "t.toml:2:7: control.cpu = 1024 is out of range; accepted: -1 (no pinning) or a CPU index from 0 "
+            "to 1023");
+  EXPECT_EQ(error_of("[recorder]\ncpu = \"0\""),
+            "t.toml:2:7: recorder.cpu = \"0\" has the wrong type; accepted: -1 (no pinning) or a CPU index "
+            "from 0 to 1023");
   EXPECT_EQ(error_of("[loop]\nrequire_rt = 1"),
             "t.toml:2:14: loop.require_rt = 1 has the wrong type; accepted: true or false");
   EXPECT_EQ(error_of("[loop]\nclock = \"wall\""),

@@ -48,7 +48,8 @@ struct Fixture {
   Fixture()
       : access(std::make_unique<control::WriteAccess>("")),
         rotary(model_of("[device]\ndriver = \"loopback\"\n")),
-        linear(model_of("[device]\ndriver = \"loopback\"\n[device.loopback]\nmotion = \"linear\"\nmass = 0.1\n")) {
+        linear(model_of(
+            "[device]\ndriver = \"loopback\"\n[device.loopback]\nmotion = \"linear\"\nmass = 0.1\n")) {
     auto plan = [this](const json& params, bool linear_device) {
       if (!params.contains("scene") || !params["scene"].is_string())
         throw control::RpcError(hapticd::rpc::code::invalid_params, "needs \"scene\"");
@@ -62,8 +63,9 @@ struct Fixture {
       const auto& model = linear_device ? linear : rotary;
       auto outcome = daemon::plan_on_device(params["scene"].get<std::string>(), requested, model, force);
       if (auto* refusal = std::get_if<daemon::PlanRefusal>(&outcome)) {
-        throw control::RpcError(refusal->invalid ? hapticd::rpc::code::invalid_params : hapticd::rpc::code::refused,
-                                daemon::refusal_text(*refusal, daemon::force_over_rpc), refusal->data);
+        throw control::RpcError(
+            refusal->invalid ? hapticd::rpc::code::invalid_params : hapticd::rpc::code::refused,
+            daemon::refusal_text(*refusal, daemon::force_over_rpc), refusal->data);
       }
       const auto& planned = std::get<daemon::PlannedScene>(outcome);
       return json{{"scene", planned.plan.scene},

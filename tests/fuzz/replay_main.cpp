@@ -22,7 +22,8 @@ std::vector<std::filesystem::path> inputs_of(const std::filesystem::path& arg) {
   std::vector<std::filesystem::path> files;
   if (std::filesystem::is_directory(arg)) {
     for (const auto& entry : std::filesystem::directory_iterator(arg)) {
-      if (entry.is_regular_file() && !entry.path().filename().string().starts_with(".")) files.push_back(entry);
+      if (entry.is_regular_file() && !entry.path().filename().string().starts_with("."))
+        files.push_back(entry);
     }
     std::sort(files.begin(), files.end());
   } else {
