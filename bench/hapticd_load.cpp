@@ -164,6 +164,12 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(rank, v.size()) - 1];
 }
 
+/// The reply's id when it is a number, else 0 (a null id: busy, parse error).
+std::uint64_t id_of(const json& message) {
+  const auto it = message.find("id");
+  return it != message.end() && it->is_number_unsigned() ? it->get<std::uint64_t>() : 0;
+}
+
 json request(std::uint64_t id, const std::string& method, json params) {
   return {{"jsonrpc", "2.0"}, {"id", id}, {"method", method}, {"params", std::move(params)}};
 }
@@ -246,9 +252,9 @@ int main(int argc, char** argv) {
         const json m = json::parse(line, nullptr, false);
         if (m.value("method", "") == "telemetry") {
           ++c.received;
-        } else if (m.contains("result") && m.value("id", 0) == 1) {
+        } else if (m.contains("result") && id_of(m) == 1) {
           c.started = true;
-        } else if (m.contains("result") && m.value("id", 0) == 2) {
+        } else if (m.contains("result") && id_of(m) == 2) {
           c.dropped_by_daemon = m["result"].value("dropped", std::uint64_t{0});
           c.closed = true;
         } else if (m.contains("error") && first_error.empty()) {
@@ -265,7 +271,8 @@ int main(int argc, char** argv) {
         std::string line;
         while (setter->next_line(line)) {
           const json m = json::parse(line, nullptr, false);
-          const auto id = m.value("id", std::uint64_t{0});
+          const auto id = id_of(m);
+          if (id == 0 && m.contains("error") && first_error.empty()) first_error = "param.set: " + m.dump();
           const auto it = outstanding.find(id);
           if (it == outstanding.end()) continue;
           ack_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - it->second).count());

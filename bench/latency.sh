@@ -89,6 +89,7 @@ name = "spring-wheel"
 integrator = "exact"
 [control]
 socket = "$3"
+max_clients = 32
 $placement
 [recorder]
 directory = "$4"

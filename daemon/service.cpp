@@ -14,6 +14,7 @@
 #include "daemon/config/host_checks.hpp"
 #include "daemon/methods/method_support.hpp"
 #include "daemon/system/systemd_notify.hpp"
+#include "daemon/system/thread_placement.hpp"
 #include "daemon/version.hpp"
 
 namespace hapticd::daemon {
@@ -303,6 +304,16 @@ bool Service::start_control() {
 }
 
 int Service::run() {
+  // On this (non-preemptible, PREEMPT_NONE) kernel a thread inside a long
+  // system call -- the recorder's write(), the control thread's sends --
+  // delays the RT thread's wake-up on the same CPU until it returns: keep
+  // every other thread off the loop's CPU. They inherit this thread's mask;
+  // [control] cpu and [recorder] cpu still place them explicitly, and the
+  // loop pins itself. (bench/latency.sh measured the difference: README.)
+  if (options_.config.loop.cpu >= 0) {
+    if (const auto problem = system::keep_off_cpu(options_.config.loop.cpu); !problem.empty())
+      std::cerr << "hapticd: " << problem << "; other threads may share the loop's CPU\n";
+  }
   start_engine();
   try {
     device_.device->enable();

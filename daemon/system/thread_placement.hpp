@@ -40,6 +40,22 @@ inline std::string pin_thread(pthread_t thread, const std::vector<int>& cpus) {
          "AllowedCPUs=)";
 }
 
+/// Takes `cpu` out of the calling thread's allowed CPUs, so that the threads
+/// it creates from now on stay off it too (they inherit the mask), unless
+/// that would leave none. Returns "" or one line saying what failed.
+inline std::string keep_off_cpu(int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (const int e = pthread_getaffinity_np(pthread_self(), sizeof set, &set); e != 0)
+    return "cannot read the CPU affinity (" + std::generic_category().message(e) + ")";
+  if (cpu < 0 || cpu >= CPU_SETSIZE || !CPU_ISSET(static_cast<std::size_t>(cpu), &set)) return {};
+  CPU_CLR(static_cast<std::size_t>(cpu), &set);
+  if (CPU_COUNT(&set) == 0) return {};  // the loop's CPU is the only one: share it
+  if (const int e = pthread_setaffinity_np(pthread_self(), sizeof set, &set); e != 0)
+    return "cannot keep off CPU " + std::to_string(cpu) + " (" + std::generic_category().message(e) + ")";
+  return {};
+}
+
 /// Names the calling thread; at most 15 bytes are kept.
 inline void name_this_thread(const char* name) noexcept { pthread_setname_np(pthread_self(), name); }
 

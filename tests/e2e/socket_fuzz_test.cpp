@@ -140,7 +140,7 @@ struct Exchange {
   std::size_t replies = 0;
   std::string bad;  ///< a line that was not JSON, if any
 };
-Exchange exchange(const fs::path& socket, const std::vector<std::string>& lines) {
+Exchange converse(const fs::path& socket, const std::vector<std::string>& lines) {
   Exchange x;
   RawConnection c(socket);
   std::string all;
@@ -215,7 +215,7 @@ delay = 1
   while (sent < total_lines && std::chrono::steady_clock::now() - t0 < 20s) {
     std::vector<std::string> lines(1 + batch() % 40);
     for (auto& l : lines) l = generate.line();
-    const Exchange x = exchange(d.socket(), lines);
+    const Exchange x = converse(d.socket(), lines);
     ++connections;
     sent += lines.size();
     replies += x.replies;

@@ -19,15 +19,15 @@
 #include "daemon/planner.hpp"
 #include "drivers/device.hpp"
 
-namespace daemon = hapticd::daemon;
+namespace hd = hapticd::daemon;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   try {
-    const auto config = daemon::config::parse_config(text, "fuzz.toml");
-    auto built = daemon::build_device(config);
+    const auto config = hd::config::parse_config(text, "fuzz.toml");
+    auto built = hd::build_device(config);
     built.device->configure(hapticd::drivers::LoopContext{config.loop.period_s});
-    const auto model = daemon::make_device_model(*built.device, config.loop.period_s);
+    const auto model = hd::make_device_model(*built.device, config.loop.period_s);
     hapticd::world::ParameterSet requested;
     bool force = false;
     for (const auto& p : config.scene.parameters) {
@@ -37,12 +37,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       }
       std::visit([&](const auto& v) { requested[p.key] = v; }, p.value);
     }
-    const auto outcome = daemon::plan_on_device(config.scene.name, requested, model, force);
-    if (const auto* refusal = std::get_if<daemon::PlanRefusal>(&outcome)) {
+    const auto outcome = hd::plan_on_device(config.scene.name, requested, model, force);
+    if (const auto* refusal = std::get_if<hd::PlanRefusal>(&outcome)) {
       if (refusal->message.empty()) __builtin_trap();  // a refusal must say why
     }
     built.device->close();
-  } catch (const daemon::config::ConfigError& e) {
+  } catch (const hd::config::ConfigError& e) {
     if (std::string_view(e.what()).empty()) __builtin_trap();
   } catch (const hapticd::drivers::DeviceError& e) {
     if (std::string_view(e.what()).empty()) __builtin_trap();

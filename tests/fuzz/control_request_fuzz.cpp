@@ -30,19 +30,19 @@ namespace {
 
 using nlohmann::json;
 namespace control = hapticd::daemon::control;
-namespace daemon = hapticd::daemon;
+namespace hd = hapticd::daemon;
 
 struct Fixture {
   control::Dispatcher dispatcher;
   std::unique_ptr<control::WriteAccess> access;
-  daemon::DeviceModel rotary;
-  daemon::DeviceModel linear;
+  hd::DeviceModel rotary;
+  hd::DeviceModel linear;
 
-  static daemon::DeviceModel model_of(const std::string& device_toml) {
-    auto config = daemon::config::parse_config(device_toml, "fuzz.toml");
-    auto built = daemon::build_device(config);
+  static hd::DeviceModel model_of(const std::string& device_toml) {
+    auto config = hd::config::parse_config(device_toml, "fuzz.toml");
+    auto built = hd::build_device(config);
     built.device->configure(hapticd::drivers::LoopContext{config.loop.period_s});
-    return daemon::make_device_model(*built.device, config.loop.period_s);
+    return hd::make_device_model(*built.device, config.loop.period_s);
   }
 
   Fixture()
@@ -55,23 +55,23 @@ struct Fixture {
         throw control::RpcError(hapticd::rpc::code::invalid_params, "needs \"scene\"");
       hapticd::world::ParameterSet requested;
       try {
-        requested = daemon::parameters_from_json(params.value("params", json::object()));
+        requested = hd::parameters_from_json(params.value("params", json::object()));
       } catch (const std::invalid_argument& e) {
         throw control::RpcError(hapticd::rpc::code::invalid_params, e.what());
       }
       const bool force = params.value("force", false);
       const auto& model = linear_device ? linear : rotary;
-      auto outcome = daemon::plan_on_device(params["scene"].get<std::string>(), requested, model, force);
-      if (auto* refusal = std::get_if<daemon::PlanRefusal>(&outcome)) {
+      auto outcome = hd::plan_on_device(params["scene"].get<std::string>(), requested, model, force);
+      if (auto* refusal = std::get_if<hd::PlanRefusal>(&outcome)) {
         throw control::RpcError(
             refusal->invalid ? hapticd::rpc::code::invalid_params : hapticd::rpc::code::refused,
-            daemon::refusal_text(*refusal, daemon::force_over_rpc), refusal->data);
+            hd::refusal_text(*refusal, hd::force_over_rpc), refusal->data);
       }
-      const auto& planned = std::get<daemon::PlannedScene>(outcome);
+      const auto& planned = std::get<hd::PlannedScene>(outcome);
       return json{{"scene", planned.plan.scene},
-                  {"parameters", daemon::to_json(planned.plan.parameters, planned.plan.scene)},
-                  {"units", daemon::parameter_units(planned.plan.scene, model.motion())},
-                  {"stability", daemon::to_json(planned.stability)},
+                  {"parameters", hd::to_json(planned.plan.parameters, planned.plan.scene)},
+                  {"units", hd::parameter_units(planned.plan.scene, model.motion())},
+                  {"stability", hd::to_json(planned.stability)},
                   {"forced", planned.forced}};
     };
     dispatcher.add(
