@@ -143,8 +143,8 @@ TEST(Overload, OneGibibyteLineIsRefusedWithoutBeingHeld) {
     for (int i = 0; i < 1024 && c.send(chunk); ++i) sent += chunk.size();
     reply = c.read_line(5s);
   });
-  std::printf("1 GiB line: %llu bytes sent before the daemon closed; reply %s\n",
-              static_cast<unsigned long long>(sent), reply.c_str());
+  std::printf("1 GiB line: %llu whole MiB sent before the daemon closed; reply %s\n",
+              static_cast<unsigned long long>(sent >> 20), reply.c_str());
   EXPECT_NE(reply.find("-32003"), std::string::npos) << reply;
   EXPECT_LT(sent, std::uint64_t{1} << 30) << "the daemon read the whole gibibyte";
   expect_unharmed(v, "1 GiB line");
