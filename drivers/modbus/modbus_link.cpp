@@ -196,6 +196,7 @@ void ModbusLink::open() {
 }
 
 void ModbusLink::close() noexcept {
+  flush_before_next_ = false;
   if (!open_) return;
   modbus_close(ctx_);
   open_ = false;
@@ -205,6 +206,15 @@ void ModbusLink::reopen() {
   close();
   open();
   counters_.reconnects.fetch_add(1, std::memory_order_relaxed);
+}
+
+bool ModbusLink::ready() noexcept {
+  if (!open_) return false;
+  if (flush_before_next_) {
+    modbus_flush(ctx_);
+    flush_before_next_ = false;
+  }
+  return true;
 }
 
 LinkResult ModbusLink::finish(int rc, std::uint8_t function) noexcept {
@@ -243,17 +253,22 @@ LinkResult ModbusLink::finish(int rc, std::uint8_t function) noexcept {
       bump(counters_.io_errors);
       break;
   }
-  // A late or partial reply must not be taken for the next one: drop what
-  // is buffered (non-blocking: recv MSG_DONTWAIT on TCP, tcflush on RTU).
+  // A late or partial reply must not be taken for the next one (libmodbus
+  // 3.1.6 does not skip a reply with another transaction id, it fails):
+  // drop what is buffered now, and again before the next request, by which
+  // time a late reply has arrived (non-blocking: recv MSG_DONTWAIT on TCP,
+  // tcflush on RTU).
   if (r.outcome == LinkOutcome::timeout || r.outcome == LinkOutcome::crc_error ||
-      r.outcome == LinkOutcome::bad_frame)
+      r.outcome == LinkOutcome::bad_frame) {
     modbus_flush(ctx_);
+    flush_before_next_ = true;
+  }
   return r;
 }
 
 LinkResult ModbusLink::write_and_read(std::uint16_t write_address, std::span<const std::uint16_t> values,
                                       std::uint16_t read_address, std::span<std::uint16_t> out) noexcept {
-  if (!open_) return {LinkOutcome::closed, function_code::write_and_read_registers, 0, EBADF};
+  if (!ready()) return {LinkOutcome::closed, function_code::write_and_read_registers, 0, EBADF};
   const int rc =
       modbus_write_and_read_registers(ctx_, write_address, static_cast<int>(values.size()), values.data(),
                                       read_address, static_cast<int>(out.size()), out.data());
@@ -262,7 +277,7 @@ LinkResult ModbusLink::write_and_read(std::uint16_t write_address, std::span<con
 
 LinkResult ModbusLink::write_registers(std::uint16_t address,
                                        std::span<const std::uint16_t> values) noexcept {
-  if (!open_) return {LinkOutcome::closed, function_code::write_multiple_registers, 0, EBADF};
+  if (!ready()) return {LinkOutcome::closed, function_code::write_multiple_registers, 0, EBADF};
   const int rc = modbus_write_registers(ctx_, address, static_cast<int>(values.size()), values.data());
   return finish(rc, function_code::write_multiple_registers);
 }
@@ -271,7 +286,7 @@ LinkResult ModbusLink::read_registers(ReadTable table, std::uint16_t address,
                                       std::span<std::uint16_t> out) noexcept {
   const std::uint8_t fc = table == ReadTable::holding ? function_code::read_holding_registers
                                                       : function_code::read_input_registers;
-  if (!open_) return {LinkOutcome::closed, fc, 0, EBADF};
+  if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
   const int n = static_cast<int>(out.size());
   const int rc = table == ReadTable::holding ? modbus_read_registers(ctx_, address, n, out.data())
                                              : modbus_read_input_registers(ctx_, address, n, out.data());
@@ -279,12 +294,12 @@ LinkResult ModbusLink::read_registers(ReadTable table, std::uint16_t address,
 }
 
 LinkResult ModbusLink::write_register(std::uint16_t address, std::uint16_t value) noexcept {
-  if (!open_) return {LinkOutcome::closed, function_code::write_single_register, 0, EBADF};
+  if (!ready()) return {LinkOutcome::closed, function_code::write_single_register, 0, EBADF};
   return finish(modbus_write_register(ctx_, address, value), function_code::write_single_register);
 }
 
 LinkResult ModbusLink::write_coil(std::uint16_t address, bool on) noexcept {
-  if (!open_) return {LinkOutcome::closed, function_code::write_single_coil, 0, EBADF};
+  if (!ready()) return {LinkOutcome::closed, function_code::write_single_coil, 0, EBADF};
   return finish(modbus_write_bit(ctx_, address, on ? 1 : 0), function_code::write_single_coil);
 }
 

@@ -134,12 +134,14 @@ class ModbusLink {
   const LinkCounters& counters() const noexcept { return counters_; }
 
  private:
+  bool ready() noexcept;  ///< open, and any late reply of a failed transaction dropped
   LinkResult finish(int rc, std::uint8_t function) noexcept;
   void apply_timeouts();
 
   LinkSettings settings_;
   modbus_t* ctx_ = nullptr;
   bool open_ = false;
+  bool flush_before_next_ = false;
   LinkCounters counters_;
 };
 

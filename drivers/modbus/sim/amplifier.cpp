@@ -26,8 +26,9 @@ std::uint16_t* Amplifier::state_register(std::uint16_t address) noexcept {
   return address < table.size() ? &table[address] : nullptr;
 }
 
-void Amplifier::inject(Injection what, int count, std::uint8_t exception_code) noexcept {
+void Amplifier::inject(Injection what, int count, std::uint8_t exception_code, int delay_ms) noexcept {
   injection_code_.store(exception_code, std::memory_order_relaxed);
+  injection_delay_ms_.store(delay_ms, std::memory_order_relaxed);
   injection_left_.store(count, std::memory_order_relaxed);
   injection_.store(what, std::memory_order_release);
 }
@@ -134,6 +135,9 @@ Decision Amplifier::on_request(std::span<const std::uint8_t> pdu, double now_s) 
         return decision;
       case Injection::crc_error:
         decision.kind = Decision::Kind::corrupt_crc;  // applied below, the reply is corrupted
+        break;
+      case Injection::late:
+        decision.delay_ms = injection_delay_ms_.load(std::memory_order_relaxed);  // applied below
         break;
       case Injection::none:
         break;

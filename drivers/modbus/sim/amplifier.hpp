@@ -8,7 +8,7 @@
 /// What it does with a request addressed to it, in order:
 ///  1. an injected failure, if one is pending (an exception reply; silence,
 ///     as if the request were lost on the line; a reply with a wrong CRC,
-///     after applying the request; a dropped connection);
+///     after applying the request; a dropped connection; a late reply);
 ///  2. fc 23 on an amplifier configured without it: exception 01;
 ///  3. the writes (V1.1b3 6.17: fc 23 writes before it reads): the torque
 ///     command, the watchdog (a nonzero value arms it for that many ms of
@@ -64,12 +64,14 @@ enum class Injection : std::uint8_t {
   timeout,    ///< the next requests are lost: nothing applied, no reply
   crc_error,  ///< the next requests are applied, their replies carry a wrong CRC (RTU)
   drop,       ///< the connection is closed on the next request (TCP), nothing applied
+  late,       ///< the next requests are applied and answered after a delay (a slow amplifier)
 };
 
 /// What the server does with one request.
 struct Decision {
   enum class Kind : std::uint8_t { reply, exception, silence, corrupt_crc, drop } kind = Kind::reply;
   std::uint8_t exception_code = 0;
+  int delay_ms = 0;  ///< wait this long before replying
 };
 
 /// A consistent-enough view for tests and the devsim status line.
@@ -101,8 +103,9 @@ class Amplifier {
   std::size_t build_reply(std::span<const std::uint8_t> pdu, std::span<std::uint8_t> out) const noexcept;
 
   // ---- switches, any thread ----
+  /// `count` requests get `what`; `exception_code` for exception, `delay_ms` for late.
   void inject(Injection what, int count = 1,
-              std::uint8_t exception_code = exception_code::server_device_failure) noexcept;
+              std::uint8_t exception_code = exception_code::server_device_failure, int delay_ms = 0) noexcept;
   /// Sets fault bits as the amplifier's own protection would (over-current ...): power stage off.
   void inject_fault(std::uint16_t bits) noexcept;
   AmplifierState state() const noexcept;
@@ -136,6 +139,7 @@ class Amplifier {
   std::atomic<Injection> injection_{Injection::none};
   std::atomic<int> injection_left_{0};
   std::atomic<std::uint8_t> injection_code_{0};
+  std::atomic<int> injection_delay_ms_{0};
   std::atomic<std::uint16_t> pending_fault_{0};
 
   // Published view.

@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <modbus.h>
 #include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <poll.h>
 #include <pty.h>
 #include <sys/socket.h>
@@ -103,16 +104,22 @@ void AmplifierServer::stop() noexcept {
   if (thread_.joinable()) thread_.join();
 }
 
-void AmplifierServer::inject(Injection what, int count, std::uint8_t exception_code) {
+void AmplifierServer::inject(Injection what, int count, std::uint8_t exception_code, int delay_ms) {
   if (what == Injection::crc_error && !rtu_)
     throw std::invalid_argument("a CRC error needs RTU: Modbus TCP frames carry no CRC");
-  amplifier_.inject(what, count, exception_code);
+  amplifier_.inject(what, count, exception_code, delay_ms);
 }
 
 bool AmplifierServer::accept_client() noexcept {
   pollfd p{listen_fd_, POLLIN, 0};
   if (poll(&p, 1, static_cast<int>(idle_wake_us / 1000)) <= 0) return false;
-  if (modbus_tcp_accept(ctx_, &listen_fd_) < 0) return false;
+  const int client = modbus_tcp_accept(ctx_, &listen_fd_);
+  if (client < 0) return false;
+  // Reply at once: with Nagle's algorithm a reply waits for the ACK of the
+  // previous one, which the client delays until its next request, and every
+  // reply then arrives one transaction late.
+  const int on = 1;
+  setsockopt(client, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
   connections_.fetch_add(1, std::memory_order_relaxed);
   return true;
 }
@@ -123,6 +130,7 @@ void AmplifierServer::serve_one(const std::uint8_t* query, int length) noexcept 
   const std::span<const std::uint8_t> pdu(query + header,
                                           static_cast<std::size_t>(length - header - checksum));
   const Decision d = amplifier_.on_request(pdu, now_s());
+  if (d.delay_ms > 0) usleep(static_cast<useconds_t>(d.delay_ms) * 1000u);
   switch (d.kind) {
     case Decision::Kind::reply:
       modbus_reply(ctx_, query, length, mapping_);

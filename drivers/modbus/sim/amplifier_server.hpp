@@ -47,7 +47,7 @@ class AmplifierServer {
 
   /// Injects a failure; a CRC error only on RTU (throws std::invalid_argument on TCP: TCP has no CRC).
   void inject(Injection what, int count = 1,
-              std::uint8_t exception_code = exception_code::server_device_failure);
+              std::uint8_t exception_code = exception_code::server_device_failure, int delay_ms = 0);
   /// Connections accepted (TCP) so far.
   std::uint64_t connections() const noexcept { return connections_.load(std::memory_order_relaxed); }
 

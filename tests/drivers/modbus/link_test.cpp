@@ -16,6 +16,7 @@
 
 #include <array>
 #include <cerrno>
+#include <chrono>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -396,4 +397,23 @@ TEST(ModbusLinkErrors, LibmodbusErrnosMapToOutcomes) {
   EXPECT_EQ(mb::classify_error(EPIPE, code), LinkOutcome::closed);
   EXPECT_EQ(mb::classify_error(EIO, code), LinkOutcome::closed);
   EXPECT_EQ(mb::classify_error(ENOMEM, code), LinkOutcome::io_error);
+}
+
+// A reply that arrives after its transaction timed out must not be taken
+// for the next transaction's (on RTU it would look valid: no transaction id).
+TEST_P(LinkTest, ALateReplyIsDroppedBeforeTheNextRequest) {
+  mb::ModbusLink link(settings(0.03));
+  link.open();
+  server_->inject(mb::sim::Injection::late, 1, 0, 100);
+  std::array<std::uint16_t, 6> state{};
+  EXPECT_EQ(exchange(link, 100, state).outcome, LinkOutcome::timeout);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the late reply is in the buffer now
+  ASSERT_TRUE(amplifier_.state().steps == 1u);
+  link.set_response_timeout(test_response_timeout_s);
+  const mb::LinkResult next = exchange(link, 200, state);
+  EXPECT_TRUE(next.ok()) << mb::describe(next);
+  EXPECT_EQ(link.counters().bad_frames.load(), 0u);
+  // The reply is this transaction's: the amplifier now holds the new command.
+  EXPECT_EQ(amplifier_.state().torque_counts, 200);
+  EXPECT_EQ(amplifier_.state().steps, 2u);
 }
