@@ -90,14 +90,10 @@ void Amplifier::tick(double now_s) noexcept {
   publish();
 }
 
-void Amplifier::apply_write(std::uint16_t address, std::uint16_t value, double now_s,
-                            bool& torque_written) noexcept {
+void Amplifier::apply_write(std::uint16_t address, std::uint16_t value, double now_s) noexcept {
   const RegisterMap& m = settings_.map;
   if (std::uint16_t* r = holding(address)) *r = value;
-  if (address == m.torque) {
-    torque_counts_ = static_cast<std::int16_t>(value);
-    torque_written = true;
-  }
+  if (address == m.torque) torque_counts_ = static_cast<std::int16_t>(value);
   if (m.watchdog && address == *m.watchdog) {
     watchdog_armed_ = value != 0;
     watchdog_period_s_ = value * 1e-3;
@@ -171,7 +167,18 @@ Decision Amplifier::on_request(std::span<const std::uint8_t> pdu, double now_s) 
   if (settings_.map.watchdog_refresh == WatchdogRefresh::any_frame && watchdog_armed_)
     watchdog_deadline_s_ = now_s + watchdog_period_s_;
 
-  bool torque_written = false;
+  // Time passes between two command writes: the plant advances one period
+  // under the torque applied since the last one, then the new command
+  // takes effect and the reply reports the position now. So the position a
+  // reply carries was sampled before the command in the same request acts
+  // on the plant, as on a real amplifier (one period from sample to
+  // actuation: the driver's delay_periods = 1).
+  const bool writes_torque = writes_registers && req.write_address <= settings_.map.torque &&
+                             settings_.map.torque < req.write_address + req.write_count;
+  if (writes_torque) {
+    plant_.step(applied_);
+    ++steps_;
+  }
   if (req.function == function_code::write_single_coil) {
     if (req.write_address < coils_.size()) {
       const bool on = req.write_value(0) == 0xFF00;
@@ -181,15 +188,9 @@ Decision Amplifier::on_request(std::span<const std::uint8_t> pdu, double now_s) 
     }
   } else if (writes_registers) {
     for (std::size_t i = 0; i < req.write_count; ++i)
-      apply_write(static_cast<std::uint16_t>(req.write_address + i), req.write_value(i), now_s,
-                  torque_written);
+      apply_write(static_cast<std::uint16_t>(req.write_address + i), req.write_value(i), now_s);
   }
-  if (torque_written) {
-    const bool powered = enabled_ && fault_ == 0;
-    applied_ = powered ? torque_counts_ * settings_.torque_per_count : 0.0;
-    plant_.step(applied_);
-    ++steps_;
-  }
+  applied_ = enabled_ && fault_ == 0 ? torque_counts_ * settings_.torque_per_count : 0.0;
   refresh_state_registers();
   publish();
   return decision;

@@ -15,8 +15,12 @@
 ///     wall time, 0 disarms; with refresh = write every write restarts it),
 ///     the reset register (reset_value clears the fault word), the enable
 ///     coil or bit (ignored while in fault);
-///  4. one plant step per request that writes the torque register, with the
-///     torque applied only while enabled and not in fault;
+///  4. one plant step per request that writes the torque register, BEFORE
+///     its writes take effect: the plant advances one period under the
+///     torque applied since the previous command (time passes between
+///     two transactions), then the new command applies (only while enabled
+///     and not in fault), and the reply reports the position sampled now.
+///     A run is therefore the loopback run of the same plant with delay = 1;
 ///  5. the state registers: position and velocity from the plant, status
 ///     (enabled and fault bits), fault word.
 /// The watchdog expires in wall time (tick()): power stage off, torque 0,
@@ -79,7 +83,7 @@ struct AmplifierState {
   bool enabled = false;
   bool watchdog_armed = false;
   std::uint16_t fault = 0;
-  double applied_torque = 0.0;  ///< N m or N over the last step
+  double applied_torque = 0.0;  ///< N m or N applied now (over the coming step)
   std::int16_t torque_counts = 0;
   std::uint64_t steps = 0;
   std::uint64_t requests = 0;
@@ -114,7 +118,7 @@ class Amplifier {
  private:
   std::uint16_t* holding(std::uint16_t address) noexcept;
   std::uint16_t* state_register(std::uint16_t address) noexcept;  ///< the read table
-  void apply_write(std::uint16_t address, std::uint16_t value, double now_s, bool& torque_written) noexcept;
+  void apply_write(std::uint16_t address, std::uint16_t value, double now_s) noexcept;
   void set_enable(bool on) noexcept;
   void trip_watchdog() noexcept;
   void refresh_state_registers() noexcept;
