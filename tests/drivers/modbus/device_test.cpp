@@ -397,3 +397,17 @@ TEST(ModbusDeviceBudget, AResponseTimeoutBeyondTheBudgetIsRefused) {
     EXPECT_NE(text(e).find("accepted: up to 500 us"), std::string::npos) << e.what();
   }
 }
+
+TEST_P(RtuDeviceTest, ACrcErrorIsATransientReadError) {
+  mb::ModbusDevice& d = enabled();
+  Reading r;
+  server_->inject(mb::sim::Injection::crc_error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  server_->inject(mb::sim::Injection::crc_error, 3);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_EQ(d.status().fault_reason,
+            "3 failed transactions in a row, the last: CRC error in reply to function 0x17");
+}
