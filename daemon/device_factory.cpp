@@ -3,6 +3,8 @@
 #include <charconv>
 #include <stdexcept>
 
+#include "drivers/loopback/parameter_error.hpp"
+
 namespace hapticd::daemon {
 
 namespace {
@@ -17,13 +19,39 @@ std::string as_text(const config::ParameterValue& value) {
   return std::get<std::string>(value);
 }
 
-/// The position to blame for a driver's one-line error: the first parameter
-/// whose key the message names, else the [device] table.
-config::SourcePosition blame(const config::DeviceConfig& device, const std::string& message) {
-  for (const auto& p : device.parameters) {
-    if (message.find(p.key) != std::string::npos) return p.where;
+const config::Parameter* given(const config::ParameterList& list, std::string_view key) {
+  for (const auto& p : list) {
+    if (p.key == key) return &p;
   }
-  return device.driver_where;
+  return nullptr;
+}
+
+/// A refused [device.loopback] key as a config error, at its value's position
+/// (else at the table). ParameterError names the key; other errors name none.
+config::ConfigError device_error(const config::DeviceConfig& device, const std::invalid_argument& error) {
+  const auto* refused = dynamic_cast<const drivers::loopback::ParameterError*>(&error);
+  if (refused != nullptr) {
+    if (const auto* p = given(device.parameters, refused->key())) {
+      return {p->where, "device.loopback." + p->key, error.what()};
+    }
+  }
+  return {device.table_where, "device.loopback", error.what()};
+}
+
+/// A refused hand script as a config error. Its keys come from
+/// [device.loopback.hand] (flattened to "hand.<key>") or from one
+/// `hand = "key=value ..."` string: point at the key at fault, else at that
+/// string, else at the first hand key (a missing key has no position).
+config::ConfigError hand_error(const config::DeviceConfig& device, const std::invalid_argument& error) {
+  const auto* refused = dynamic_cast<const drivers::loopback::ParameterError*>(&error);
+  const config::Parameter* p = nullptr;
+  if (refused != nullptr) p = given(device.parameters, "hand." + refused->key());
+  if (p == nullptr) p = given(device.parameters, "hand");
+  for (const auto& q : device.parameters) {
+    if (p == nullptr && q.key.starts_with("hand.")) p = &q;
+  }
+  if (p == nullptr) return {device.table_where, "device.loopback.hand", error.what()};
+  return {p->where, "device.loopback." + p->key, error.what()};
 }
 
 }  // namespace
@@ -53,14 +81,14 @@ BuiltDevice build_device(const config::DaemonConfig& config) {
   try {
     loopback_config = drivers::loopback::parse_loopback_config(pairs);
   } catch (const std::invalid_argument& e) {
-    throw config::ConfigError(blame(device, e.what()), "device.loopback", e.what());
+    throw device_error(device, e);
   }
   drivers::loopback::HandScript hand;
   if (!hand_text.empty()) {
     try {
       hand = drivers::loopback::parse_hand_script(hand_text);
     } catch (const std::invalid_argument& e) {
-      throw config::ConfigError(blame(device, e.what()), "device.loopback.hand", e.what());
+      throw hand_error(device, e);
     }
   }
   auto loopback = std::make_unique<drivers::loopback::LoopbackDevice>(loopback_config, hand);

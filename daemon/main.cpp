@@ -113,7 +113,10 @@ int main(int argc, char** argv) {
       }
       loop.duration_s = *d;
     }
-    if (!socket.empty()) options.config.control.socket = socket;
+    if (!socket.empty()) {
+      options.config.control.socket = socket;
+      options.config.control.socket_where = {"--socket", 0, 0};  // errors name the flag, not the file
+    }
     options.record_name = record;
     hapticd::daemon::Service service(std::move(options));
     if (check_config) {

@@ -13,6 +13,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "daemon/config/host_checks.hpp"
 #include "daemon/system/systemd_notify.hpp"
 #include "daemon/version.hpp"
 
@@ -31,12 +32,42 @@ world::ParameterSet to_parameter_set(const config::ParameterList& list) {
   return out;
 }
 
-/// The config position to blame for a scene error: the parameter the message names.
-config::SourcePosition blame(const config::SceneConfig& scene, const std::string& message) {
+const config::Parameter* given(const config::SceneConfig& scene, std::string_view key) {
   for (const auto& p : scene.parameters) {
-    if (message.find(p.key) != std::string::npos) return p.where;
+    if (p.key == key) return &p;
   }
-  return scene.name_where;
+  return nullptr;
+}
+
+/// The first given parameter (file order) without which -- i.e. at its
+/// default -- the scene plans and, when the refusal was for instability, is
+/// stable on the device: the one value the user has to change. Nothing when
+/// no single parameter does it (the set as a whole is at fault).
+const config::Parameter* culprit(const config::SceneConfig& scene, const world::ParameterSet& requested,
+                                 const PlanRefusal& refusal, const DeviceModel& model) {
+  for (const auto& p : scene.parameters) {
+    if (!requested.contains(p.key)) continue;  // force: not a scene parameter
+    world::ParameterSet without = requested;
+    without.erase(p.key);
+    auto outcome = world::plan_scene(scene.name, without, model.period_s, model.motion());
+    const auto* plan = std::get_if<world::ScenePlan>(&outcome);
+    if (plan != nullptr && (refusal.invalid || check_stability(*plan, model).stable)) return &p;
+  }
+  return nullptr;
+}
+
+/// A refused [scene] as a config error, at the position of the parameter at
+/// fault: the one the planner names, else the culprit, else scene.name.
+config::ConfigError scene_error(const config::SceneConfig& scene, const world::ParameterSet& requested,
+                                const PlanRefusal& refusal, const DeviceModel& model) {
+  const std::string text = refusal_text(refusal, force_in_config);
+  if (const auto* named = given(scene, refusal.parameter)) {
+    return {named->where, "scene." + named->key, text};
+  }
+  if (const auto* p = culprit(scene, requested, refusal, model)) {
+    return {p->where, "scene." + p->key, "scene." + p->key + " = " + config::to_toml(p->value) + ": " + text};
+  }
+  return {scene.name_where, "scene", text};
 }
 
 std::size_t power_of_two_at_least(std::size_t n) {
@@ -96,6 +127,8 @@ bool get_force(const json& params) {
 
 Service::Service(ServiceOptions options) : options_(std::move(options)) {
   const auto& cfg = options_.config;
+  // NOLINTNEXTLINE(concurrency-mt-unsafe): start-up, no setenv
+  config::check_host(cfg, std::getenv("STATE_DIRECTORY"));
   device_ = build_device(cfg);
   model_ = make_device_model(*device_.device, device_.loopback, cfg.loop.period_s);
   initial_requested_ = to_parameter_set(cfg.scene.parameters);
@@ -105,15 +138,16 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
   if (const auto it = initial_requested_.find("force"); it != initial_requested_.end()) {
     const auto* flag = std::get_if<bool>(&it->second);
     if (flag == nullptr) {
-      throw config::ConfigError(blame(cfg.scene, "force"), "scene.force", "force must be true or false");
+      throw config::ConfigError(
+          given(cfg.scene, "force")->where, "scene.force",
+          "scene.force = " + config::to_toml(it->second) + " has the wrong type; accepted: true or false");
     }
     force = *flag;
     initial_requested_.erase(it);
   }
   auto outcome = plan_on_device(cfg.scene.name, initial_requested_, model_, force);
-  if (auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
-    throw config::ConfigError(blame(cfg.scene, refusal->message), "scene",
-                              refusal_text(*refusal, force_in_config));
+  if (const auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
+    throw scene_error(cfg.scene, initial_requested_, *refusal, model_);
   }
   initial_ = std::move(std::get<PlannedScene>(outcome));
 }
@@ -278,7 +312,10 @@ json Service::status() const {
   out["recording"] = {{"active", rec.recording},
                       {"path", rec.path.string()},
                       {"samples", rec.samples_written},
-                      {"dropped", rec.dropped_ring + rec.dropped_write}};
+                      {"dropped", rec.dropped_ring + rec.dropped_write},
+                      {"disk_full", rec.disk_full},
+                      {"resumed", rec.resumed},
+                      {"error", rec.error}};
   {
     std::lock_guard lock(latest_mutex_);
     if (latest_) out["last"] = sample_json(*latest_, {});
@@ -469,10 +506,14 @@ void Service::register_methods(control::ControlServer& server) {
         }
         return json{{"path", status.path.string()},
                     {"samples", status.samples_written},
+                    {"samples_received", status.samples_received},
                     {"sections", status.sections},
                     {"dropped_ring", status.dropped_ring},
                     {"dropped_write", status.dropped_write},
                     {"cycle_gaps", status.cycle_gaps},
+                    {"disk_full", status.disk_full},
+                    {"resumed", status.resumed},
+                    {"complete", status.complete},
                     {"error", status.error}};
       },
       Access::write);
@@ -557,8 +598,9 @@ void Service::register_methods(control::ControlServer& server) {
         return json{{"fault", std::string(engine::to_string(engine_->fault()))}, {"cycle", engine_->cycle()}};
       },
       // Read access by design (docs/protocol.md): anyone who can connect may
-      // stop the device; only writers can clear it (fault.clear).
-      Access::read);
+      // stop the device; only writers can clear it (fault.clear). Served
+      // before other clients' queued requests, whatever their load.
+      Access::read, control::Precedence::first);
 
   server.set_stream_source([this](const std::vector<std::string>& channels) {
     std::optional<TelemetrySample> sample;
@@ -712,7 +754,8 @@ void Service::shutdown() {
     if (recorder_->status().recording) {
       const auto s = recorder_->stop();
       std::cout << "hapticd: recording " << s.path.string() << ": " << s.samples_written << " samples, "
-                << s.dropped_ring + s.dropped_write << " dropped" << std::endl;
+                << s.dropped_ring + s.dropped_write << " dropped"
+                << (s.complete ? std::string() : "; incomplete (no trailer): " + s.error) << std::endl;
     }
     recorder_.reset();
   }

@@ -13,6 +13,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libusb-1.0-0-dev libmodbus-dev libgpiod-dev
   rt-tests                 # cyclictest, the latency reference in bench/
+  libboost-dev             # Boost.Odeint: RK4 and dopri5 references in `hapticctl report accuracy`
+  gnuplot-nox              # draws the report figures (PNG, pngcairo terminal)
   clang-format clang-tidy
 )
 

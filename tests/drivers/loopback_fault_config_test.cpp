@@ -235,7 +235,8 @@ TEST(LoopbackConfigKeys, MotionSelectsDefaultsAndKeysOverride) {
   EXPECT_EQ(rotary.motion, Motion::rotary);
   EXPECT_EQ(rotary.mass, 0.01);
   EXPECT_EQ(rotary.counts, 16384.0);
-  EXPECT_EQ(rotary.max_force, 0.8);
+  EXPECT_EQ(rotary.max_force, 1.2);
+  EXPECT_EQ(rotary.damping, 0.002);
 }
 
 void expect_config_error(std::string_view text, std::string_view fragment) {
@@ -254,7 +255,7 @@ TEST(LoopbackConfigKeys, ErrorsNameTheKey) {
   expect_config_error("motion=spherical", "motion=spherical is not one of rotary, linear");
   expect_config_error("plant=three-mass", "plant=three-mass is not one of rigid, two-mass");
   expect_config_error("mass=heavy", "mass=heavy is not a finite number");
-  expect_config_error("mass=0", "mass must be > 0");
+  expect_config_error("mass=0", "mass must be >= 1e-09 and <= 1e+06 (got 0)");
   expect_config_error("coulomb=-1", "coulomb must be >= 0");
   expect_config_error("delay=1.5", "delay=1.5 is not an integer");
   expect_config_error("delay=65", "delay must be an integer in 0..64");
@@ -265,6 +266,28 @@ TEST(LoopbackConfigKeys, ErrorsNameTheKey) {
   LoopbackConfig bad;
   bad.mass = -1.0;
   EXPECT_THROW(LoopbackDevice{bad}, std::invalid_argument);
+}
+
+// Every number has a finite range: a 1e-300 kg mass or a 1e308 N force is a
+// typo, not a device (these were accepted).
+TEST(LoopbackConfigKeys, NumbersOutsideTheirRangeAreRefusedNamingIt) {
+  expect_config_error("mass=1e-300", "mass must be >= 1e-09 and <= 1e+06 (got 1e-300)");
+  expect_config_error("mass=2e6", "mass must be >= 1e-09 and <= 1e+06");
+  expect_config_error("damping=1e308", "damping must be >= 0 and <= 1e+06 (got 1e+308)");
+  expect_config_error("coulomb=1e7", "coulomb must be >= 0 and <= 1e+06");
+  expect_config_error("max_force=1e308", "max_force must be > 0 and <= 1e+06");
+  expect_config_error("counts=0.5", "counts must be >= 1 and <= 1e+12");
+  expect_config_error("period=1e-300", "period must be >= 1e-06 and <= 1 (got 1e-300)");
+  expect_config_error("period=10s", "period must be >= 1e-06 and <= 1");
+  expect_config_error("plant=two-mass motor_mass=1e308", "motor_mass must be >= 1e-09 and <= 1e+06");
+  expect_config_error("plant=two-mass body_mass=1e-10", "body_mass must be >= 1e-09");
+  expect_config_error("plant=two-mass cable_stiffness=1e10", "cable_stiffness must be > 0 and <= 1e+09");
+  expect_config_error("plant=two-mass cable_damping=2e6", "cable_damping must be >= 0 and <= 1e+06");
+  expect_config_error("plant=two-mass body_damping=1e300", "body_damping must be >= 0 and <= 1e+06");
+  expect_config_error("plant=two-mass motor_damping=1e300", "motor_damping must be >= 0 and <= 1e+06");
+  // The bounds themselves are accepted.
+  EXPECT_NO_THROW(parse_loopback_config("mass=1e-9 damping=1e6 max_force=1e6 period=1us counts=1"));
+  EXPECT_NO_THROW(parse_loopback_config("mass=1e6 period=1s counts=1e12 coulomb=1e6"));
 }
 
 }  // namespace

@@ -22,6 +22,7 @@ constexpr double pi = 3.14159265358979323846;
 LoopbackConfig wheel() {
   LoopbackConfig config = LoopbackConfig::defaults(Motion::rotary);
   config.mass = 0.01;
+  config.damping = 0.0;  // frictionless: the expectations below are for an undamped wheel
   return config;
 }
 
