@@ -232,7 +232,7 @@ PduStatus parse_request(std::span<const std::uint8_t> pdu, RegisterRequest& out)
       out.write_address = get16(pdu, 1);
       out.write_count = get16(pdu, 3);
       const std::size_t bytes = pdu[5];
-      if (!in_range(out.write_count, limits::write_registers) || bytes != 2u * out.write_count)
+      if (!in_range(out.write_count, limits::write_registers) || bytes != std::size_t{2} * out.write_count)
         return PduStatus::bad_quantity;
       if (pdu.size() != 6 + bytes) return PduStatus::malformed;
       out.write_data = pdu.subspan(6, bytes);
@@ -246,7 +246,8 @@ PduStatus parse_request(std::span<const std::uint8_t> pdu, RegisterRequest& out)
       out.write_count = get16(pdu, 7);
       const std::size_t bytes = pdu[9];
       if (!in_range(out.read_count, limits::write_and_read_read) ||
-          !in_range(out.write_count, limits::write_and_read_write) || bytes != 2u * out.write_count)
+          !in_range(out.write_count, limits::write_and_read_write) ||
+          bytes != std::size_t{2} * out.write_count)
         return PduStatus::bad_quantity;
       if (pdu.size() != 10 + bytes) return PduStatus::malformed;
       out.write_data = pdu.subspan(10, bytes);
