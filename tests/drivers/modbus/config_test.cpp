@@ -3,6 +3,8 @@
 
 #include <string>
 
+#include <toml++/toml.h>
+
 #include "drivers/modbus/modbus_config.hpp"
 
 namespace mb = hapticd::drivers::modbus;
@@ -112,4 +114,24 @@ TEST(ModbusConfig, EveryParameterHasHelpAndAUsableDefault) {
     EXPECT_FALSE(p.help.empty()) << p.name;
     EXPECT_EQ(refusal({{p.name, p.default_value}}).first, "") << p.name;
   }
+}
+
+// The shipped example must stay a valid [device.modbus] table.
+TEST(ModbusConfig, TheShippedExampleIsValid) {
+  const toml::table file = toml::parse_file(HAPTICD_SOURCE_DIR "/config/modbus.toml");
+  const toml::table* table = file["device"]["modbus"].as_table();
+  ASSERT_NE(table, nullptr);
+  Values values;
+  for (const auto& [key, node] : *table) {
+    if (const auto* b = node.as_boolean())
+      values.emplace(std::string(key.str()), b->get());
+    else if (const auto* i = node.as_integer())
+      values.emplace(std::string(key.str()), static_cast<double>(i->get()));
+    else if (const auto* f = node.as_floating_point())
+      values.emplace(std::string(key.str()), f->get());
+    else if (const auto* s = node.as_string())
+      values.emplace(std::string(key.str()), s->get());
+  }
+  EXPECT_EQ(values.size(), table->size());
+  EXPECT_EQ(refusal(values).second, "");
 }
