@@ -29,12 +29,13 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/loopback/loopback_device.hpp"
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_link.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/rtu_timing.hpp"
 #include "drivers/modbus/sim/amplifier_server.hpp"
+#include "drivers/modbus/sim/simulator_plant.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 
 namespace mb = hapticd::drivers::modbus;
 
@@ -68,18 +69,14 @@ Percentiles percentiles(std::vector<std::int64_t> ns) {
 
 class PlantPort final : public mb::sim::AmplifierPlant {
  public:
-  PlantPort() : device_(hapticd::drivers::loopback::LoopbackConfig{}) { device_.start(); }
-  hapticd::drivers::IoResult sense(double& position) noexcept override {
-    hapticd::drivers::Reading r;
-    const auto result = device_.read(r);
-    position = r.position;
-    return result;
-  }
-  double velocity() const noexcept override { return device_.snapshot().motor_velocity; }
-  hapticd::drivers::IoResult step(double force) noexcept override { return device_.write(force); }
+  PlantPort() : simulator_(hapticd::drivers::simulation::PlantConfig{}), port_(simulator_) {}
+  hapticd::drivers::IoResult sense(double& position) noexcept override { return port_.sense(position); }
+  double velocity() const noexcept override { return port_.velocity(); }
+  hapticd::drivers::IoResult step(double force) noexcept override { return port_.step(force); }
 
  private:
-  hapticd::drivers::loopback::LoopbackDevice device_;
+  hapticd::drivers::simulation::PlantSimulator simulator_;
+  mb::sim::SimulatorPlant port_;
 };
 
 // The simulated amplifier in a child process; returns its pid and port.

@@ -4,8 +4,6 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "drivers/loopback/loopback_device.hpp"
-
 namespace hapticd::daemon {
 
 std::string DeviceModel::describe() const { return gate().describe(); }
@@ -15,21 +13,20 @@ analysis::GateDevice DeviceModel::gate() const {
   device.plant = plant;
   device.sensor = sensor;
   device.period_s = period_s;
-  device.delay_samples = info.inherent_delay_samples;
+  device.delay_samples = info.delay_periods;
   device.mass = info.effective_mass;
   device.damping = info.viscous_damping;
   device.motion = motion();
   return device;
 }
 
-DeviceModel make_device_model(const drivers::Device& device,
-                              const drivers::loopback::LoopbackDevice* loopback, double period_s) {
+DeviceModel make_device_model(const drivers::Device& device, double period_s) {
   DeviceModel model;
-  model.info = device.info();
+  model.info = device.model();
   model.period_s = period_s;
-  if (loopback != nullptr) {
-    model.plant = loopback->plant_model();
-    model.sensor = loopback->config().sensor;
+  if (model.info.plant) {
+    model.plant = *model.info.plant;
+    model.sensor = model.info.sensor;
   } else {
     model.plant = world::RigidPlant{model.info.effective_mass, model.info.viscous_damping}.model();
   }

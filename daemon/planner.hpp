@@ -4,7 +4,7 @@
 /// the RT thread: the stability gate of analysis/stability_gate.hpp (validate
 /// the parameters, check numerical and closed-loop stability with the
 /// device's mass or inertia, period and delay; refuse unstable sets with the
-/// limit that would have held, unless forced), on the driver's DeviceInfo,
+/// limit that would have held, unless forced), on the driver's DeviceModel,
 /// with the answers in the protocol's JSON.
 
 #include <string>
@@ -18,16 +18,12 @@
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::drivers::loopback {
-class LoopbackDevice;
-}
-
 namespace hapticd::daemon {
 
-/// What the stability checks know about the device.
+/// What the stability checks know about the device, at the loop's period.
 struct DeviceModel {
-  drivers::DeviceInfo info;
-  world::LinearPlant plant;  ///< rigid from info, or the loopback's two-mass model
+  drivers::DeviceModel info;  ///< what the driver says (mass, damping, delay, optional plant)
+  world::LinearPlant plant;   ///< info.plant, or the rigid mass with its viscous damping
   world::Sensor sensor = world::Sensor::motor;
   double period_s = 1e-3;
   world::Motion motion() const noexcept {
@@ -39,8 +35,8 @@ struct DeviceModel {
   std::string describe() const;
 };
 
-DeviceModel make_device_model(const drivers::Device& device,
-                              const drivers::loopback::LoopbackDevice* loopback, double period_s);
+/// The model of a configured device for the gate.
+DeviceModel make_device_model(const drivers::Device& device, double period_s);
 
 /// The verdict that goes with a plan, reported to clients and recordings.
 using StabilityVerdict = analysis::SceneStability;

@@ -9,7 +9,13 @@ clang-format --dry-run --Werror "${files[@]}"
 echo "clang-format: ${#files[@]} files clean"
 mapfile -t sources < <(git ls-files '*.cpp' | grep -v '^tests/' | grep -v '^bench/')
 if [ -f build/compile_commands.json ]; then
-  printf '%s\n' "${sources[@]}" | xargs -P "$(nproc)" -n 4 clang-tidy -p build --quiet --extra-arg=-Wno-unknown-warning-option 2>/dev/null \
-    | tee /tmp/hapticd-clang-tidy.log | grep -E 'warning:|error:' && { echo "clang-tidy: findings above"; exit 1; }
+  # Collect first, judge after: clang-tidy's own exit status (an error makes
+  # xargs fail) must not hide the findings it printed.
+  printf '%s\n' "${sources[@]}" | xargs -P "$(nproc)" -n 4 clang-tidy -p build --quiet \
+    --extra-arg=-Wno-unknown-warning-option >/tmp/hapticd-clang-tidy.log 2>/dev/null || true
+  if grep -E 'warning:|error:' /tmp/hapticd-clang-tidy.log; then
+    echo "clang-tidy: findings above"
+    exit 1
+  fi
   echo "clang-tidy: ${#sources[@]} files clean"
 fi

@@ -1,5 +1,7 @@
 #include "daemon/config/config.hpp"
 
+#include "drivers/registry.hpp"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -98,18 +100,10 @@ std::string join(std::initializer_list<std::string_view> names) {
   return out;
 }
 
-std::string driver_list() {
-  std::string out;
-  for (const auto name : driver_kinds) {
-    if (!out.empty()) out += ", ";
-    out += name;
-  }
-  return out;
-}
+// Driver names come from the registry: every driver describes itself once.
+std::string driver_list() { return drivers::driver_names(); }
 
-bool is_driver_kind(std::string_view name) {
-  return std::find(std::begin(driver_kinds), std::end(driver_kinds), name) != std::end(driver_kinds);
-}
+bool is_driver_kind(std::string_view name) { return drivers::find_driver(name) != nullptr; }
 
 using Entry = std::pair<const toml::key*, const toml::node*>;
 

@@ -68,10 +68,6 @@ struct LoopConfig {
   bool operator==(const LoopConfig&) const = default;
 };
 
-/// Driver kinds the configuration accepts. Only loopback is built in this
-/// version; the daemon (not the config) refuses the others.
-inline constexpr std::string_view driver_kinds[] = {"loopback", "usb-hid", "canopen", "modbus", "gpio"};
-
 struct DeviceConfig {
   std::string driver = "loopback";
   double torque_limit = 1.0;    ///< N (linear) or N m (rotary), > 0

@@ -674,8 +674,8 @@ DeviceModel ModbusDevice::model() const {
   return m;
 }
 
-DeviceStatusV2 ModbusDevice::status() const {
-  DeviceStatusV2 s;
+DeviceStatus ModbusDevice::status() const {
+  DeviceStatus s;
   const bool latched = latched_.load();
   s.state = latched ? DeviceState::fault : state_.load();
   s.read_errors = read_errors_.load();

@@ -31,7 +31,7 @@
 #include <string>
 #include <thread>
 
-#include "drivers/modbus/framework_stand_in.hpp"
+#include "drivers/device.hpp"
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_link.hpp"
 #include "drivers/modbus/register_map.hpp"
@@ -70,27 +70,27 @@ struct ModbusSample {
   std::uint64_t period = 0;
 };
 
-class ModbusDevice {
+class ModbusDevice final : public Device {
  public:
   explicit ModbusDevice(ModbusConfig config);
-  ~ModbusDevice();
+  ~ModbusDevice() override;
   ModbusDevice(const ModbusDevice&) = delete;
   ModbusDevice& operator=(const ModbusDevice&) = delete;
 
-  // Non-RT lifecycle (the Device interface of the driver framework).
-  void configure(const LoopContext& loop);
-  void enable();
-  std::string clear_fault();
-  void disable() noexcept;
-  void close() noexcept;
+  // Non-RT lifecycle.
+  void configure(const LoopContext& loop) override;
+  void enable() override;
+  std::string clear_fault() override;
+  void disable() noexcept override;
+  void close() noexcept override;
 
   // RT.
-  IoResult read(Reading& out) noexcept;
-  IoResult write(double force) noexcept;
+  IoResult read(Reading& out) noexcept override;
+  IoResult write(double force) noexcept override;
 
   // Any non-RT thread.
-  DeviceModel model() const;
-  DeviceStatusV2 status() const;
+  DeviceModel model() const override;
+  DeviceStatus status() const override;
   LinkBudget budget() const;
   ModbusSample sample() const;
   const ModbusConfig& config() const noexcept { return config_; }

@@ -307,7 +307,7 @@ TEST(ConfigErrors, DriversAndDriverTables) {
   EXPECT_EQ(
       error_of("[device]\ndriver = \"serial\""),
       "t.toml:2:10: device.driver = \"serial\" is not a known driver; accepted: loopback, usb-hid, canopen, "
-      "modbus, gpio");
+      "modbus, gpio-pwm");  // names from the driver registry
   // The table must match the selected driver, wherever driver is written.
   EXPECT_EQ(error_of("[device.canopen]\nnode_id = 5\n[device]\ndriver = \"loopback\""),
             "t.toml:1:9: [device.canopen] does not match device.driver = \"loopback\"; accepted: "

@@ -15,6 +15,7 @@
 #include "daemon/device_factory.hpp"
 #include "daemon/service.hpp"
 #include "drivers/loopback/loopback_config.hpp"
+#include "drivers/loopback/loopback_device.hpp"
 
 namespace hapticd::daemon {
 namespace {
@@ -37,10 +38,13 @@ TEST(MinimalConfig, BuildsTheBuiltInDefaultsDevice) {
   const fs::path dir = scratch_dir();
   const BuiltDevice builtin = build_device(config::default_config());
   const BuiltDevice minimal = build_device(minimal_config(dir));
-  ASSERT_NE(builtin.loopback, nullptr);
-  ASSERT_NE(minimal.loopback, nullptr);
-  const auto& a = builtin.loopback->config();
-  const auto& b = minimal.loopback->config();
+  // The loopback is a plugin like any driver: reach its config through its type.
+  const auto* builtin_loopback = dynamic_cast<const drivers::loopback::LoopbackDevice*>(builtin.device.get());
+  const auto* minimal_loopback = dynamic_cast<const drivers::loopback::LoopbackDevice*>(minimal.device.get());
+  ASSERT_NE(builtin_loopback, nullptr);
+  ASSERT_NE(minimal_loopback, nullptr);
+  const auto& a = builtin_loopback->config();
+  const auto& b = minimal_loopback->config();
   EXPECT_EQ(a.motion, b.motion);
   EXPECT_EQ(a.plant, b.plant);
   EXPECT_EQ(a.mass, b.mass);

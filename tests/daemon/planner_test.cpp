@@ -12,6 +12,7 @@
 #include "analysis/wall_stability.hpp"
 #include "daemon/planner.hpp"
 #include "drivers/loopback/loopback_device.hpp"
+#include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 #include "world/spring_scene.hpp"
 #include "world/wall_scene.hpp"
@@ -45,7 +46,7 @@ loopback::LoopbackConfig wheel_config(double damping) {
 }
 
 DeviceModel model_of(const loopback::LoopbackDevice& device) {
-  return hapticd::daemon::make_device_model(device, &device, T);
+  return hapticd::daemon::make_device_model(device, T);
 }
 
 // By value: the outcome is usually a temporary.
@@ -77,7 +78,7 @@ TEST(Planner, DeviceModelOfTheHulinLoopback) {
   const DeviceModel model = model_of(device);
   EXPECT_EQ(model.motion(), world::Motion::linear);
   EXPECT_DOUBLE_EQ(model.info.effective_mass, hulin_mass);
-  EXPECT_EQ(model.info.inherent_delay_samples, 0);
+  EXPECT_EQ(model.info.delay_periods, 0);
   EXPECT_EQ(model.plant.dynamics.a.rows(), 2);
   EXPECT_DOUBLE_EQ(model.period_s, T);
   EXPECT_NE(model.describe().find("m = 0.1 kg"), std::string::npos) << model.describe();
@@ -232,8 +233,10 @@ TEST(Planner, TwoMassLoopbackUsesTheFourStateModel) {
   const DeviceModel model = model_of(device);
   EXPECT_EQ(model.plant.dynamics.a.rows(), 4);
   EXPECT_NE(model.describe().find("two-mass"), std::string::npos) << model.describe();
-  // Without the loopback pointer only the rigid approximation is available.
-  const DeviceModel rigid = hapticd::daemon::make_device_model(device, nullptr, T);
+  // A driver without a plant model gives the rigid approximation of the same total mass.
+  DeviceModel rigid = model;
+  rigid.info.plant.reset();
+  rigid.plant = world::RigidPlant{rigid.info.effective_mass, rigid.info.viscous_damping}.model();
   EXPECT_EQ(rigid.plant.dynamics.a.rows(), 2);
 
   EXPECT_TRUE(model.plant.dynamics.a.isApprox(device.plant_model().dynamics.a));

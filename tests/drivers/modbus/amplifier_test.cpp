@@ -79,7 +79,7 @@ TEST_F(AmplifierTest, OneStepPerTorqueWriteMovesThePositionRegisters) {
   EXPECT_EQ(amplifier_.state().steps, 100u);
   // The registers hold the plant's own (quantized) position in counts.
   hapticd::drivers::Reading r;
-  plant_.device().read(r);
+  plant_.sense(r.position);
   EXPECT_GT(position_counts(), 0);
   EXPECT_EQ(position_counts(), std::llround(r.position / config_.position_per_count()));
   // A read alone does not step the plant.

@@ -12,9 +12,9 @@
 #include <thread>
 
 #include "c_alloc_counter.hpp"
-#include "drivers/loopback/loopback_device.hpp"
 #include "drivers/modbus/modbus_device.hpp"
 #include "drivers/modbus/sim/amplifier_server.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 #include "loopback_plant.hpp"
 #include "tests/support/alloc_counter.hpp"
 
@@ -136,10 +136,10 @@ TEST_P(DeviceTest, OutOfOrderCallsAreLogicErrors) {
 TEST_P(DeviceTest, ARunEqualsTheLoopbackRunWithOnePeriodOfDelay) {
   mb::ModbusDevice& d = enabled();
   EXPECT_EQ(d.model().delay_periods, 1);
-  hapticd::drivers::loopback::LoopbackConfig lc;
+  // The loopback device's plant with one period of output delay.
+  hapticd::drivers::simulation::PlantConfig lc;
   lc.delay = 1;
-  hapticd::drivers::loopback::LoopbackDevice loop(lc);
-  loop.start();
+  hapticd::drivers::simulation::PlantSimulator loop(lc);
   // A spring to a moving set point, rounded to the 1 mN m command count so
   // both see the same torque.
   auto command = [](int n, double x) {
@@ -150,13 +150,13 @@ TEST_P(DeviceTest, ARunEqualsTheLoopbackRunWithOnePeriodOfDelay) {
   for (int n = 0; n < 400; ++n) {
     Reading a, b;
     ASSERT_EQ(d.read(a), IoResult::ok) << n;
-    ASSERT_EQ(loop.read(b), IoResult::ok);
+    ASSERT_EQ(loop.sense(b.position), IoResult::ok);
     worst = std::max(worst, std::abs(a.position - b.position));
     ASSERT_EQ(d.write(command(n, a.position)), IoResult::ok);
-    loop.write(command(n, b.position));
+    loop.step(command(n, b.position));
   }
   Reading last;
-  loop.read(last);
+  loop.sense(last.position);
   EXPECT_GT(std::abs(last.position), 0.05);  // it moved
   EXPECT_LT(worst, 1e-12);
 }

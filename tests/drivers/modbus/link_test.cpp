@@ -95,7 +95,7 @@ TEST_P(LinkTest, WriteAndReadAppliesTheCommandAndReturnsTheNewState) {
   EXPECT_DOUBLE_EQ(amp.applied_torque, 0.8);
   // The reply carries the position after the 50th step (fc 23 writes, then reads).
   hapticd::drivers::Reading r;
-  plant_.device().read(r);
+  plant_.sense(r.position);
   const std::int32_t counts = mb::join_words(state[0], state[1], mb::WordOrder::high_first);
   EXPECT_GT(counts, 0);
   EXPECT_EQ(counts, std::llround(r.position / config_.position_per_count()));

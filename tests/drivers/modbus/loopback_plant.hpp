@@ -1,26 +1,23 @@
 #pragma once
-// The loopback device's plant behind the simulated amplifier, for the
-// tests until the shared plant simulator (drivers/simulation) is on main.
-#include "drivers/loopback/loopback_device.hpp"
-#include "drivers/modbus/sim/amplifier.hpp"
+// The shared plant simulator behind the simulated amplifier, owned together
+// (the tests' plant: the loopback device's plant).
+#include "drivers/modbus/sim/simulator_plant.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 
 namespace hapticd::drivers::modbus::testing {
 
 class LoopbackPlant final : public sim::AmplifierPlant {
  public:
-  explicit LoopbackPlant(const loopback::LoopbackConfig& config = {}) : device_(config) { device_.start(); }
-  IoResult sense(double& position) noexcept override {
-    Reading r;
-    const IoResult result = device_.read(r);
-    position = r.position;
-    return result;
-  }
-  double velocity() const noexcept override { return device_.snapshot().motor_velocity; }
-  IoResult step(double force) noexcept override { return device_.write(force); }
-  loopback::LoopbackDevice& device() noexcept { return device_; }
+  explicit LoopbackPlant(const simulation::PlantConfig& config = {})
+      : simulator_(config), port_(simulator_) {}
+  IoResult sense(double& position) noexcept override { return port_.sense(position); }
+  double velocity() const noexcept override { return port_.velocity(); }
+  IoResult step(double force) noexcept override { return port_.step(force); }
+  simulation::PlantSimulator& simulator() noexcept { return simulator_; }
 
  private:
-  loopback::LoopbackDevice device_;
+  simulation::PlantSimulator simulator_;
+  sim::SimulatorPlant port_;
 };
 
 }  // namespace hapticd::drivers::modbus::testing

@@ -1,4 +1,4 @@
-#include "drivers/loopback/hand_script.hpp"
+#include "drivers/simulation/hand_script.hpp"
 
 #include <algorithm>
 #include <array>
@@ -6,11 +6,11 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "drivers/loopback/key_value.hpp"
-#include "drivers/loopback/parameter_error.hpp"
+#include "drivers/parameter.hpp"
+#include "drivers/simulation/key_value.hpp"
 #include "world/units.hpp"
 
-namespace hapticd::drivers::loopback {
+namespace hapticd::drivers::simulation {
 
 namespace {
 
@@ -284,4 +284,4 @@ std::optional<HandScript> try_parse_hand_script(std::string_view text, std::stri
   }
 }
 
-}  // namespace hapticd::drivers::loopback
+}  // namespace hapticd::drivers::simulation
