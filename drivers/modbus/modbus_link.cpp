@@ -29,6 +29,12 @@ char parity_letter(Parity parity) {
 
 std::string system_error(int error_number) { return modbus_strerror(error_number); }
 
+std::string seconds_text(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g s", s);
+  return text;
+}
+
 }  // namespace
 
 LinkOutcome classify_error(int error_number, std::uint8_t& exception_code) noexcept {
@@ -175,7 +181,7 @@ void ModbusLink::open() {
     if (settings_.transport == Transport::tcp)
       throw LinkError("host", "cannot connect to Modbus TCP " + settings_.host + ":" +
                                   std::to_string(settings_.port) + " within " +
-                                  std::to_string(settings_.connect_timeout_s) + " s: " + system_error(e));
+                                  seconds_text(settings_.connect_timeout_s) + ": " + system_error(e));
     throw LinkError("device", "cannot open serial device " + settings_.device + ": " + system_error(e));
   }
   open_ = true;
