@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "drivers/loopback/loopback_config.hpp"
+#include "drivers/modbus/modbus_driver.hpp"
 #include "drivers/planned.hpp"
 
 namespace hapticd::drivers {
@@ -11,7 +12,7 @@ const std::vector<DriverDescription>& driver_registry() {
   // One line per driver; a driver issue replaces its planned entry here.
   static const std::vector<DriverDescription> drivers{
       loopback::loopback_driver(), planned::usb_hid_driver(),  planned::canopen_driver(),
-      planned::modbus_driver(),    planned::gpio_pwm_driver(),
+      modbus::modbus_driver(),     planned::gpio_pwm_driver(),
   };
   return drivers;
 }
