@@ -12,6 +12,7 @@ packages=(
   libsystemd-dev systemd   # sd_notify; systemd-analyze verify in the tests
   libgtest-dev libgmock-dev libbenchmark-dev
   libusb-1.0-0-dev libmodbus-dev libgpiod-dev
+  umockdev libumockdev-dev  # emulated /dev/bus/usb for the usb-hid driver's tests (libusb's own test method)
   rt-tests                 # cyclictest, the latency reference in bench/
   clang-format clang-tidy
 )
