@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 #include <thread>
 #include <vector>
 
@@ -290,13 +291,19 @@ TEST_F(EmulatedBoardTest, ThreadModeExchangesThroughTheRings) {
   ASSERT_TRUE(transport.wait_for_in(2.0));
   Exchange x(transport);
   int ok = 0;
+  std::uint64_t queued = 0;
   for (int i = 0; i < 50; ++i) {
     ok += x.period() == IoResult::ok ? 1 : 0;
+    queued += x.last_submit == SubmitResult::queued ? 1 : 0;
     // The event thread reaps on its own schedule; give it the rest of a period.
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  EXPECT_EQ(ok, 50);
-  EXPECT_TRUE(within(2.0, [&] { return board->snapshot().firmware.out_reports == 50; }));
+  EXPECT_EQ(ok, 50) << "a period without a new report holds the last one";
+  // Under umockdev the event thread's reaping competes for the CPU with the
+  // handler; an OUT pool that has not come back yet is refused (busy), never lost.
+  EXPECT_GT(queued, 25U);
+  EXPECT_TRUE(within(2.0, [&] { return board->snapshot().firmware.out_reports == queued; }))
+      << board->snapshot().firmware.out_reports << " of " << queued;
   transport.stop();
   transport.close();
 }
