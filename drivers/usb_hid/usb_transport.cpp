@@ -467,6 +467,9 @@ bool UsbTransport::pop_out(TransferOutcome& out) noexcept { return impl_->out_ri
 
 SubmitResult UsbTransport::submit_out(std::span<const std::uint8_t> report) noexcept {
   Impl& s = *impl_;
+  // Closed (the board was unplugged and not re-opened yet): the transfers
+  // still name the old handle, which libusb has freed.
+  if (s.handle == nullptr) return SubmitResult::no_device;
   const std::size_t n = s.out_slots.size();
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t index = (s.next_out + k) % n;

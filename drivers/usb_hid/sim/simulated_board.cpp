@@ -48,6 +48,11 @@ bool SimulatedBoard::take_in_report(std::span<std::uint8_t> buffer, std::size_t&
   return true;
 }
 
+void SimulatedBoard::refresh_report() {
+  const std::lock_guard lock(mutex_);
+  make_report_locked();
+}
+
 void SimulatedBoard::power_on() {
   const std::lock_guard lock(mutex_);
   firmware_ = BoardFirmware(layout_);

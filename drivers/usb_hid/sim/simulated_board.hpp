@@ -68,6 +68,10 @@ class SimulatedBoard {
   /// Copies the newest IN report not yet sent into `buffer`; false if none
   /// (the endpoint NAKs the IN token). Returns its length in `length`.
   bool take_in_report(std::span<std::uint8_t> buffer, std::size_t& length);
+  /// A fresh IN report with the current state: a host that starts polling
+  /// (claims the interface) gets one at the first IN token, as from a board
+  /// that samples every interval. Otherwise reports come one per new OUT.
+  void refresh_report();
   /// Firmware restart (plug-in): new sequence numbers, faults cleared, the
   /// power-on IN report ready. The plant keeps its state.
   void power_on();

@@ -292,9 +292,7 @@ struct UmockdevUsbBoard::State {
     if (interface_number != id.interface_number) return fail(client, ENOENT, false);
     if (counters.kernel_driver_bound) ++counters.kernel_driver_detaches;
     counters.kernel_driver_bound = false;
-    counters.claimed = true;
-    ++counters.claims;
-    return succeed(client);
+    return claimed(client);
   }
 
   gboolean claim(UMockdevIoctlClient* client, UMockdevIoctlData* arg) {
@@ -304,8 +302,13 @@ struct UmockdevUsbBoard::State {
     g_object_unref(d);
     if (interface_number != id.interface_number) return fail(client, ENOENT, false);
     if (counters.kernel_driver_bound) return fail(client, EBUSY, false);  // usbhid holds it
+    return claimed(client);
+  }
+
+  gboolean claimed(UMockdevIoctlClient* client) {
     counters.claimed = true;
     ++counters.claims;
+    board.refresh_report();
     return succeed(client);
   }
 

@@ -69,7 +69,9 @@ TEST_F(EmulatedBoardTest, AnotherProcessExchangesTwoHundredReports) {
       "periods=200 ok=200 in=201 out=200 board=1209:0001 serial SIM0001 at 1-2, full speed (12 Mbit/s)\n");
   const auto s = board->snapshot();
   EXPECT_EQ(s.firmware.out_reports, 200U);
-  EXPECT_EQ(s.firmware.in_reports, 201U);
+  // Built: the power-on report, the fresh one for the new host at claim
+  // (it replaces the first, unsent), then one per OUT report.
+  EXPECT_EQ(s.firmware.in_reports, 202U);
   // The child's commands 0..199 reached the plant, in order.
   ASSERT_EQ(plant->forces().size(), 200U);
   for (std::size_t p = 0; p < 200; ++p)
