@@ -96,4 +96,17 @@ BoardSnapshot SimulatedBoard::snapshot() const {
   return s;
 }
 
+FrameTicker::FrameTicker(SimulatedBoard& board, std::chrono::microseconds interval)
+    : board_(board), interval_(interval), thread_([this] {
+        while (!stop_.load(std::memory_order_acquire)) {
+          std::this_thread::sleep_for(interval_);
+          board_.tick();
+        }
+      }) {}
+
+FrameTicker::~FrameTicker() {
+  stop_.store(true, std::memory_order_release);
+  thread_.join();
+}
+
 }  // namespace hapticd::drivers::usb_hid::sim

@@ -10,11 +10,13 @@
 /// Threads: every member may be called from any thread (one mutex: this is
 /// the peer, not the RT path).
 
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
 #include <span>
+#include <thread>
 
 #include "drivers/device.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
@@ -103,6 +105,23 @@ class SimulatedBoard {
   double applied_force_ = 0.0;
   std::uint8_t pending_[max_report_size]{};
   std::size_t pending_length_ = 0;  ///< 0: no report waiting
+};
+
+/// Runs the board's frame tick on the wall clock (every `interval`) on its
+/// own thread, as a real board's start-of-frame interrupt does: with
+/// BoardClock::wall the dead-man trips when the host goes quiet.
+class FrameTicker {
+ public:
+  FrameTicker(SimulatedBoard& board, std::chrono::microseconds interval = std::chrono::microseconds(1000));
+  ~FrameTicker();
+  FrameTicker(const FrameTicker&) = delete;
+  FrameTicker& operator=(const FrameTicker&) = delete;
+
+ private:
+  SimulatedBoard& board_;
+  std::chrono::microseconds interval_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
 };
 
 }  // namespace hapticd::drivers::usb_hid::sim

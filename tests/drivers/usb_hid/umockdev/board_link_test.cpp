@@ -201,6 +201,31 @@ TEST_F(EmulatedBoardTest, DeadManLeftByAPreviousHostIsResetAtEnable) {
   EXPECT_TRUE(board->snapshot().output_on);
 }
 
+TEST_F(EmulatedBoardTest, HostThatGoesQuietIsStoppedByTheBoardsDeadMan) {
+  // What SIGKILL of hapticd leaves: no disable(), no more OUT reports. The
+  // board's own clock (wall time, frame ticks) trips the dead-man.
+  make_board(sim::EmulatedUsbIdentity{}, ReportLayout{}, sim::BoardClock::wall);
+  sim::FrameTicker frames(*board);
+  UsbHidConfig config = sim_config();
+  config.deadman_periods = 50;  // 50 ms: this loaded VM stalls a 1 ms loop by several ms
+  BoardLink link(config);
+  link.configure(1e-3);
+  link.enable();
+  {
+    RtLoop rt(link, 0.3);
+    ASSERT_TRUE(within(5.0, [&] { return rt.ok() > 20; }));
+    // A stall past 50 ms trips the board too, which is the point, but then
+    // there is nothing left to show.
+    if (board->snapshot().watchdog_tripped) GTEST_SKIP() << "the host stalled the loop past the dead-man";
+    EXPECT_TRUE(board->snapshot().output_on);
+  }  // the loop stops dead
+  EXPECT_TRUE(within(1.0, [&] { return board->snapshot().watchdog_tripped; }));
+  const auto s = board->snapshot();
+  EXPECT_FALSE(s.output_on);
+  EXPECT_EQ(s.output_counts, 0);
+  EXPECT_EQ(s.firmware.watchdog_trips, 1U);
+}
+
 TEST_F(EmulatedBoardTest, ReadWriteAllocateNothing) {
   BoardLink link(sim_config());
   link.configure(1e-3);
