@@ -114,6 +114,7 @@ bool BoardLink::run_reset_handshake(int periods) {
 }
 
 IoResult BoardLink::read(Reading& out) noexcept {
+  if (!configured_) return IoResult::error;  // lifecycle order: the caller's bug, never a crash
   if (park_requested_.load(std::memory_order_acquire)) {
     parked_.store(true, std::memory_order_release);
     return IoResult::fault;
@@ -122,6 +123,7 @@ IoResult BoardLink::read(Reading& out) noexcept {
 }
 
 IoResult BoardLink::write(double force) noexcept {
+  if (!configured_) return IoResult::error;
   if (park_requested_.load(std::memory_order_acquire)) return IoResult::fault;
   return exchange_write(force);
 }

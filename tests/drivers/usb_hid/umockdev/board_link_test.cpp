@@ -91,6 +91,23 @@ TEST_F(EmulatedBoardTest, LifecycleOutputOnThenOff) {
   EXPECT_TRUE(testbed->counters().kernel_driver_bound);
 }
 
+TEST_F(EmulatedBoardTest, OutOfOrderCallsAreRefusedNotFatal) {
+  BoardLink link(sim_config());
+  Reading r;
+  EXPECT_EQ(link.read(r), IoResult::error);
+  EXPECT_EQ(link.write(0.1), IoResult::error);
+  EXPECT_THROW(link.enable(), std::logic_error);
+  EXPECT_THROW(link.clear_fault(), std::logic_error);
+  link.disable();
+  link.close();
+  link.configure(1e-3);
+  EXPECT_THROW(link.configure(1e-3), std::logic_error);
+  link.close();
+  link.close();
+  EXPECT_EQ(link.read(r), IoResult::error) << "closed";
+  EXPECT_FALSE(testbed->counters().claimed);
+}
+
 TEST_F(EmulatedBoardTest, PeriodTheEndpointCannotCarryIsRefused) {
   BoardLink link(sim_config());
   try {
