@@ -108,6 +108,21 @@ TEST_F(EmulatedBoardTest, OutOfOrderCallsAreRefusedNotFatal) {
   EXPECT_FALSE(testbed->counters().claimed);
 }
 
+TEST_F(EmulatedBoardTest, TwoInTransfersAlwaysQueued) {
+  BoardLink link(sim_config());
+  link.configure(1e-3);
+  link.enable();
+  Reading r;
+  for (int p = 0; p < 50; ++p) {
+    ASSERT_EQ(link.read(r), IoResult::ok);
+    // read() reaped the report and resubmitted its transfer: both wait at
+    // the board, so the host controller polls at every interval.
+    EXPECT_EQ(testbed->counters().in_flight_in, 2U) << p;
+    ASSERT_EQ(link.write(0.1), IoResult::ok);
+    EXPECT_EQ(testbed->counters().in_flight_in, 1U) << "the board answered one with its new report";
+  }
+}
+
 TEST_F(EmulatedBoardTest, PeriodTheEndpointCannotCarryIsRefused) {
   BoardLink link(sim_config());
   try {
