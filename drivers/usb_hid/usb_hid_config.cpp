@@ -70,7 +70,7 @@ std::uint16_t parse_usb_id(std::string_view text) {
 
 double UsbHidConfig::position_per_count() const noexcept {
   const double unit = motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0;
-  return (inverted ? -unit : unit) / counts;
+  return (inverted ? -unit : unit) / counts_per_unit;
 }
 
 std::uint32_t UsbHidConfig::deadman_us(double period_s) const noexcept {
@@ -115,7 +115,7 @@ void set_parameter(UsbHidConfig& c, std::string_view key, std::string_view value
       throw ConfigError(k, k + " = \"" + std::string(value) + "\" is not accepted; accepted: rotary, linear");
     return void(c.motion = value == "rotary" ? Motion::rotary : Motion::linear);
   }
-  if (key == "counts") return void(c.counts = parse_positive(key, value));
+  if (key == "counts_per_unit") return void(c.counts_per_unit = parse_positive(key, value));
   if (key == "command_full_scale") return void(c.command_full_scale = parse_positive(key, value));
   if (key == "direction") {
     if (value != "normal" && value != "inverted")

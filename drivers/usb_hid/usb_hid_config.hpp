@@ -32,7 +32,7 @@ struct UsbHidConfig {
   UsbSelector selector;  ///< vendor_id, product_id (required), serial, path, interface, endpoints
   Motion motion = Motion::rotary;
   /// Encoder counts per revolution (rotary) or per metre (linear), after any gearing.
-  double counts = 16384.0;
+  double counts_per_unit = 16384.0;
   /// Force or torque at the largest command (N m or N): the amplifier's scale.
   double command_full_scale = 1.0;
   bool inverted = false;  ///< direction = inverted: both the count and the command change sign

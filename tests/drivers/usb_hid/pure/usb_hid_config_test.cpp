@@ -57,7 +57,7 @@ TEST(UsbHidConfig, BadValuesNameTheKeyAndWhatIsAccepted) {
   expect_refused("in_endpoint", "0x01", "accepted: \"auto\" or an IN endpoint address 0x81..0x8f");
   expect_refused("out_endpoint", "0x81", "OUT endpoint address 0x01..0x0f");
   expect_refused("in_transfers", "1", "accepted: an integer from 2 to 16");
-  expect_refused("counts", "-5", "a finite number > 0");
+  expect_refused("counts_per_unit", "-5", "a finite number > 0");
   expect_refused("motion", "spherical", "accepted: rotary, linear");
   expect_refused("direction", "backwards", "accepted: normal, inverted");
   expect_refused("events", "poll", "accepted: loop, thread");
@@ -68,13 +68,13 @@ TEST(UsbHidConfig, BadValuesNameTheKeyAndWhatIsAccepted) {
 
 TEST(UsbHidConfig, ScalingAndDirection) {
   UsbHidConfig c = board();
-  c.counts = 4096;
+  c.counts_per_unit = 4096;
   EXPECT_DOUBLE_EQ(c.position_per_count(), 2.0 * std::numbers::pi / 4096);
   set_parameter(c, "direction", "inverted");
   EXPECT_DOUBLE_EQ(c.position_per_count(), -2.0 * std::numbers::pi / 4096);
   set_parameter(c, "motion", "linear");
   c.inverted = false;
-  c.counts = 1e6;
+  c.counts_per_unit = 1e6;
   EXPECT_DOUBLE_EQ(c.position_per_count(), 1e-6);
   c.deadman_periods = 3;
   EXPECT_EQ(c.deadman_us(1e-3), 3000U);
