@@ -266,20 +266,21 @@ std::string BoardLink::clear_fault() {
 void BoardLink::disable() noexcept {
   if (!configured_ || transport_ == nullptr) return;
   const bool was_enabled = enabled_.exchange(false, std::memory_order_acq_rel);
-  if (was_enabled && transport_->is_open()) {
-    // One report with the output off; let it go out before the transfers are cancelled.
-    exchange_write(0.0);
-    for (int p = 0; p < 3; ++p) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(period_s_));
-      transport_->poll();
-    }
+  if (!was_enabled || !transport_->is_open()) return;
+  // One report with the output off; let it go out. The IN transfers keep
+  // running: read() stays valid until close(), and enable() may follow.
+  exchange_write(0.0);
+  for (int p = 0; p < 3; ++p) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(period_s_));
+    Reading r;
+    exchange_read(r);
   }
-  transport_->stop();
 }
 
 void BoardLink::close() noexcept {
   if (transport_ == nullptr) return;
   disable();
+  transport_->stop();
   transport_->close();
   transport_.reset();
   configured_ = false;

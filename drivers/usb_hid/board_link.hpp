@@ -70,9 +70,11 @@ class BoardLink {
   /// See the file comment. Returns what was cleared in words ("" if nothing);
   /// throws LinkError if the board stays in fault or cannot be reached.
   std::string clear_fault();
-  /// One OUT report with the output off, then the transfers are cancelled.
+  /// One OUT report with the output off (the IN transfers keep running:
+  /// read() stays valid, enable() may follow). Idempotent.
   void disable() noexcept;
-  /// Releases the interface (the kernel driver gets it back) and closes.
+  /// disable(), cancels the transfers, releases the interface (the kernel
+  /// driver gets it back) and closes. Idempotent.
   void close() noexcept;
 
   IoResult read(Reading& out) noexcept;

@@ -86,6 +86,11 @@ TEST_F(EmulatedBoardTest, LifecycleOutputOnThenOff) {
   s = board->snapshot();
   EXPECT_FALSE(s.output_on) << "disable sends a report with the output off";
   EXPECT_EQ(s.output_counts, 0);
+  EXPECT_EQ(s.applied_force, 0.0);
+  EXPECT_EQ(link.read(r), IoResult::ok) << "read() stays valid until close()";
+  link.enable();  // again, as after a clear
+  ASSERT_EQ(link.write(0.5), IoResult::ok);
+  EXPECT_TRUE(board->snapshot().output_on);
   link.close();
   EXPECT_FALSE(testbed->counters().claimed);
   EXPECT_TRUE(testbed->counters().kernel_driver_bound);
