@@ -4,13 +4,14 @@
 
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/planned.hpp"
+#include "drivers/usb_hid/usb_hid_device.hpp"
 
 namespace hapticd::drivers {
 
 const std::vector<DriverDescription>& driver_registry() {
   // One line per driver; a driver issue replaces its planned entry here.
   static const std::vector<DriverDescription> drivers{
-      loopback::loopback_driver(), planned::usb_hid_driver(),  planned::canopen_driver(),
+      loopback::loopback_driver(), usb_hid::usb_hid_driver(),  planned::canopen_driver(),
       planned::modbus_driver(),    planned::gpio_pwm_driver(),
   };
   return drivers;

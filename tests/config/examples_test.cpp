@@ -53,7 +53,8 @@ TEST(ShippedConfigs, EveryFileParsesWithTheExpectedDriverAndScene) {
     ASSERT_NO_THROW(config = load_config(entry.path()));
     EXPECT_EQ(config.device.driver, it->second.first);
     EXPECT_EQ(config.scene.name, it->second.second);
-    if (config.device.driver != "loopback") {
+    // Drivers still planned say so in their template; ready ones are real configs.
+    if (config.device.driver != "loopback" && config.device.driver != "usb-hid") {
       EXPECT_NE(read_text(entry.path()).find("NOT BUILT in this version"), std::string::npos);
       EXPECT_FALSE(config.device.parameters.empty());
     }
