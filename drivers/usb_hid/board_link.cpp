@@ -113,19 +113,27 @@ bool BoardLink::run_reset_handshake(int periods) {
   return false;
 }
 
+// The RT side announces itself (in_rt_) before it looks at the park request,
+// and the control side requests before it looks at in_rt_: with sequentially
+// consistent stores and loads at least one of them sees the other (Dekker),
+// so the RT side never touches the transport while the control side has it.
 IoResult BoardLink::read(Reading& out) noexcept {
   if (!configured_) return IoResult::error;  // lifecycle order: the caller's bug, never a crash
-  if (park_requested_.load(std::memory_order_acquire)) {
-    parked_.store(true, std::memory_order_release);
-    return IoResult::fault;
-  }
-  return exchange_read(out);
+  in_rt_.store(true, std::memory_order_seq_cst);
+  rt_calls_.fetch_add(1, std::memory_order_relaxed);
+  const IoResult result =
+      park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange_read(out);
+  in_rt_.store(false, std::memory_order_release);
+  return result;
 }
 
 IoResult BoardLink::write(double force) noexcept {
   if (!configured_) return IoResult::error;
-  if (park_requested_.load(std::memory_order_acquire)) return IoResult::fault;
-  return exchange_write(force);
+  in_rt_.store(true, std::memory_order_seq_cst);
+  const IoResult result =
+      park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange_write(force);
+  in_rt_.store(false, std::memory_order_release);
+  return result;
 }
 
 IoResult BoardLink::exchange_read(Reading& out) noexcept {
@@ -186,15 +194,18 @@ void BoardLink::publish() noexcept {
 }
 
 bool BoardLink::park(double timeout_s) {
-  park_requested_.store(true, std::memory_order_release);
-  if (wait_until(timeout_s, [this] { return parked_.load(std::memory_order_acquire); })) return true;
+  park_requested_.store(true, std::memory_order_seq_cst);
+  if (wait_until(timeout_s, [this] { return !in_rt_.load(std::memory_order_seq_cst); })) return true;
   park_requested_.store(false, std::memory_order_release);
   return false;
 }
 
-void BoardLink::unpark() noexcept {
-  parked_.store(false, std::memory_order_relaxed);
-  park_requested_.store(false, std::memory_order_release);
+void BoardLink::unpark() noexcept { park_requested_.store(false, std::memory_order_release); }
+
+bool BoardLink::rt_loop_running() const {
+  const std::uint64_t before = rt_calls_.load(std::memory_order_relaxed);
+  const double window_s = std::max(0.02, 5.0 * period_s_);
+  return wait_until(window_s, [&] { return rt_calls_.load(std::memory_order_relaxed) != before; });
 }
 
 void BoardLink::set_description() {
@@ -233,6 +244,7 @@ std::string BoardLink::clear_fault() {
   if (!configured_) throw std::logic_error("usb-hid: clear_fault() before configure()");
   const auto reason = static_cast<LinkFault>(fault_reason_.load(std::memory_order_acquire));
   if (reason == LinkFault::none) return {};
+  const bool rt_running = rt_loop_running();
   const double handover_s = 0.2 + 20.0 * period_s_;
   if (!park(handover_s))
     throw LinkError("the RT loop did not hand the board over within " + format_duration(handover_s) +
@@ -254,10 +266,18 @@ std::string BoardLink::clear_fault() {
   }
   session_.begin_reset();
   publish();
-  unpark();
-  const double answer_s = 0.5 + 4.0 * config_.timeout_periods * period_s_;
-  if (!wait_until(answer_s, [this] { return !resetting_.load(std::memory_order_acquire); }))
-    throw LinkError("the board did not answer the fault reset within " + format_duration(answer_s));
+  if (rt_running) {
+    unpark();
+    const double answer_s = 0.5 + 4.0 * config_.timeout_periods * period_s_;
+    if (!wait_until(answer_s, [this] { return !resetting_.load(std::memory_order_acquire); }))
+      throw LinkError("the board did not answer the fault reset within " + format_duration(answer_s));
+  } else {
+    // No RT loop calls read()/write() (stopped engine, a test): drive the
+    // handshake here, still holding the transport.
+    const bool decided = run_reset_handshake(std::max(20, 4 * config_.timeout_periods));
+    unpark();
+    if (!decided && session_.resetting()) throw LinkError("the board did not answer the fault reset");
+  }
   const LinkStatus now = status();
   if (now.fault.reason != LinkFault::none) throw LinkError("the board is still in fault: " + now.fault_text);
   return cleared;

@@ -8,10 +8,12 @@
 ///
 /// Threads. read()/write(): the RT thread, no allocation, lock or text.
 /// clear_fault(): the control thread, while read()/write() go on: it asks
-/// the RT side to park (an atomic request; the RT side stops touching the
-/// transport and the session and says so), does the non-RT work (re-open
-/// after an unplug, CLEAR_HALT after a stall), starts the reset handshake,
-/// un-parks, and waits (bounded) for the board's answer. status(): any
+/// the RT side to park (an atomic request; read()/write() then return fault
+/// without touching the transport or the session) and waits until the RT
+/// side is out of its current call, does the non-RT work (re-open after an
+/// unplug, CLEAR_HALT after a stall), starts the reset handshake, un-parks,
+/// and waits (bounded) for the board's answer. With no RT loop running it
+/// drives the handshake itself. status(): any
 /// thread (atomics published by the RT side). The rest: only while the RT
 /// thread is not calling read()/write().
 
@@ -90,6 +92,8 @@ class BoardLink {
   IoResult exchange_write(double force) noexcept;
   void publish() noexcept;
   bool park(double timeout_s);
+  /// Does an RT loop call read() (watched for max(20 ms, 5 periods))?
+  bool rt_loop_running() const;
   void unpark() noexcept;
   void reopen();
   void reopen_checks();
@@ -121,7 +125,8 @@ class BoardLink {
 
   // Control -> RT parking.
   std::atomic<bool> park_requested_{false};
-  std::atomic<bool> parked_{false};
+  std::atomic<bool> in_rt_{false};  ///< the RT side is inside read()/write()
+  std::atomic<std::uint64_t> rt_calls_{0};
 };
 
 }  // namespace hapticd::drivers::usb_hid

@@ -107,6 +107,7 @@ class HostSession {
   /// (no ack field). If that report still has the fault or watchdog bit,
   /// the fault is latched again.
   bool reset_done() const noexcept { return !resetting_; }
+  bool resetting() const noexcept { return resetting_; }
 
   const SessionCounters& counters() const noexcept { return counters_; }
   bool synced() const noexcept { return synced_; }

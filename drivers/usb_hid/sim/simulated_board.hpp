@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "drivers/device.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 #include "drivers/usb_hid/sim/board_firmware.hpp"
 
@@ -33,6 +34,18 @@ class BoardPlant {
   virtual IoResult sense(double& position) noexcept = 0;
   /// Applies `force` (N or N m) for one period and advances the plant.
   virtual IoResult step(double force) noexcept = 0;
+};
+
+/// The shared plant simulator behind the board (drivers/simulation), so a
+/// board run compares sample by sample with a loopback run of the same plant.
+class SimulatorPlant final : public BoardPlant {
+ public:
+  explicit SimulatorPlant(simulation::PlantSimulator& simulator) : simulator_(simulator) {}
+  IoResult sense(double& position) noexcept override { return simulator_.sense(position); }
+  IoResult step(double force) noexcept override { return simulator_.step(force); }
+
+ private:
+  simulation::PlantSimulator& simulator_;
 };
 
 struct BoardScaling {
