@@ -473,6 +473,10 @@ struct UmockdevUsbBoard::State {
 UmockdevUsbBoard::UmockdevUsbBoard(const EmulatedUsbIdentity& identity, SimulatedBoard& board)
     : state_(std::make_unique<State>(identity, board)) {
   State& s = *state_;
+  if (!preload_active())
+    throw std::runtime_error(
+        "UmockdevUsbBoard needs libumockdev-preload in this process (link it with --no-as-needed, or "
+        "LD_PRELOAD): umockdev_testbed_uevent() and remove_device() take /sys paths only the preload maps");
   s.testbed = umockdev_testbed_new();
   if (s.testbed == nullptr) throw std::runtime_error("umockdev_testbed_new failed");
   s.handler = umockdev_ioctl_base_new();
