@@ -6,12 +6,12 @@
 # a sanitizer report or an input slower than FUZZ_TIMEOUT fails the run and
 # leaves the input in $FUZZ_ARTIFACTS: fix the code, then keep the input as
 # tests/fuzz/regressions/<target>/<what-it-was> (docs/testing.md).
-# env: FUZZ_SECONDS (20 per target), FUZZ_TIMEOUT (60 s per input),
+# env: FUZZ_SECONDS (10 per target), FUZZ_TIMEOUT (60 s per input),
 #      FUZZ_BUILD (build-asan), FUZZ_ARTIFACTS (build-asan/fuzz-artifacts), FUZZ_ONLY (a target name)
 set -uo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${FUZZ_BUILD:-$here/build-asan}"
-seconds="${FUZZ_SECONDS:-20}"
+seconds="${FUZZ_SECONDS:-10}"
 artifacts="${FUZZ_ARTIFACTS:-$build/fuzz-artifacts}"
 list="$build/fuzz_targets.txt"
 [[ -f "$list" ]] || { echo "$list missing: configure with -DHAPTICD_FUZZ=ON (tests/run_sanitizers.sh)" >&2; exit 1; }
