@@ -26,7 +26,6 @@ namespace {
 
 constexpr int pdo_count = 4;
 constexpr std::uint8_t consumer_entries = 4;
-constexpr std::uint32_t device_type_servo_402 = 0x00020192;  // 0x1000: servo drive, CiA 402
 
 // CiA 301 restricted CAN-IDs: a PDO must not use them.
 bool restricted_id(std::uint32_t id) {
@@ -77,7 +76,7 @@ SimulatedDrive::SimulatedDrive(const DriveSettings& settings, DrivePlant& plant)
 
 void SimulatedDrive::build_dictionary() {
   const std::uint8_t n = settings_.node_id;
-  od_.add({obj301::device_type, 0}, device_type_servo_402);
+  od_.add({obj301::device_type, 0}, settings_.device_type);
   od_.add({obj301::error_register, 0}, 0);
   od_.add({obj301::consumer_heartbeat_time, 0}, consumer_entries);
   for (std::uint8_t i = 1; i <= consumer_entries; ++i) od_.add({obj301::consumer_heartbeat_time, i}, 0);

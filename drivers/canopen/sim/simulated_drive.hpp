@@ -49,8 +49,9 @@ class DrivePlant {
 
 struct DriveSettings {
   std::uint8_t node_id = 1;
-  std::uint32_t vendor_id = 0;         ///< 0x1018:1 (0: no CiA-assigned vendor)
-  std::uint32_t product_code = 0x402;  ///< 0x1018:2
+  std::uint32_t device_type = 0x00020192;  ///< 0x1000: servo drive (0x02), profile 402 (0x0192)
+  std::uint32_t vendor_id = 0;             ///< 0x1018:1 (0: no CiA-assigned vendor)
+  std::uint32_t product_code = 0x402;      ///< 0x1018:2
   std::uint32_t revision = 0x00010000;
   std::uint32_t serial = 1;
   std::uint32_t rated_torque_mnm = 1000;  ///< 0x6076, mN m (mN for a linear motor)
