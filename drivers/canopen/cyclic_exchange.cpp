@@ -243,6 +243,8 @@ std::size_t CyclicExchange::end_period(double force, std::span<Frame, 4> out) no
 }
 
 void CyclicExchange::set_enabled(bool enabled) noexcept {
+  // A heartbeat at once: the drive's consumer watches hapticd from the first one on.
+  if (enabled && !enabled_) periods_to_heartbeat_ = 0;
   enabled_ = enabled;
   if (!enabled) was_operation_enabled_ = false;
 }

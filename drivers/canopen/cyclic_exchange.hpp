@@ -120,11 +120,13 @@ class CyclicExchange {
 
   // ---- observation (the same thread, or copied out by the owner) ----
   bool faulted() const noexcept { return fault_.kind != FaultKind::none; }
+  bool has_position() const noexcept { return have_position_; }
   const FaultRecord& fault() const noexcept { return fault_; }
   bool resetting() const noexcept { return resetting_; }
   /// The drive is in Operation Enabled, no fault latched, no reset running.
   bool operational() const noexcept;
   std::optional<cia402::DriveState> drive_state() const noexcept;
+  std::uint16_t statusword() const noexcept { return statusword_; }  ///< the newest TPDO1's
   std::uint16_t last_controlword() const noexcept { return controlword_; }
   std::int16_t last_torque_permille() const noexcept { return torque_; }
   const CyclicCounters& counters() const noexcept { return counters_; }

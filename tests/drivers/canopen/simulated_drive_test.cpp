@@ -13,6 +13,7 @@
 #include "drivers/canopen/301/pdo.hpp"
 #include "drivers/canopen/301/sdo.hpp"
 #include "drivers/canopen/402/state_machine.hpp"
+#include "drivers/canopen/sim/commands.hpp"
 #include "drivers/canopen/sim/simulated_drive.hpp"
 
 namespace co = hapticd::drivers::canopen::cia301;
@@ -389,4 +390,28 @@ TEST_F(SimulatedDriveTest, NmtResetCommunicationRestoresTheFactoryMapping) {
   EXPECT_EQ(read({0x1600, 1}), 0x60400010U);
   EXPECT_EQ(read({0x1400, 1}), 0x40000205U);
   EXPECT_EQ(read({0x6060, 0}), 10U);  // the application keeps its objects
+}
+
+TEST_F(SimulatedDriveTest, TextCommandsSetTheSwitches) {
+  configure_cyclic_torque();
+  out.clear();
+  EXPECT_EQ(sim::apply_command(drive, "fault 0x3210", now, out), "ok EMCY 0x3210: DC link over-voltage");
+  ASSERT_EQ(out.size(), 1U);
+  EXPECT_EQ(out[0], make(0x085, {0x10, 0x32, 0x05, 0, 0, 0, 0, 0}));  // generic + voltage
+  EXPECT_EQ(
+      sim::apply_command(drive, "sdo-abort 0x6060:0 0x08000022", now, out),
+      "ok the next SDO request for 0x6060:00 gets abort 0x08000022 (data cannot be stored in the drive's "
+      "present state)");
+  EXPECT_EQ(write({0x6060, 0}, 10, 1), co::abort_code::wrong_state);
+  EXPECT_EQ(sim::apply_command(drive, "drop-tpdo all", now, out), "ok dropping every TPDO");
+  EXPECT_FALSE(find(cycle(0x0F, 0), 0x185));
+  EXPECT_EQ(sim::apply_command(drive, "clear", now, out), "ok switches cleared");
+  EXPECT_TRUE(find(cycle(0x0F, 0), 0x185));
+  const std::string bad = sim::apply_command(drive, "fault twelve", now, out);
+  EXPECT_EQ(bad.rfind("error: fault needs an error code 0x0001..0xFFFF; accepted: fault <code>", 0), 0U)
+      << bad;
+  EXPECT_EQ(
+      sim::apply_command(drive, "reboot", now, out).rfind("error: unknown command 'reboot'; accepted:", 0),
+      0U);
+  EXPECT_EQ(sim::apply_command(drive, "status", now, out).rfind("ok state=\"Fault\" nmt=operational", 0), 0U);
 }
