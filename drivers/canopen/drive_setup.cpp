@@ -5,6 +5,7 @@
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/301/nmt.hpp"
 #include "drivers/canopen/301/object_dictionary.hpp"
+#include "drivers/canopen/402/drive_errors.hpp"
 #include "drivers/canopen/402/objects.hpp"
 
 namespace hapticd::drivers::canopen {
@@ -14,6 +15,7 @@ using cia301::ObjectAddress;
 using cia301::PdoDirection;
 namespace obj301 = cia301::object;
 namespace obj402 = cia402::object;
+using cia402::describe_error_code;
 
 namespace {
 
@@ -212,9 +214,25 @@ SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) 
     throw SetupError(why + e.what(), "heartbeat_timeout");
   }
 
+  // A fault left from before (a killed hapticd, an earlier error) is reset
+  // here, by the controlword's bit 7 edge, and said so; one that stays is fatal.
   std::uint32_t statusword = 0;
   step([&] { statusword = sdo.read({obj402::statusword, 0}); }, "");
-  const auto state = cia402::decode_statusword(static_cast<std::uint16_t>(statusword));
+  auto state = cia402::decode_statusword(static_cast<std::uint16_t>(statusword));
+  if (state == cia402::DriveState::fault || state == cia402::DriveState::fault_reaction_active) {
+    std::uint32_t code = 0;
+    step([&] { code = sdo.read({obj402::error_code, 0}); }, "", true);
+    const std::string was =
+        "0x603F = " + hex(code, 4) + " (" + describe_error_code(static_cast<std::uint16_t>(code)) + ")";
+    step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::disable_voltage, 2); }, "");
+    step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::fault_reset, 2); }, "");
+    step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::disable_voltage, 2); }, "");
+    step([&] { statusword = sdo.read({obj402::statusword, 0}); }, "");
+    state = cia402::decode_statusword(static_cast<std::uint16_t>(statusword));
+    if (state == cia402::DriveState::fault || state == cia402::DriveState::fault_reaction_active)
+      throw SetupError(node + " stays in Fault after a fault reset: " + was, "");
+    r.notes.push_back("reset the fault the drive had: " + was);
+  }
   if (!state)
     throw SetupError(node + " statusword " + hex(statusword, 4) + " matches no CiA 402 state", "node_id");
   r.state = *state;

@@ -189,6 +189,7 @@ void SimulatedDrive::on_nmt(const cia301::NmtMessage& message, Micros now, std::
 
 void SimulatedDrive::on_frame(const Frame& frame, Micros now, std::vector<Frame>& out) {
   if (mute_ || !powered_ || !cia301::is_standard_data_frame(frame)) return;
+  finish_fault_reaction();  // the reaction (power stage off) is over by the next frame
   const std::uint8_t node = settings_.node_id;
   if (const auto nmt = cia301::decode_nmt(frame)) {
     if (cia301::addresses(*nmt, node)) on_nmt(*nmt, now, out);

@@ -280,6 +280,16 @@ TEST_F(MasterTest, SetupConfiguresTheDriveTheStandardWay) {
   EXPECT_EQ(rpdo_writes, expected);
 }
 
+TEST_F(MasterTest, SetupResetsAFaultLeftFromBeforeAndSaysSo) {
+  std::vector<Frame> out;
+  drive.inject_fault({0x8130, std::nullopt}, now, out);  // as after a killed hapticd
+  const canopen::SetupResult r = canopen::setup_drive(sdo, link, options());
+  EXPECT_EQ(r.state, c4::DriveState::switch_on_disabled);
+  ASSERT_EQ(r.notes.size(), 1U);
+  EXPECT_EQ(r.notes[0], "reset the fault the drive had: 0x603F = 0x8130 (life guard or heartbeat error)");
+  EXPECT_EQ(drive.error_code(), 0U);
+}
+
 TEST_F(MasterTest, SetupMapsVelocityOnlyWhenAskedFor) {
   canopen::SetupOptions o = options();
   o.velocity = true;

@@ -257,6 +257,14 @@ TEST_F(SessionTest, AKilledHapticdLetsTheDrivesHeartbeatConsumerStopIt) {
   })) << drive_status();
   EXPECT_TRUE(eventually([&] { return drive_status().find("state=\"Fault\"") != std::string::npos; }));
   EXPECT_NE(drive_status().find("force=0 "), std::string::npos);
+  // hapticd restarts: the setup resets the fault it finds, says so, and enables.
+  session.reset();
+  open(config());
+  ASSERT_FALSE(session->setup().notes.empty());
+  EXPECT_EQ(session->setup().notes.back(),
+            "reset the fault the drive had: 0x603F = 0x8130 (life guard or heartbeat error)");
+  session->enable();
+  EXPECT_TRUE(session->status().operational);
 }
 
 TEST_F(SessionTest, CommissioningReadsAndWritesRefusingTheMappingWhileEnabled) {
