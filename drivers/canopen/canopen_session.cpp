@@ -377,7 +377,14 @@ void CanopenSession::disable() noexcept {
   if (!exchange_) return;
   try {
     disable_requested_.store(true, std::memory_order_release);
-    if (!loop_running()) {
+    if (loop_running()) {
+      // The loop takes the request at its next read(); give the Disable Voltage a few periods to go out.
+      const std::uint64_t seen = reads_.load(std::memory_order_acquire);
+      const auto deadline = Clock::now() + std::chrono::milliseconds(200);
+      while (Clock::now() < deadline && (disable_requested_.load(std::memory_order_acquire) ||
+                                         reads_.load(std::memory_order_acquire) < seen + 3))
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+    } else {
       exchange_->set_enabled(false);
       disable_requested_.store(false);
       run_periods([] { return false; }, 3);  // Disable Voltage goes out with the next SYNCs

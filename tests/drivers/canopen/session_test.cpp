@@ -150,6 +150,19 @@ TEST_F(SessionTest, ConfigureEnableRunDisableClose) {
   session->close();  // idempotent
 }
 
+TEST_F(SessionTest, DisableWhileTheLoopStillRunsTakesThePowerStageOff) {
+  open(config());
+  session->enable();
+  start_loop(0.1);
+  ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
+  session->disable();  // handed to the running loop
+  EXPECT_TRUE(eventually([&] {
+    return drive_status().find("state=\"Switch On Disabled\"") != std::string::npos;
+  })) << drive_status();
+  EXPECT_NE(drive_status().find("force=0 "), std::string::npos);
+  stop_loop();
+}
+
 TEST_F(SessionTest, APeriodTheBusCannotCarryIsRefusedBeforeTouchingIt) {
   canopen::CanopenConfig c = config();
   c.interface = "unix:/nonexistent/bus";  // never reached
