@@ -204,55 +204,72 @@ SessionStatus CanopenSession::status() const {
 
 // ---- lifecycle ---------------------------------------------------------------
 
+namespace {
+
+std::vector<CanFilter> receive_filters(const CanopenConfig& c, const CyclicMapping& m) {
+  std::vector<CanFilter> filters = {exact_standard_filter(m.tpdo_position_id),
+                                    exact_standard_filter(cia301::emcy_id(c.node_id)),
+                                    exact_standard_filter(cia301::sdo_response_id(c.node_id)),
+                                    exact_standard_filter(cia301::heartbeat_id(c.node_id))};
+  if (m.tpdo_velocity) filters.push_back(exact_standard_filter(m.tpdo_velocity_id));
+  return filters;
+}
+
+SetupOptions setup_options(const CanopenConfig& c, double period_s) {
+  SetupOptions o;
+  o.node = c.node_id;
+  o.master_node = c.master_node_id;
+  o.period_s = period_s;
+  o.heartbeat_period_ms = static_cast<std::uint16_t>(std::llround(c.heartbeat_period * 1e3));
+  o.heartbeat_timeout_ms = static_cast<std::uint16_t>(std::llround(c.heartbeat_timeout * 1e3));
+  o.rated_torque_mnm = static_cast<std::uint32_t>(std::llround(c.rated_torque * 1e3));
+  o.velocity = c.velocity_pdo;
+  return o;
+}
+
+CyclicSettings cyclic_settings(const CanopenConfig& c, const SetupResult& setup, const Scaling& scaling,
+                               double period_s) {
+  CyclicSettings s;
+  s.node = c.node_id;
+  s.master_node = c.master_node_id;
+  s.mapping = setup.mapping;
+  s.scaling = scaling;
+  s.tpdo_timeout_periods = c.tpdo_timeout_periods;
+  // The heartbeat goes out at least as often as configured (never later).
+  s.heartbeat_every_periods = static_cast<std::uint32_t>(std::max<std::uint64_t>(
+      1, static_cast<std::uint64_t>(std::floor(c.heartbeat_period / period_s + 1e-9))));
+  s.drive_heartbeat_timeout_periods = static_cast<std::uint32_t>(periods_in(c.heartbeat_timeout, period_s));
+  s.reset_timeout_periods = static_cast<std::uint32_t>(periods_in(reset_timeout_s, period_s));
+  return s;
+}
+
+std::chrono::microseconds sdo_timeout(const CanopenConfig& c) {
+  return std::chrono::microseconds(static_cast<std::int64_t>(std::llround(c.sdo_timeout * 1e6)));
+}
+
+}  // namespace
+
 void CanopenSession::configure(double period_s) {
   if (exchange_) throw std::logic_error("canopen: configure() twice");
   if (!(period_s > 0.0)) throw std::logic_error("canopen: configure() needs a period > 0");
   period_s_ = period_s;
   // The budget first: a period the bus cannot carry is refused before touching it.
   const CyclicMapping mapping = standard_mapping(config_.node_id, config_.velocity_pdo);
-  const auto frames = cyclic_frames(mapping);
-  budget_ = cia301::check_bus_budget(frames, period_s, config_.bitrate);
+  budget_ = cia301::check_bus_budget(cyclic_frames(mapping), period_s, config_.bitrate);
   if (!budget_.fits) throw SetupError(budget_.summary, "bitrate");
-
-  std::vector<CanFilter> filters = {exact_standard_filter(mapping.tpdo_position_id),
-                                    exact_standard_filter(cia301::emcy_id(config_.node_id)),
-                                    exact_standard_filter(cia301::sdo_response_id(config_.node_id)),
-                                    exact_standard_filter(cia301::heartbeat_id(config_.node_id))};
-  if (mapping.tpdo_velocity) filters.push_back(exact_standard_filter(mapping.tpdo_velocity_id));
   try {
-    socket_ = CanSocket::open(config_.interface, filters, subscribed_error_classes());
+    socket_ =
+        CanSocket::open(config_.interface, receive_filters(config_, mapping), subscribed_error_classes());
   } catch (const std::runtime_error& e) {
     throw SetupError(e.what(), "interface");
   }
   try {
     SocketLink link(socket_);
-    SdoClient sdo(
-        link, config_.node_id,
-        std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6))));
-    SetupOptions o;
-    o.node = config_.node_id;
-    o.master_node = config_.master_node_id;
-    o.period_s = period_s;
-    o.heartbeat_period_ms = static_cast<std::uint16_t>(std::llround(config_.heartbeat_period * 1e3));
-    o.heartbeat_timeout_ms = static_cast<std::uint16_t>(std::llround(config_.heartbeat_timeout * 1e3));
-    o.rated_torque_mnm = static_cast<std::uint32_t>(std::llround(config_.rated_torque * 1e3));
-    o.velocity = config_.velocity_pdo;
-    setup_ = setup_drive(sdo, link, o);
+    SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+    setup_ = setup_drive(sdo, link, setup_options(config_, period_s));
     scaling_ = canopen::scaling(config_, setup_.rated_torque_mnm);
-
-    CyclicSettings s;
-    s.node = config_.node_id;
-    s.master_node = config_.master_node_id;
-    s.mapping = setup_.mapping;
-    s.scaling = scaling_;
-    s.tpdo_timeout_periods = config_.tpdo_timeout_periods;
-    s.heartbeat_every_periods = static_cast<std::uint32_t>(std::max<std::uint64_t>(
-        1, static_cast<std::uint64_t>(std::floor(config_.heartbeat_period / period_s + 1e-9))));
-    s.drive_heartbeat_timeout_periods =
-        static_cast<std::uint32_t>(periods_in(config_.heartbeat_timeout, period_s));
-    s.reset_timeout_periods = static_cast<std::uint32_t>(periods_in(reset_timeout_s, period_s));
     sdo_answers_ = std::make_unique<rt::SpscRing<Frame>>(sdo_ring_capacity);
-    exchange_.emplace(s);
+    exchange_.emplace(cyclic_settings(config_, setup_, scaling_, period_s));
     if (!link.send(cia301::encode_nmt(cia301::NmtCommand::start, config_.node_id)))
       throw SetupError(
           "cannot send NMT start to node " + std::to_string(config_.node_id) + ": " + link.link_error(),
@@ -269,8 +286,7 @@ void CanopenSession::prime() {
   // One SYNC (with Disable Voltage in RPDO1) so the first TPDO brings the
   // position: read() is valid after configure(). No heartbeat yet: the
   // drive's consumer starts with hapticd's first heartbeat, in enable().
-  const auto wait =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+  const auto wait = sdo_timeout(config_);
   for (int attempt = 0; attempt < prime_attempts && !exchange_->has_position(); ++attempt) {
     std::array<Frame, 4> frames;
     const std::size_t n = exchange_->end_period(0.0, frames);
@@ -399,9 +415,7 @@ void CanopenSession::close() noexcept {
   if (exchange_ && enabled()) disable();
   try {
     SocketLink link(socket_);
-    SdoClient sdo(
-        link, config_.node_id,
-        std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6))));
+    SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
     release_drive(sdo, link, config_.node_id);
   } catch (...) {
   }
@@ -470,8 +484,7 @@ SdoAccess CanopenSession::access(cia301::ObjectAddress address, std::uint32_t ra
 SdoAccess CanopenSession::sdo_read(cia301::ObjectAddress address, std::optional<cia301::DataType> type) {
   if (!exchange_) throw std::invalid_argument("the drive is not configured");
   std::lock_guard lock(sdo_mutex_);
-  const auto timeout =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+  const auto timeout = sdo_timeout(config_);
   std::uint32_t raw = 0;
   if (enabled()) {
     RingLink link(socket_, *sdo_answers_);
@@ -498,8 +511,7 @@ SdoAccess CanopenSession::sdo_write(cia301::ObjectAddress address, std::int64_t 
     throw std::invalid_argument(std::to_string(value) + " does not fit " +
                                 std::string(cia301::short_name(t)) + " (" + cia301::to_string(address) + ")");
   std::lock_guard lock(sdo_mutex_);
-  const auto timeout =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+  const auto timeout = sdo_timeout(config_);
   if (enabled()) {
     RingLink link(socket_, *sdo_answers_);
     SdoClient sdo(link, config_.node_id, timeout);

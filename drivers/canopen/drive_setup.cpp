@@ -105,63 +105,69 @@ std::vector<cia301::CyclicFrame> cyclic_frames(const CyclicMapping& m) {
   return frames;
 }
 
-SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) {
-  SetupResult r;
-  const std::string node = node_name(o.node);
-  link.send(cia301::encode_nmt(cia301::NmtCommand::enter_pre_operational, o.node));
+namespace {
 
-  // 1. Is it there, and is it a drive?
+bool read_optional(SdoClient& sdo, ObjectAddress address, std::uint32_t& value) {
+  return step([&] { value = sdo.read(address); }, "", true);
+}
+bool write_optional(SdoClient& sdo, ObjectAddress address, std::uint32_t value, std::uint8_t size) {
+  return step([&] { sdo.write(address, value, size); }, "", true);
+}
+void write(SdoClient& sdo, ObjectAddress address, std::uint32_t value, std::uint8_t size,
+           const std::string& key = "") {
+  step([&] { sdo.write(address, value, size); }, key);
+}
+bool in_fault(std::optional<cia402::DriveState> s) {
+  return s == cia402::DriveState::fault || s == cia402::DriveState::fault_reaction_active;
+}
+
+// 1. Is it there, and is it a CiA 402 drive?
+void identify(SdoClient& sdo, const std::string& node, SetupResult& r) {
   try {
     r.identity.device_type = sdo.read({obj301::device_type, 0});
   } catch (const SdoError& e) {
-    if (e.outcome().kind == SdoOutcome::Kind::timed_out)
-      throw SetupError(node + " does not answer: " + std::string(e.what()), "node_id");
-    throw SetupError(e.what(), "node_id");
+    const bool silent = e.outcome().kind == SdoOutcome::Kind::timed_out;
+    throw SetupError((silent ? node + " does not answer: " : std::string()) + e.what(), "node_id");
   }
-  if ((r.identity.device_type & 0xFFFFU) != profile_402)
-    throw SetupError(node +
-                         " is not a CiA 402 drive: 0x1000 device type = " + hex(r.identity.device_type, 8) +
-                         " (profile " + std::to_string(r.identity.device_type & 0xFFFFU) + ")",
+  const std::uint32_t profile = r.identity.device_type & 0xFFFFU;
+  if (profile != profile_402)
+    throw SetupError(node + " is not a CiA 402 drive: 0x1000 device type = " +
+                         hex(r.identity.device_type, 8) + " (profile " + std::to_string(profile) + ")",
                      "node_id");
   step([&] { r.identity.vendor_id = sdo.read({obj301::identity, 1}); }, "node_id");
-  step([&] { r.identity.product_code = sdo.read({obj301::identity, 2}); }, "node_id", true);
-  step([&] { r.identity.revision = sdo.read({obj301::identity, 3}); }, "node_id", true);
-  step([&] { r.identity.serial = sdo.read({obj301::identity, 4}); }, "node_id", true);
+  read_optional(sdo, {obj301::identity, 2}, r.identity.product_code);
+  read_optional(sdo, {obj301::identity, 3}, r.identity.revision);
+  read_optional(sdo, {obj301::identity, 4}, r.identity.serial);
+}
 
-  // 2. Power stage off and no torque while we configure.
-  step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::disable_voltage, 2); }, "");
-  step([&] { sdo.write({obj402::target_torque, 0}, 0, 2); }, "");
-
-  // 3. Cyclic synchronous torque.
+// 3. Cyclic synchronous torque, offered (0x6502) and taken (0x6061 read back).
+void select_torque_mode(SdoClient& sdo, const std::string& node, SetupResult& r) {
   const auto cst = cia402::Mode::cyclic_synchronous_torque;
   std::uint32_t modes = 0;
-  if (step([&] { modes = sdo.read({obj402::supported_drive_modes, 0}); }, "", true)) {
-    if ((modes >> *cia402::supported_mode_bit(cst) & 1U) == 0)
-      throw SetupError(node + " does not offer cyclic synchronous torque: 0x6502 supported drive modes = " +
-                           hex(modes, 8) + " (bit 9 clear)",
-                       "node_id");
-  } else {
+  if (!read_optional(sdo, {obj402::supported_drive_modes, 0}, modes))
     r.notes.push_back("no 0x6502: the mode is confirmed by 0x6061 alone");
-  }
-  step([&] { sdo.write({obj402::modes_of_operation, 0}, static_cast<std::uint8_t>(cst), 1); }, "");
+  else if ((modes >> *cia402::supported_mode_bit(cst) & 1U) == 0)
+    throw SetupError(node + " does not offer cyclic synchronous torque: 0x6502 supported drive modes = " +
+                         hex(modes, 8) + " (bit 9 clear)",
+                     "node_id");
+  write(sdo, {obj402::modes_of_operation, 0}, static_cast<std::uint8_t>(cst), 1);
   std::int8_t shown = 0;
-  for (int i = 0; i < mode_confirm_reads; ++i) {
+  for (int i = 0; i < mode_confirm_reads && shown != static_cast<std::int8_t>(cst); ++i)
     step(
         [&] {
           shown = static_cast<std::int8_t>(sdo.read({obj402::modes_of_operation_display, 0}) & 0xFFU);
         },
         "");
-    if (shown == static_cast<std::int8_t>(cst)) break;
-  }
   if (shown != static_cast<std::int8_t>(cst))
     throw SetupError(node + " did not take cyclic synchronous torque: after 0x6060 = 10, 0x6061 shows " +
                          std::to_string(shown) + " (" + std::string(cia402::describe_mode(shown)) + ")",
                      "node_id");
+}
 
-  // 4. Units and timing.
-  if (o.rated_torque_mnm != 0) {
-    r.rated_torque_mnm = o.rated_torque_mnm;
-  } else {
+// 4. Rated torque (the unit of 0x6071) and the interpolation period.
+void units_and_timing(SdoClient& sdo, const SetupOptions& o, const std::string& node, SetupResult& r) {
+  r.rated_torque_mnm = o.rated_torque_mnm;
+  if (r.rated_torque_mnm == 0) {
     try {
       r.rated_torque_mnm = sdo.read({obj402::rated_torque, 0});
       r.rated_torque_from_drive = true;
@@ -172,36 +178,22 @@ SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) 
       throw SetupError(node + " reports 0x6076 rated torque = 0: set rated_torque in the config",
                        "rated_torque");
   }
-  const auto interpolation = cia402::encode_interpolation_period(o.period_s);
-  if (!interpolation)
+  const auto period = cia402::encode_interpolation_period(o.period_s);
+  if (!period)
     throw SetupError("the period " + std::to_string(o.period_s * 1e6) +
                          " us has no exact 0x60C2 form (value x 10^index s): use whole microseconds",
                      "");
-  const bool has_60c2 = step(
-                            [&] {
-                              sdo.write({obj402::interpolation_time_period, 1}, interpolation->value, 1);
-                            },
-                            "", true) &&
-                        step(
-                            [&] {
-                              sdo.write({obj402::interpolation_time_period, 2},
-                                        static_cast<std::uint8_t>(interpolation->exponent), 1);
-                            },
-                            "", true);
+  const bool has_60c2 = write_optional(sdo, {obj402::interpolation_time_period, 1}, period->value, 1) &&
+                        write_optional(sdo, {obj402::interpolation_time_period, 2},
+                                       static_cast<std::uint8_t>(period->exponent), 1);
   if (!has_60c2) r.notes.push_back("no 0x60C2: the drive does not learn the period");
+}
 
-  // 5. The cyclic PDOs.
-  r.mapping = standard_mapping(o.node, o.velocity);
-  configure_pdos(sdo, o, r.mapping, r);
-
-  // 6. Dead-man.
-  if (!step([&] { sdo.write({obj402::abort_connection_option, 0}, 1, 2); }, "", true))
+// 6. The dead-man: the drive watches hapticd's heartbeat and faults without it.
+void arm_dead_man(SdoClient& sdo, const SetupOptions& o, const std::string& node, SetupResult& r) {
+  if (!write_optional(sdo, {obj402::abort_connection_option, 0}, cia402::abort_connection::fault, 2))
     r.notes.push_back("no 0x6007: a lost hapticd is handled by the drive's own default");
-  step(
-      [&] {
-        sdo.write({obj301::producer_heartbeat_time, 0}, o.heartbeat_period_ms, 2);
-      },
-      "heartbeat_period");
+  write(sdo, {obj301::producer_heartbeat_time, 0}, o.heartbeat_period_ms, 2, "heartbeat_period");
   try {
     sdo.write({obj301::consumer_heartbeat_time, 1},
               cia301::encode_consumer_heartbeat(o.master_node, o.heartbeat_timeout_ms), 4);
@@ -213,29 +205,48 @@ SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) 
                                 : "";
     throw SetupError(why + e.what(), "heartbeat_timeout");
   }
+}
 
-  // A fault left from before (a killed hapticd, an earlier error) is reset
-  // here, by the controlword's bit 7 edge, and said so; one that stays is fatal.
+// A fault left from before (a killed hapticd, an earlier error) is reset by
+// the controlword's bit 7 edge, and said so; one that stays is fatal.
+cia402::DriveState reset_old_fault(SdoClient& sdo, const std::string& node, SetupResult& r) {
   std::uint32_t statusword = 0;
   step([&] { statusword = sdo.read({obj402::statusword, 0}); }, "");
   auto state = cia402::decode_statusword(static_cast<std::uint16_t>(statusword));
-  if (state == cia402::DriveState::fault || state == cia402::DriveState::fault_reaction_active) {
+  if (in_fault(state)) {
     std::uint32_t code = 0;
-    step([&] { code = sdo.read({obj402::error_code, 0}); }, "", true);
+    read_optional(sdo, {obj402::error_code, 0}, code);
     const std::string was =
         "0x603F = " + hex(code, 4) + " (" + describe_error_code(static_cast<std::uint16_t>(code)) + ")";
-    step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::disable_voltage, 2); }, "");
-    step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::fault_reset, 2); }, "");
-    step([&] { sdo.write({obj402::controlword, 0}, cia402::controlword::disable_voltage, 2); }, "");
+    for (const std::uint16_t cw : {cia402::controlword::disable_voltage, cia402::controlword::fault_reset,
+                                   cia402::controlword::disable_voltage})
+      write(sdo, {obj402::controlword, 0}, cw, 2);
     step([&] { statusword = sdo.read({obj402::statusword, 0}); }, "");
     state = cia402::decode_statusword(static_cast<std::uint16_t>(statusword));
-    if (state == cia402::DriveState::fault || state == cia402::DriveState::fault_reaction_active)
-      throw SetupError(node + " stays in Fault after a fault reset: " + was, "");
+    if (in_fault(state)) throw SetupError(node + " stays in Fault after a fault reset: " + was, "");
     r.notes.push_back("reset the fault the drive had: " + was);
   }
   if (!state)
     throw SetupError(node + " statusword " + hex(statusword, 4) + " matches no CiA 402 state", "node_id");
-  r.state = *state;
+  return *state;
+}
+
+}  // namespace
+
+SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) {
+  SetupResult r;
+  const std::string node = node_name(o.node);
+  link.send(cia301::encode_nmt(cia301::NmtCommand::enter_pre_operational, o.node));
+  identify(sdo, node, r);
+  // 2. Power stage off and no torque while configuring.
+  write(sdo, {obj402::controlword, 0}, cia402::controlword::disable_voltage, 2);
+  write(sdo, {obj402::target_torque, 0}, 0, 2);
+  select_torque_mode(sdo, node, r);
+  units_and_timing(sdo, o, node, r);
+  r.mapping = standard_mapping(o.node, o.velocity);
+  configure_pdos(sdo, o, r.mapping, r);  // 5.
+  arm_dead_man(sdo, o, node, r);
+  r.state = reset_old_fault(sdo, node, r);
   return r;
 }
 
