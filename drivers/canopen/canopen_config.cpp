@@ -32,10 +32,12 @@ void validate(const CanopenConfig& c) {
           "master_node_id");
   require(c.bitrate >= 10000 && c.bitrate <= 1000000, "bitrate must be 10000..1000000 bit/s (classic CAN)",
           "bitrate");
-  require(positive(c.counts), "counts must be > 0 (0x6064 increments per output revolution or metre)",
-          "counts");
-  require(std::isfinite(c.velocity_counts) && c.velocity_counts >= 0.0,
-          "velocity_counts must be >= 0 (0: the same as counts, increments per second)", "velocity_counts");
+  require(positive(c.counts_per_unit),
+          "counts_per_unit must be > 0 (0x6064 increments per output revolution or metre)",
+          "counts_per_unit");
+  require(std::isfinite(c.velocity_counts_per_unit) && c.velocity_counts_per_unit >= 0.0,
+          "velocity_counts_per_unit must be >= 0 (0: the same as counts_per_unit, increments per second)",
+          "velocity_counts_per_unit");
   require(positive(c.gear_ratio), "gear_ratio must be > 0", "gear_ratio");
   require(std::isfinite(c.rated_torque) && c.rated_torque >= 0.0,
           "rated_torque must be >= 0 (0: read 0x6076 from the drive)", "rated_torque");
@@ -63,8 +65,9 @@ Scaling scaling(const CanopenConfig& c, std::uint32_t rated_torque_mnm) {
   const double sign = c.reversed ? -1.0 : 1.0;
   const double unit = c.motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0;  // rad per rev, m per m
   Scaling s;
-  s.si_per_count = sign * unit / c.counts;
-  s.si_per_velocity_unit = sign * unit / (c.velocity_counts > 0.0 ? c.velocity_counts : c.counts);
+  s.si_per_count = sign * unit / c.counts_per_unit;
+  s.si_per_velocity_unit =
+      sign * unit / (c.velocity_counts_per_unit > 0.0 ? c.velocity_counts_per_unit : c.counts_per_unit);
   const double rated = c.rated_torque > 0.0 ? c.rated_torque : rated_torque_mnm * 1e-3;
   s.force_per_permille = sign * rated * 1e-3 * c.gear_ratio;
   return s;

@@ -20,8 +20,9 @@ struct CanopenConfig {
   std::uint8_t node_id = 1;         ///< the drive's CANopen node-ID
   std::uint32_t bitrate = 1000000;  ///< bit/s, as set with `ip link set can0 type can bitrate ...`
   Motion motion = Motion::rotary;
-  double counts = 16384.0;       ///< 0x6064 increments per output revolution (rotary) or metre (linear)
-  double velocity_counts = 0.0;  ///< 0x606C units per output rev/s or m/s; 0: counts (increments/s)
+  double counts_per_unit = 16384.0;  ///< 0x6064 increments per output revolution (rotary) or metre (linear)
+  double velocity_counts_per_unit =
+      0.0;                    ///< 0x606C units per output rev/s or m/s; 0: counts_per_unit (increments/s)
   double gear_ratio = 1.0;    ///< output N m (N) per motor N m: gearbox N:1 -> N; screw of lead L -> 2 pi / L
   bool reversed = false;      ///< flips position and force
   double rated_torque = 0.0;  ///< motor N m (N for a linear motor); 0: read 0x6076 from the drive

@@ -114,7 +114,7 @@ class MasterTest : public ::testing::Test {
     result = canopen::setup_drive(sdo, link, o);
     link.send(co::encode_nmt(co::NmtCommand::start, node));
     canopen::CanopenConfig config;
-    config.counts = 16384;
+    config.counts_per_unit = 16384;
     canopen::CyclicSettings s;
     s.node = node;
     s.master_node = master;
@@ -653,4 +653,54 @@ TEST(CanopenCyclicExchange, DriveLeavingOperationalOrEnabledIsAFault) {
   canopen::CyclicExchange w(plain_settings());
   w.on_frame(co::encode_emergency(node, co::Emergency{}));
   EXPECT_FALSE(w.faulted());
+}
+
+// ---- config -------------------------------------------------------------------
+
+TEST(CanopenConfig, RefusalsNameTheKey) {
+  auto key_of = [](canopen::CanopenConfig c) -> std::string {
+    try {
+      canopen::validate(c);
+    } catch (const canopen::ConfigError& e) {
+      return e.key();
+    }
+    return "";
+  };
+  canopen::CanopenConfig ok;
+  ok.interface = "can0";
+  EXPECT_EQ(key_of(ok), "");
+  auto with = [&](auto change) {
+    canopen::CanopenConfig c = ok;
+    change(c);
+    return key_of(c);
+  };
+  EXPECT_EQ(with([](auto& c) { c.interface = ""; }), "interface");
+  EXPECT_EQ(with([](auto& c) { c.interface = "unix:"; }), "interface");
+  EXPECT_EQ(with([](auto& c) { c.node_id = 0; }), "node_id");
+  EXPECT_EQ(with([](auto& c) { c.master_node_id = 1; }), "master_node_id");  // the drive's own id
+  EXPECT_EQ(with([](auto& c) { c.bitrate = 2000000; }), "bitrate");
+  EXPECT_EQ(with([](auto& c) { c.counts_per_unit = 0; }), "counts_per_unit");
+  EXPECT_EQ(with([](auto& c) { c.heartbeat_timeout = c.heartbeat_period; }), "heartbeat_timeout");
+  EXPECT_EQ(with([](auto& c) { c.heartbeat_period = 0.0001; }), "heartbeat_period");
+  EXPECT_EQ(with([](auto& c) { c.tpdo_timeout_periods = 0; }), "tpdo_timeout_periods");
+  EXPECT_EQ(with([](auto& c) { c.rated_torque = -1; }), "rated_torque");
+}
+
+TEST(CanopenConfig, ScalingFromDriveUnitsToSi) {
+  canopen::CanopenConfig c;
+  c.counts_per_unit = 4096;
+  c.gear_ratio = 10.0;
+  const canopen::Scaling s = canopen::scaling(c, 500);  // 0x6076 = 0.5 N m
+  EXPECT_DOUBLE_EQ(s.si_per_count, 2 * std::numbers::pi / 4096);
+  EXPECT_DOUBLE_EQ(s.si_per_velocity_unit, 2 * std::numbers::pi / 4096);  // increments/s by default
+  EXPECT_DOUBLE_EQ(s.force_per_permille, 0.5e-3 * 10.0);                  // at the gearbox output
+  c.reversed = true;
+  c.motion = hapticd::drivers::Motion::linear;
+  c.counts_per_unit = 1e6;  // 1 um increments
+  c.velocity_counts_per_unit = 1e3;
+  c.rated_torque = 20.0;  // N, overrides 0x6076
+  const canopen::Scaling l = canopen::scaling(c, 500);
+  EXPECT_DOUBLE_EQ(l.si_per_count, -1e-6);
+  EXPECT_DOUBLE_EQ(l.si_per_velocity_unit, -1e-3);
+  EXPECT_DOUBLE_EQ(l.force_per_permille, -20e-3 * 10.0);
 }
