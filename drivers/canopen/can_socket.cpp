@@ -14,6 +14,7 @@
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
+#include <system_error>
 
 namespace hapticd::drivers::canopen {
 
@@ -24,7 +25,7 @@ namespace {
 
 constexpr int receive_buffer_bytes = 1 << 20;
 
-std::string errno_text(int error) { return std::strerror(error); }
+std::string errno_text(int error) { return std::error_code(error, std::generic_category()).message(); }
 
 [[noreturn]] void fail(std::string_view interface, const std::string& what) {
   throw std::runtime_error("CAN interface '" + std::string(interface) + "': " + what);

@@ -2,7 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstring>
+#include <system_error>
 
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/402/drive_errors.hpp"
@@ -292,8 +292,9 @@ std::string describe(const FaultRecord& f, const CyclicSettings& s) {
     case FaultKind::bus_error:
       return describe(f.bus);
     case FaultKind::link_lost:
-      return f.link_closed ? "the bus connection closed (the simulated drive's bus program ended?)"
-                           : "CAN socket error: " + std::string(std::strerror(f.link_errno));
+      return f.link_closed
+                 ? "the bus connection closed (the simulated drive's bus program ended?)"
+                 : "CAN socket error: " + std::error_code(f.link_errno, std::generic_category()).message();
     case FaultKind::reset_failed:
       return "the fault reset did not bring " + node + " back to Operation Enabled within " +
              std::to_string(f.periods) + " periods: " + state_words(f.statusword);

@@ -79,7 +79,7 @@ void DriveBus::run(const std::atomic<bool>& stop, std::chrono::microseconds tick
 std::string DriveBus::command(const std::string& line) {
   std::lock_guard lock(mutex_);
   std::vector<cia301::Frame> out;
-  const std::string reply = apply_command(drive_, line, now(), out);
+  std::string reply = apply_command(drive_, line, now(), out);
   send_all(out);
   return reply;
 }

@@ -355,8 +355,8 @@ std::uint32_t SimulatedDrive::check_pdo_write(ObjectAddress a, std::uint32_t val
   if (a.sub != 0) return value == 0 || entry_ok(value) ? 0 : abort_code::not_mappable;
   if (value > cia301::max_pdo_entries) return abort_code::mapping_too_long;
   std::uint32_t bits = 0;
-  for (std::uint8_t s = 1; s <= value; ++s) {
-    const std::uint32_t raw = od_.get({map, s});
+  for (std::uint32_t s = 1; s <= value; ++s) {
+    const std::uint32_t raw = od_.get({map, static_cast<std::uint8_t>(s)});
     if (!entry_ok(raw)) return abort_code::not_mappable;
     bits += cia301::decode_mapping(raw).bits;
   }
