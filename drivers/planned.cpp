@@ -43,20 +43,6 @@ DriverDescription usb_hid_driver() {
        P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
 }
 
-DriverDescription canopen_driver() {
-  return planned(
-      "canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)",
-      {P::text("interface", "SocketCAN interface, or unix:/path for the simulated bus").defaults_to("can0"),
-       P::integer("node_id", "", "CANopen node id").defaults_to(1.0).at_least(1).at_most(127),
-       P::number("bitrate", "bit/s", "bus bitrate, for the bus budget")
-           .defaults_to(1e6)
-           .at_least(10e3)
-           .at_most(1e6),
-       counts_per_unit(),
-       P::number("rated_torque", "N m | N", "rated torque 0x6076 in SI (0x6071 is per mille of it)")
-           .above(0.0)});
-}
-
 DriverDescription modbus_driver() {
   return planned(
       "modbus", "Modbus amplifier over libmodbus, RTU or TCP (function 23 per period)",

@@ -110,7 +110,7 @@ int open_unix(std::string_view interface, const std::string& path) {
     const int error = errno;
     ::close(fd);
     fail(interface, "cannot connect to the simulated bus at " + path + ": " + errno_text(error) +
-                        " (start it with hapticd-devsim canopen --bus " + path + ")");
+                        " (start it with hapticd-devsim canopen --listen unix:" + path + ")");
   }
   if (::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK) != 0) {
     const int error = errno;

@@ -53,8 +53,8 @@ void validate(const CanopenConfig& c) {
               " ms) must exceed heartbeat_period (" + std::to_string(c.heartbeat_period * 1e3) +
               " ms), or every heartbeat would arrive late",
           "heartbeat_timeout");
-  require(c.tpdo_timeout_periods >= 1 && c.tpdo_timeout_periods <= 1000,
-          "tpdo_timeout_periods must be 1..1000", "tpdo_timeout_periods");
+  require(c.tpdo_timeout_periods >= 1 && c.tpdo_timeout_periods <= 100000,
+          "tpdo_timeout_periods must be 1..100000", "tpdo_timeout_periods");
   require(positive(c.sdo_timeout) && c.sdo_timeout <= 10.0, "sdo_timeout must be > 0 and at most 10 s",
           "sdo_timeout");
   require(positive(c.mass), "mass must be > 0", "mass");

@@ -1,12 +1,13 @@
 #include "drivers/devsim/peers.hpp"
 
+#include "drivers/canopen/sim/devsim_peer.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 
 namespace hapticd::drivers::devsim {
 
 const std::vector<SimulatedPeer>& simulated_peers() {
   // One line per driver with a simulated peer (its sim/ folder).
-  static const std::vector<SimulatedPeer> peers{};
+  static const std::vector<SimulatedPeer> peers{canopen::sim::canopen_peer()};
   return peers;
 }
 

@@ -25,6 +25,11 @@ bool DriveBus::connected() const {
   return connection_.is_open();
 }
 
+double DriveBus::applied_force() const {
+  std::lock_guard lock(mutex_);
+  return drive_.applied_force();
+}
+
 void DriveBus::send_all(const std::vector<cia301::Frame>& frames) {
   for (const cia301::Frame& f : frames) {
     if (!connection_.is_open()) return;

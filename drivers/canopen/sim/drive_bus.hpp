@@ -34,6 +34,11 @@ class DriveBus {
   std::string command(const std::string& line);
 
   bool connected() const;
+  /// Processes every frame already queued from the driver (tests: what the
+  /// drive applies after the frames sent so far), then returns.
+  void settle() { poll_once(std::chrono::microseconds(0)); }
+  /// The force the drive applies now (N m or N), read under the bus's lock.
+  double applied_force() const;
   std::uint64_t connections() const noexcept { return connections_.load(); }
   const std::string& path() const noexcept { return listener_.path(); }
 
