@@ -23,7 +23,7 @@ static_assert(offsetof(can_frame, data) == 8);
 
 namespace {
 
-constexpr int receive_buffer_bytes = 1 << 20;
+constexpr int socket_buffer_bytes = 1 << 20;
 
 std::string errno_text(int error) { return std::error_code(error, std::generic_category()).message(); }
 
@@ -157,9 +157,14 @@ CanSocket CanSocket::open(std::string_view interface, std::span<const CanFilter>
   const std::string_view path = unix_path_of(interface);
   const bool is_unix = !path.empty() || interface == "unix:";
   CanSocket result(is_unix ? open_unix(interface, std::string(path)) : open_can(interface), is_unix);
-  // A larger receive buffer rides out a stalled RT loop without losing TPDOs or EMCYs.
-  const int bytes = receive_buffer_bytes;
+  // Larger buffers ride out a stall of either side without losing frames:
+  // receive, a stalled RT loop (TPDOs, EMCYs wait); send, on the unix seam a
+  // stalled peer (a connected AF_UNIX socket's frames count against the
+  // sender's SO_SNDBUF until the peer reads them; on CAN the qdisc's
+  // txqueuelen limits what waits for the wire).
+  const int bytes = socket_buffer_bytes;
   (void)setsockopt(result.fd_, SOL_SOCKET, SO_RCVBUF, &bytes, sizeof bytes);
+  (void)setsockopt(result.fd_, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
   result.set_filters(filters, error_classes);
   return result;
 }
@@ -267,6 +272,9 @@ CanSocket CanListener::accept(std::chrono::microseconds timeout) {
   if (::poll(&p, 1, static_cast<int>(ms < 0 ? 0 : ms)) <= 0) return {};
   const int fd = ::accept4(fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
   if (fd < 0) return {};
+  const int bytes = socket_buffer_bytes;
+  (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &bytes, sizeof bytes);
+  (void)setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
   return CanSocket(fd, true);
 }
 
