@@ -8,8 +8,6 @@
 
 namespace hapticd::drivers::planned {
 
-DriverDescription usb_hid_driver();
-DriverDescription modbus_driver();
 DriverDescription gpio_pwm_driver();
 
 }  // namespace hapticd::drivers::planned
