@@ -6,6 +6,9 @@
 //   - an EMCY, missing TPDOs and a killed drive each zero the output in the
 //     period they are seen and show the drive's reason in `hapticctl status`;
 //     `fault clear` recovers without a torque step;
+//   - a drive that stops answering (its heartbeat lost) zeroes and latches
+//     with the drive's reason, and `fault clear` re-enables it through the
+//     CiA 402 state machine once it answers again;
 //   - a killed hapticd lets the drive's heartbeat consumer disable it.
 // The canopen runs use the real clock (the drive answers in its own process);
 // the loopback reference runs on the virtual clock.
@@ -215,6 +218,29 @@ bool eventually(Condition&& condition, std::chrono::milliseconds limit = 10s) {
   return condition();
 }
 
+/// In the recording: every latched period has zero output, from the period
+/// the fault was seen; torque flowed just before each latch; after each clear
+/// the scene starts again at equilibrium (no step). Returns the latches seen.
+int check_latches_zero_and_clears_without_a_step(const Recording& rec) {
+  const auto flags = rec.values("flags"), applied = rec.values("applied_n_m");
+  int latches = 0;
+  for (std::size_t i = 1; i < flags.size(); ++i) {
+    const bool latched = (static_cast<unsigned>(flags[i]) & 1u) != 0;
+    const bool was = (static_cast<unsigned>(flags[i - 1]) & 1u) != 0;
+    if (latched) {
+      EXPECT_EQ(applied[i], 0.0) << "row " << i;
+    }
+    if (latched && !was) {
+      ++latches;
+      EXPECT_GT(std::abs(applied[i - 1]), 0.01) << "torque was flowing before latch " << latches;
+    }
+    if (!latched && was) {
+      EXPECT_LT(std::abs(applied[i]), 0.01) << "torque step after the clear at row " << i;
+    }
+  }
+  return latches;
+}
+
 TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
   TempDir dir;
   Recording drive_run;
@@ -289,27 +315,49 @@ TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) 
   EXPECT_NE(r.err.find("the drive stays in fault: the bus connection closed"), std::string::npos) << r.err;
   EXPECT_EQ(d.stop(), 0) << d.log();
 
-  // In the recording: every latched period has zero output, from the period
-  // the fault was seen; torque flowed just before each; after each clear the
-  // scene starts again at equilibrium (no step).
-  const Recording rec = read_recording(dir.path / "run.csv");
-  const auto flags = rec.values("flags"), applied = rec.values("applied_n_m");
-  int latches = 0;
-  for (std::size_t i = 1; i < flags.size(); ++i) {
-    const bool latched = (static_cast<unsigned>(flags[i]) & 1u) != 0;
-    const bool was = (static_cast<unsigned>(flags[i - 1]) & 1u) != 0;
-    if (latched) {
-      EXPECT_EQ(applied[i], 0.0) << "row " << i;
-    }
-    if (latched && !was) {
-      ++latches;
-      EXPECT_GT(std::abs(applied[i - 1]), 0.01) << "torque was flowing before latch " << latches;
-    }
-    if (!latched && was) {
-      EXPECT_LT(std::abs(applied[i]), 0.01) << "torque step after the clear at row " << i;
-    }
-  }
-  EXPECT_EQ(latches, 3);
+  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv")), 3);
+}
+
+TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  // TPDOs may be missing for 1 s: the drive's heartbeat (timeout 100 ms) is what is missed first.
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000), {"--record", "run.csv"});
+  ASSERT_TRUE(d.running()) << d.log();
+  // Enabled through the CiA 402 state machine, torque reaching the drive.
+  ASSERT_TRUE(eventually(
+      [&] { return drive.command("status").find("state=\"Operation Enabled\"") != std::string::npos; }));
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));
+  EXPECT_EQ(status_of(d)["device"]["state"], "enabled");
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque reaches the drive";
+
+  EXPECT_EQ(drive.command("mute"), "ok muted");
+  ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
+  json s = status_of(d);
+  EXPECT_EQ(s["device"]["state"], "fault");
+  const std::string reason = s["device"]["fault_reason"];
+  EXPECT_EQ(reason.rfind("no heartbeat from node 1 for ", 0), 0U) << reason;
+  std::cout << "silent drive: hapticd latched \"" << reason << "\" (heartbeat_timeout 100 ms)\n";
+  // A second `fault clear` while the drive is still silent cannot enable it.
+  auto r = d.ctl({"fault", "clear"});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_FALSE(status_of(d)["fault"].is_null());
+
+  // It answers again: its own consumer has meanwhile lost hapticd's heartbeat
+  // (it was deaf too), so it comes back in Fault; the clear's fault-reset edge
+  // and the enable sequence bring it to Operation Enabled.
+  EXPECT_EQ(drive.command("unmute"), "ok answering");
+  std::this_thread::sleep_for(300ms);
+  r = d.ctl({"fault", "clear"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_TRUE(status_of(d)["fault"].is_null());
+  EXPECT_EQ(status_of(d)["device"]["state"], "enabled");
+  EXPECT_NE(drive.command("status").find("state=\"Operation Enabled\""), std::string::npos);
+  const double cycle = status_of(d)["cycle"].get<double>();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > cycle + 500; }));
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque flows again";
+  EXPECT_EQ(d.stop(), 0) << d.log();
+  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv")), 1);
 }
 
 TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
