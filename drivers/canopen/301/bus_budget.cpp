@@ -44,9 +44,13 @@ BusBudget check_bus_budget(std::span<const CyclicFrame> frames, double period_s,
   b.period_s = period_s;
   b.bitrate = bitrate;
   b.bus_time_s = b.total_bits / static_cast<double>(bitrate);
-  b.fits = b.bus_time_s <= period_s;
+  // A decimal period is not exact in binary ("400us" = 400 * 1e-6 s is a hair
+  // under 400 bit times at 1 Mbit/s): compare in bit times, rounding off the
+  // representation error (1e-9 of a period, far below one bit).
+  const double bit_times = period_s * bitrate * (1.0 + 1e-9);
+  b.fits = b.total_bits <= bit_times;
   b.shortest_period_s = b.bus_time_s;
-  const double needed = b.total_bits / period_s;
+  const double needed = b.total_bits / (period_s * (1.0 + 1e-9));
   for (auto it = std::rbegin(standard_bitrates); it != std::rend(standard_bitrates); ++it) {
     if (*it >= needed) {
       b.needed_bitrate = *it;

@@ -64,3 +64,22 @@ TEST(CanopenBusBudget, VelocityTpdoAddsAFrame) {
   EXPECT_DOUBLE_EQ(b.bus_time_s, 495.0 / 500000.0);
   EXPECT_TRUE(b.fits);
 }
+
+TEST(CanopenBusBudget, APeriodExactlyTheBusTimeFitsThoughTheDurationIsNotExactInBinary) {
+  // "400us" in a config is 400 * 1e-6 s, a hair below 400 bit times of 1 us:
+  // the 400 bits of the cycle fill it exactly and fit (they were refused with
+  // "a 0.4 ms period needs 1 Mbit/s, above classic CAN's 1 Mbit/s").
+  const double period_s = 400 * 1e-6;
+  ASSERT_LT(period_s * 1e6, 400.0);
+  const co::BusBudget b = co::check_bus_budget(cycle, period_s, 1000000);
+  EXPECT_TRUE(b.fits) << b.summary;
+  EXPECT_EQ(b.needed_bitrate, 1000000U);
+  EXPECT_EQ(
+      b.summary,
+      "3 frames (SYNC + RPDO1 + TPDO1) = 265 bits worst case, + 135 bits for one frame of other traffic = "
+      "0.4 ms at 1 Mbit/s, within the 0.4 ms period");
+  // 800 kbit/s carries a 500 us period (400 bits = 500 us) the same way.
+  EXPECT_TRUE(co::check_bus_budget(cycle, 500 * 1e-6, 800000).fits);
+  // One bit time less is still refused.
+  EXPECT_FALSE(co::check_bus_budget(cycle, 399 * 1e-6, 1000000).fits);
+}
