@@ -1,6 +1,12 @@
 // The canopen driver's per-period frame exchange against the simulated CiA
 // 402 drive (its bus loop in a thread, over the unix SOCK_SEQPACKET seam):
-//   BM_CanopenExchangeLogic  the pure per-period logic (TPDO in, RPDO + SYNC out)
+//   BM_CanopenExchangeLogic  the pure per-period codec and logic (TPDO in,
+//                            RPDO + SYNC out; arg 1: with the velocity TPDO2),
+//                            CPU time per period and in ppm of a 1 ms period
+//   BM_CanopenBusBudget      the period's frames on the bus, worst-case
+//                            stuffing plus one blocking frame (bus_budget.hpp),
+//                            at 1 Mbit/s: bits, bus time and its ratio to the
+//                            period, per period (args: period us, TPDO2)
 //   BM_CanopenPeriod         the RT side as the loop runs it: read() + write() on
 //                            the socket, every period, in real time
 //   BM_CanopenRoundTrip      RPDO + SYNC out until the drive's TPDO is back,
@@ -10,6 +16,7 @@
 // Environment: HAPTICD_CANOPEN_CYCLES (default 5000), HAPTICD_CANOPEN_PERIOD_US (default 1000).
 
 #include <benchmark/benchmark.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,6 +39,12 @@ namespace co = hapticd::drivers::canopen::cia301;
 using Clock = std::chrono::steady_clock;
 
 namespace {
+
+double thread_cpu_s() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_nsec) * 1e-9;
+}
 
 long env_long(const char* name, long fallback) {
   const char* v = std::getenv(name);
@@ -108,28 +121,61 @@ canopen::CanopenConfig bench_config(const std::string& path) {
 }
 
 void BM_CanopenExchangeLogic(benchmark::State& state) {
+  const bool velocity = state.range(0) != 0;
   canopen::CyclicSettings s;
   s.node = 5;
-  s.mapping = canopen::standard_mapping(5, false);
+  s.mapping = canopen::standard_mapping(5, velocity);
   s.scaling.si_per_count = 1e-4;
+  s.scaling.si_per_velocity_unit = 1e-4;
   s.scaling.force_per_permille = 5e-4;
   s.tpdo_timeout_periods = 1000;
   canopen::CyclicExchange x(s);
   x.set_enabled(true);
   co::Frame tpdo;
-  tpdo.id = 0x185;
+  tpdo.id = s.mapping.tpdo_position_id;
   tpdo.len = 6;
-  tpdo.data = {0x37, 0x12, 0, 0, 0, 0, 0, 0};
+  tpdo.data = {0x37, 0x12, 0, 0, 0, 0, 0, 0};  // statusword Operation Enabled, position
+  co::Frame tpdo2;
+  tpdo2.id = s.mapping.tpdo_velocity_id;
+  tpdo2.len = 4;
   std::array<co::Frame, 4> out;
   std::int32_t position = 0;
+  const double cpu0 = thread_cpu_s();
   for (auto _ : state) {
     co::put_le(tpdo.data, 2, static_cast<std::uint32_t>(++position), 4);
     x.on_frame(tpdo);
+    if (velocity) x.on_frame(tpdo2);
     benchmark::DoNotOptimize(x.begin_period());
     benchmark::DoNotOptimize(x.end_period(0.1, out));
   }
+  const double cpu_per_period = (thread_cpu_s() - cpu0) / static_cast<double>(state.iterations());
+  state.counters["cpu_ns"] = cpu_per_period * 1e9;
+  state.counters["cpu_ppm_of_1ms"] = cpu_per_period / 1e-3 * 1e6;
 }
-BENCHMARK(BM_CanopenExchangeLogic);
+BENCHMARK(BM_CanopenExchangeLogic)->Arg(0)->Arg(1);
+
+/// Not a timing: the bus budget the driver's configure() checks, as counters
+/// next to the timings so one run gives both (README "Bus budget").
+void BM_CanopenBusBudget(benchmark::State& state) {
+  const double period_s = static_cast<double>(state.range(0)) * 1e-6;
+  const bool velocity = state.range(1) != 0;
+  const auto frames = canopen::cyclic_frames(canopen::standard_mapping(5, velocity));
+  co::BusBudget b;
+  for (auto _ : state) {
+    b = co::check_bus_budget(frames, period_s, co::max_classic_bitrate);
+    benchmark::DoNotOptimize(b);
+  }
+  state.counters["frames"] = static_cast<double>(b.frames);
+  state.counters["cyclic_bits"] = b.cyclic_bits;
+  state.counters["total_bits"] = b.total_bits;  // + one 8-byte blocking frame
+  state.counters["bus_us_at_1Mbit"] = b.bus_time_s * 1e6;
+  state.counters["bus_of_period"] = b.bus_time_s / period_s;
+  state.counters["cyclic_of_period"] =
+      b.cyclic_bits / static_cast<double>(co::max_classic_bitrate) / period_s;
+  state.counters["fits"] = b.fits ? 1 : 0;
+  state.SetLabel(b.summary);
+}
+BENCHMARK(BM_CanopenBusBudget)->ArgsProduct({{250, 400, 500, 1000, 2000}, {0, 1}});
 
 void BM_CanopenPeriod(benchmark::State& state) {
   const auto cycles = static_cast<std::size_t>(env_long("HAPTICD_CANOPEN_CYCLES", 5000));
