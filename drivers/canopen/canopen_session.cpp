@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <thread>
 
 #include "drivers/canopen/301/cob_id.hpp"
@@ -154,6 +155,7 @@ void CanopenSession::publish() noexcept {
   rt::seq_store(s.tx_dropped, c.tx_dropped);
   rt::seq_store(s.faults, c.faults);
   version_.write_end();
+  publications_.fetch_add(1, std::memory_order_release);
 }
 
 SessionStatus CanopenSession::status() const {
@@ -366,13 +368,18 @@ std::string CanopenSession::clear_fault() {
   clear_requested_.store(true, std::memory_order_release);
   const auto limit = std::chrono::duration<double>(reset_timeout_s + 0.5);
   if (loop_running()) {
-    // The loop takes the request at its next read(); wait for the outcome.
+    // The loop takes the request at its next read() but publishes its status
+    // only at write(): until a publication after the take, status() still
+    // shows the old fault, not yet resetting.
     const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(limit);
+    std::optional<std::uint64_t> taken_before;  // publications when the take was seen
     for (;;) {
-      const SessionStatus now = status();
-      if (!clear_requested_.load(std::memory_order_acquire) && !now.resetting &&
-          (now.operational || now.faulted))
-        break;
+      if (!taken_before && !clear_requested_.load(std::memory_order_acquire))
+        taken_before = publications_.load(std::memory_order_acquire);
+      if (taken_before && publications_.load(std::memory_order_acquire) > *taken_before) {
+        const SessionStatus now = status();
+        if (!now.resetting && (now.operational || now.faulted)) break;
+      }
       if (Clock::now() >= deadline) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }

@@ -126,7 +126,8 @@ class CanopenSession {
   std::atomic<bool> clear_requested_{false};
   std::atomic<bool> disable_requested_{false};
   std::atomic<std::uint64_t> reads_{0};
-  std::mutex sdo_mutex_;  // one commissioning transfer at a time (non-RT)
+  std::atomic<std::uint64_t> publications_{0};  ///< status publications, one per write()
+  std::mutex sdo_mutex_;                        // one commissioning transfer at a time (non-RT)
 };
 
 }  // namespace hapticd::drivers::canopen

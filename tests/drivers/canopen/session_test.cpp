@@ -146,7 +146,9 @@ TEST_F(SessionTest, ConfigureEnableRunDisableClose) {
   session->disable();
   EXPECT_NE(drive_status().find("state=\"Switch On Disabled\""), std::string::npos) << drive_status();
   session->close();
-  EXPECT_NE(drive_status().find("nmt=pre-operational"), std::string::npos) << drive_status();
+  // NMT is unconfirmed: the drive's thread takes the command when it runs.
+  EXPECT_TRUE(eventually([&] { return drive_status().find("nmt=pre-operational") != std::string::npos; }))
+      << drive_status();
   session->close();  // idempotent
 }
 
@@ -209,6 +211,35 @@ TEST_F(SessionTest, EmcyFaultsInThatPeriodAndClearRecoversWhileTheLoopRuns) {
   EXPECT_TRUE(session->status().operational);
   EXPECT_TRUE(eventually([&] { return last_read.load() == IoResult::ok; }));
   EXPECT_NE(drive_status().find("state=\"Operation Enabled\""), std::string::npos);
+}
+
+TEST_F(SessionTest, ClearFaultWaitsForTheResetTheLoopTookToBePublished) {
+  // The loop takes a clear at read() and publishes its status at write(): a
+  // loop thread preempted between the two (this VM does that under load) left
+  // clear_fault() reading the old fault, not yet resetting, and throwing "the
+  // drive stays in fault" with the EMCY it was clearing. Here the loop sleeps
+  // 20 ms between read() and write() on purpose (10 ms period, so the loop is
+  // still seen running).
+  canopen::CanopenConfig c = config();
+  session = std::make_unique<canopen::CanopenSession>(c);
+  session->configure(10e-3);
+  session->enable();
+  loop_stop = false;
+  loop = std::thread([this] {
+    while (!loop_stop) {
+      Reading r;
+      last_read = session->read(r);
+      std::this_thread::sleep_for(20ms);
+      session->write(0.0);
+    }
+  });
+  EXPECT_EQ(bus->command("fault 0x2310").rfind("ok", 0), 0U);
+  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
+  std::string cleared;
+  EXPECT_NO_THROW(cleared = session->clear_fault());
+  EXPECT_EQ(cleared.rfind("node 5 EMCY 0x2310", 0), 0U) << cleared;
+  EXPECT_TRUE(session->status().operational);
+  stop_loop();
 }
 
 TEST_F(SessionTest, MissingTpdosFaultWithTheCount) {

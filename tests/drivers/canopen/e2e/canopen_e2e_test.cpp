@@ -274,10 +274,13 @@ TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
 TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) {
   TempDir dir;
   SimulatedDrive drive(dir, turning_hand);
-  Daemon d(dir, canopen_config(drive.interface(), "", 20), {"--record", "run.csv"});
+  // tpdo_timeout 200 periods: with 20, a drive process stalled by this VM
+  // under a parallel ctest latched a missing TPDO before the EMCY came.
+  Daemon d(dir, canopen_config(drive.interface(), "", 200), {"--record", "run.csv"});
   ASSERT_TRUE(d.running()) << d.log();
   ASSERT_TRUE(
       eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows since 0.5 s
+  ASSERT_TRUE(status_of(d)["fault"].is_null()) << status_of(d)["device"].dump();
 
   // An EMCY from the drive.
   EXPECT_EQ(drive.command("fault 0x2310"), "ok EMCY 0x2310: continuous over current (motor side)");
@@ -299,7 +302,7 @@ TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) 
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(drive.command("drop-tpdo all"), "ok dropping every TPDO");
   ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
-  EXPECT_EQ(status_of(d)["device"]["fault_reason"], "no TPDO1 (0x181) from node 1 for 20 periods");
+  EXPECT_EQ(status_of(d)["device"]["fault_reason"], "no TPDO1 (0x181) from node 1 for 200 periods");
   drive.command("clear");
   r = d.ctl({"fault", "clear"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
