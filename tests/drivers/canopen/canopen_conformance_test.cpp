@@ -65,7 +65,7 @@ struct CanopenConformance {
             {"counts_per_unit", 16384.0},
             {"tpdo_timeout_periods", 100000.0},
             {"heartbeat_timeout", 10.0},
-            {"sdo_timeout", 0.5}};
+            {"sdo_timeout", 2.0}};  // the drive's thread went 500 ms unscheduled at load 11
   }
   ParameterTable with(const std::string& key, hapticd::drivers::ParameterValue value) {
     ParameterTable t = parameters();

@@ -45,8 +45,10 @@ std::string unique_path() {
       .string();
 }
 
+// Generous: under TSan on this shared 2-vCPU VM (load 10) the drive's thread
+// went without the CPU for seconds; it returns as soon as the condition holds.
 template <class Condition>
-bool eventually(Condition&& condition, std::chrono::milliseconds limit = 3000ms) {
+bool eventually(Condition&& condition, std::chrono::milliseconds limit = 10000ms) {
   const auto deadline = std::chrono::steady_clock::now() + limit;
   while (std::chrono::steady_clock::now() < deadline) {
     if (condition()) return true;
@@ -78,10 +80,12 @@ class SessionTest : public ::testing::Test {
     canopen::CanopenConfig c;
     c.interface = "unix:" + path;
     c.node_id = 5;
-    c.tpdo_timeout_periods = 200;  // this VM stalls for tens of ms; the timeout test sets its own
+    // Under TSan on this loaded VM the drive's thread missed 200 periods; the
+    // timeout test sets its own.
+    c.tpdo_timeout_periods = 5000;
     c.heartbeat_period = 0.02;
-    c.heartbeat_timeout = 0.3;
-    c.sdo_timeout = 0.5;
+    c.heartbeat_timeout = 1.0;  // both ways; the dead-man test sets 300 ms
+    c.sdo_timeout = 2.0;        // the drive's thread went 500 ms unscheduled at load 10
     return c;
   }
   void open(const canopen::CanopenConfig& c) {
@@ -197,6 +201,8 @@ TEST_F(SessionTest, EmcyFaultsInThatPeriodAndClearRecoversWhileTheLoopRuns) {
   ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
   EXPECT_EQ(bus->command("fault 0x2310").rfind("ok", 0), 0U);
   ASSERT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
+  // read() saw it; the status is published by that period's write().
+  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
   const canopen::SessionStatus st = session->status();
   EXPECT_EQ(
       st.fault_reason,
@@ -251,6 +257,8 @@ TEST_F(SessionTest, MissingTpdosFaultWithTheCount) {
   ASSERT_TRUE(eventually([&] { return session->status().counters.tpdos > 20; }));
   bus->command("drop-tpdo all");
   ASSERT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
+  // read() saw it; the status is published by that period's write().
+  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
   EXPECT_EQ(session->status().fault_reason, "no TPDO1 (0x185) from node 5 for 20 periods");
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0 ") != std::string::npos; }));
   // While TPDOs stay away the reset cannot confirm the drive: clear fails, in words.
@@ -267,10 +275,13 @@ TEST_F(SessionTest, MissingTpdosFaultWithTheCount) {
         << e.what();
   }
   bus->command("clear");
+  // The statusword in it is the last one seen before the reset gave up: when
+  // TPDOs stopped, or one the drive sent as they resumed.
   EXPECT_EQ(
-      session->clear_fault(),
-      "the fault reset did not bring node 5 back to Operation Enabled within 1000 periods: statusword 0x1237 "
-      "(Operation Enabled)");
+      session->clear_fault().rfind(
+          "the fault reset did not bring node 5 back to Operation Enabled within 1000 periods: statusword 0x",
+          0),
+      0U);
   EXPECT_TRUE(session->status().operational);
 }
 
@@ -283,12 +294,16 @@ TEST_F(SessionTest, AKilledDriveIsAFaultWithTheReason) {
   thread.join();
   bus.reset();
   ASSERT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
+  // read() saw it; the status is published by that period's write().
+  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
   EXPECT_EQ(session->status().fault_reason,
             "the bus connection closed (the simulated drive's bus program ended?)");
 }
 
 TEST_F(SessionTest, AKilledHapticdLetsTheDrivesHeartbeatConsumerStopIt) {
-  open(config());
+  canopen::CanopenConfig c = config();
+  c.heartbeat_timeout = 0.3;
+  open(c);
   session->enable();
   start_loop(0.1);
   ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
@@ -362,5 +377,5 @@ TEST_F(SessionTest, ReadAndWriteAreAllocationFreeOnTheSocket) {
     std::this_thread::sleep_until(next);
   }
   EXPECT_EQ(allocations, 0U);
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_TRUE(session->status().operational) << session->status().fault_reason;
 }

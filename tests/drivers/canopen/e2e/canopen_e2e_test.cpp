@@ -136,13 +136,17 @@ const std::string scene =
     "[scene]\nname = \"spring-wheel\"\nstiffness = 1.0186\ninertia = 0.0258\nintegrator = \"exact\"\n"
     "damping = \"auto\"\n";
 
-std::string canopen_config(const std::string& interface, const std::string& loop, int tpdo_timeout) {
+/// heartbeat_timeout: both ways (the drive's 0x1016 on hapticd, hapticd on the
+/// drive's 0x1017). 1 s unless the test is about it: on this shared VM at load
+/// 10 a drive process went unscheduled for 100 ms, and once for 500 ms.
+std::string canopen_config(const std::string& interface, const std::string& loop, int tpdo_timeout,
+                           const std::string& heartbeat_timeout = "1s") {
   // overrun_limit = 0: this VM stalls the loop for tens of ms now and then.
   return "[loop]\nperiod = \"1ms\"\noverrun_limit = 0\n" + loop +
          "[device]\ndriver = \"canopen\"\ntorque_limit = 1.0\n"
          "[device.canopen]\ninterface = \"" +
          interface + "\"\ncounts_per_unit = 16384\nmass = 0.01\ndamping = 0.002\ntpdo_timeout_periods = " +
-         std::to_string(tpdo_timeout) + "\n" + scene;
+         std::to_string(tpdo_timeout) + "\nheartbeat_timeout = \"" + heartbeat_timeout + "\"\n" + scene;
 }
 
 std::string loopback_config(const std::string& hand, int delay) {
@@ -241,23 +245,37 @@ int check_latches_zero_and_clears_without_a_step(const Recording& rec) {
   return latches;
 }
 
-TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
+Recording canopen_step_run() {
   TempDir dir;
-  Recording drive_run;
-  {
-    SimulatedDrive drive(dir, releasing_hand);
-    // tpdo_timeout: this VM stalls the drive's process for tens of ms now and then.
-    Daemon d(dir, canopen_config(drive.interface(), "duration = \"3s\"\n", 200), {"--record", "run.csv"});
-    ASSERT_EQ(d.wait(60s), 0) << d.log();
-    drive_run = read_recording(dir.path / "run.csv");
-    EXPECT_NE(drive_run.header.at("device").find("canopen"), std::string::npos);
-    EXPECT_NE(drive_run.header.at("device").find("d = 1"), std::string::npos)
-        << "the device delay the gate used";
-  }
+  SimulatedDrive drive(dir, releasing_hand);
+  // tpdo_timeout: this VM stalls the drive's process for tens of ms now and then.
+  Daemon d(dir, canopen_config(drive.interface(), "duration = \"3s\"\n", 1000), {"--record", "run.csv"});
+  EXPECT_EQ(d.wait(60s), 0) << d.log();
+  Recording run = read_recording(dir.path / "run.csv");
+  EXPECT_NE(run.header.at("device").find("canopen"), std::string::npos);
+  EXPECT_NE(run.header.at("device").find("d = 1"), std::string::npos) << "the device delay the gate used";
+  return run;
+}
+
+TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
   const Recording one = loopback_reference(releasing_hand, 1);
   const double peak_torque = peak(one.values("command_n_m"));
   ASSERT_GT(peak_torque, 0.5);
-  const Comparison with_one = compare(drive_run, one, 2000);
+  // A drive process the VM leaves unscheduled for long (quiet runs show 40-80
+  // late TPDOs in 3000 periods; one at load 10 under ctest -j2 showed 260)
+  // answers a burst of SYNCs late, the scene sees stale positions for that
+  // long and the runs part: such a run is repeated, at most twice, and said
+  // so; the last one is judged whatever it shows.
+  constexpr std::size_t disturbed_run = 150;
+  Recording drive_run;
+  Comparison with_one;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    drive_run = canopen_step_run();
+    with_one = compare(drive_run, one, 2000);
+    if (with_one.stale <= disturbed_run) break;
+    std::cout << "run " << attempt << " disturbed by the VM: " << with_one.stale << " late TPDOs"
+              << (attempt < 3 ? ", repeated\n" : ", judged anyway\n");
+  }
   EXPECT_LT(with_one.worst, 0.01 * peak_torque)
       << "worst difference " << with_one.worst << " N m, peak " << peak_torque << " N m";
   EXPECT_LT(with_one.set_aside, 500U) << "too many late TPDOs to compare: " << with_one.stale;
@@ -274,9 +292,10 @@ TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
 TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) {
   TempDir dir;
   SimulatedDrive drive(dir, turning_hand);
-  // tpdo_timeout 200 periods: with 20, a drive process stalled by this VM
-  // under a parallel ctest latched a missing TPDO before the EMCY came.
-  Daemon d(dir, canopen_config(drive.interface(), "", 200), {"--record", "run.csv"});
+  // tpdo_timeout 1000 periods: with 20, and even 200, a drive process the
+  // VM left unscheduled (load 10, ctest -j2) latched a missing TPDO before the
+  // EMCY came.
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000), {"--record", "run.csv"});
   ASSERT_TRUE(d.running()) << d.log();
   ASSERT_TRUE(
       eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows since 0.5 s
@@ -302,7 +321,7 @@ TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) 
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(drive.command("drop-tpdo all"), "ok dropping every TPDO");
   ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
-  EXPECT_EQ(status_of(d)["device"]["fault_reason"], "no TPDO1 (0x181) from node 1 for 200 periods");
+  EXPECT_EQ(status_of(d)["device"]["fault_reason"], "no TPDO1 (0x181) from node 1 for 1000 periods");
   drive.command("clear");
   r = d.ctl({"fault", "clear"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -324,8 +343,8 @@ TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) 
 TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
   TempDir dir;
   SimulatedDrive drive(dir, turning_hand);
-  // TPDOs may be missing for 1 s: the drive's heartbeat (timeout 100 ms) is what is missed first.
-  Daemon d(dir, canopen_config(drive.interface(), "", 1000), {"--record", "run.csv"});
+  // TPDOs may be missing for 3 s: the drive's heartbeat (timeout 1 s) is what is missed first.
+  Daemon d(dir, canopen_config(drive.interface(), "", 3000), {"--record", "run.csv"});
   ASSERT_TRUE(d.running()) << d.log();
   // Enabled through the CiA 402 state machine, torque reaching the drive.
   ASSERT_TRUE(eventually(
@@ -340,7 +359,7 @@ TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
   EXPECT_EQ(s["device"]["state"], "fault");
   const std::string reason = s["device"]["fault_reason"];
   EXPECT_EQ(reason.rfind("no heartbeat from node 1 for ", 0), 0U) << reason;
-  std::cout << "silent drive: hapticd latched \"" << reason << "\" (heartbeat_timeout 100 ms)\n";
+  std::cout << "silent drive: hapticd latched \"" << reason << "\" (heartbeat_timeout 1 s)\n";
   // A second `fault clear` while the drive is still silent cannot enable it.
   auto r = d.ctl({"fault", "clear"});
   EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
@@ -366,7 +385,7 @@ TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
 TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
   TempDir dir;
   SimulatedDrive drive(dir, step_hand);
-  Daemon d(dir, canopen_config(drive.interface(), "", 200));
+  Daemon d(dir, canopen_config(drive.interface(), "", 200, "100ms"));
   ASSERT_TRUE(d.running()) << d.log();
   ASSERT_TRUE(eventually(
       [&] { return drive.command("status").find("state=\"Operation Enabled\"") != std::string::npos; }));
