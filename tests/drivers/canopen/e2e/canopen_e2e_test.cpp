@@ -164,8 +164,9 @@ std::size_t first_at_least(const std::vector<double>& v, double x) {
 
 /// The canopen run against a loopback run, each from its step, over n samples.
 struct Comparison {
-  double worst = INFINITY;  ///< largest |command difference| over the samples compared
-  std::size_t stale = 0;    ///< samples whose position repeated the last while the reference moved
+  double worst = INFINITY;        ///< largest |command difference| over the samples compared
+  std::size_t stale = 0;          ///< samples whose position repeated the last while the reference moved
+  std::size_t longest_stale = 0;  ///< the longest run of such samples in a row
   std::size_t set_aside = 0;
 };
 
@@ -181,9 +182,14 @@ Comparison compare(const Recording& drive, const Recording& reference, std::size
   Comparison c;
   if (ia + n > ca.size() || ib + n > cb.size()) return c;
   std::vector<bool> aside(n, false);
+  std::size_t streak = 0;
   for (std::size_t i = 1; i < n; ++i) {
-    if (pa[ia + i] != pa[ia + i - 1] || pb[ib + i] == pb[ib + i - 1]) continue;
+    if (pa[ia + i] != pa[ia + i - 1] || pb[ib + i] == pb[ib + i - 1]) {
+      streak = 0;
+      continue;
+    }
     ++c.stale;
+    c.longest_stale = std::max(c.longest_stale, ++streak);
     for (std::size_t j = i; j < std::min(n, i + 4); ++j) aside[j] = true;
   }
   c.worst = 0;
@@ -261,19 +267,20 @@ TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
   const Recording one = loopback_reference(releasing_hand, 1);
   const double peak_torque = peak(one.values("command_n_m"));
   ASSERT_GT(peak_torque, 0.5);
-  // A drive process the VM leaves unscheduled for long (quiet runs show 40-80
-  // late TPDOs in 3000 periods; one at load 10 under ctest -j2 showed 260)
-  // answers a burst of SYNCs late, the scene sees stale positions for that
-  // long and the runs part: such a run is repeated, at most twice, and said
-  // so; the last one is judged whatever it shows.
-  constexpr std::size_t disturbed_run = 150;
+  // A drive process the VM leaves unscheduled for long (quiet runs show up
+  // to 80 late TPDOs in 3000 periods, a few in a row; one at load 10 under
+  // ctest -j2 showed 260) answers a burst of SYNCs late, the scene sees stale
+  // positions for that long and the runs part: such a run is repeated, at
+  // most twice, and said so; the last one is judged whatever it shows.
+  constexpr std::size_t disturbed_run = 120, disturbed_streak = 10;  // 120 late: about 480 set aside
   Recording drive_run;
   Comparison with_one;
   for (int attempt = 1; attempt <= 3; ++attempt) {
     drive_run = canopen_step_run();
     with_one = compare(drive_run, one, 2000);
-    if (with_one.stale <= disturbed_run) break;
-    std::cout << "run " << attempt << " disturbed by the VM: " << with_one.stale << " late TPDOs"
+    if (with_one.stale <= disturbed_run && with_one.longest_stale <= disturbed_streak) break;
+    std::cout << "run " << attempt << " disturbed by the VM: " << with_one.stale << " late TPDOs, "
+              << with_one.longest_stale << " in a row"
               << (attempt < 3 ? ", repeated\n" : ", judged anyway\n");
   }
   EXPECT_LT(with_one.worst, 0.01 * peak_torque)
@@ -285,8 +292,8 @@ TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
   EXPECT_GT(with_none.worst, 0.01 * peak_torque) << "delay 0: " << with_none.worst << " N m";
   std::cout << "worst torque difference over 2 s from the step, peak " << peak_torque
             << " N m: " << with_one.worst << " N m against the loopback with one period of delay ("
-            << with_one.stale << " late TPDOs, " << with_one.set_aside << " samples set aside), "
-            << with_none.worst << " N m with none\n";
+            << with_one.stale << " late TPDOs, at most " << with_one.longest_stale << " in a row, "
+            << with_one.set_aside << " samples set aside), " << with_none.worst << " N m with none\n";
 }
 
 TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) {
