@@ -1,6 +1,7 @@
 #include "analysis/identification.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -18,6 +19,7 @@ namespace {
 using cd = std::complex<double>;
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double confounded_correlation = 0.99;
+constexpr double confounded_spread = 0.05;  ///< a 95 % interval wider than 5 % of the value is loose
 
 struct Units {
   std::string mass, damping, stiffness, force;
@@ -132,6 +134,80 @@ bool Structure::plant(const Eigen::VectorXd& t, world::LinearPlant& out) const {
   return true;
 }
 
+/// H(e^{j w T}) = C (zI - Phi)^{-1} (Gamma0 + Gamma1 / z) z^{-l} as
+/// critical_stiffness.hpp's frequency_response, for the few states of these
+/// plants without a heap allocation per frequency (a fit evaluates it for
+/// thousands of bins, hundreds of times).
+class SampledResponse {
+ public:
+  static constexpr int max_states = 4;
+
+  SampledResponse(const DelayedZoh& sys, const Eigen::RowVectorXd& c) : n_(static_cast<int>(sys.phi.rows())) {
+    for (int i = 0; i < n_; ++i) {
+      for (int j = 0; j < n_; ++j) phi_[static_cast<std::size_t>(i * n_ + j)] = sys.phi(i, j);
+      g0_[static_cast<std::size_t>(i)] = sys.gamma0(i);
+      g1_[static_cast<std::size_t>(i)] = sys.gamma1(i);
+      c_[static_cast<std::size_t>(i)] = c(i);
+    }
+    whole_ = sys.whole_samples;
+    period_ = sys.period_s;
+  }
+
+  cd at(double w) const {
+    const cd z = std::polar(1.0, w * period_);
+    std::array<cd, max_states * max_states> m{};
+    std::array<cd, max_states> x{};
+    const auto at_ij = [this](int i, int j) { return static_cast<std::size_t>(i * n_ + j); };
+    for (int i = 0; i < n_; ++i) {
+      for (int j = 0; j < n_; ++j) m[at_ij(i, j)] = -phi_[at_ij(i, j)];
+      m[at_ij(i, i)] += z;
+      x[static_cast<std::size_t>(i)] =
+          g0_[static_cast<std::size_t>(i)] + g1_[static_cast<std::size_t>(i)] * std::conj(z);  // 1/z, |z| = 1
+    }
+    // Gaussian elimination with partial pivoting (|re| + |im| as the size,
+    // reciprocals by hand: std::complex's division checks for inf and NaN at
+    // every call, which made this the fit's bottleneck).
+    const auto size = [](const cd& v) { return std::abs(v.real()) + std::abs(v.imag()); };
+    const auto inverse = [](const cd& v) { return std::conj(v) / std::norm(v); };
+    for (int k = 0; k < n_; ++k) {
+      int pivot = k;
+      for (int i = k + 1; i < n_; ++i) {
+        if (size(m[at_ij(i, k)]) > size(m[at_ij(pivot, k)])) pivot = i;
+      }
+      if (pivot != k) {
+        for (int j = 0; j < n_; ++j) std::swap(m[at_ij(k, j)], m[at_ij(pivot, j)]);
+        std::swap(x[static_cast<std::size_t>(k)], x[static_cast<std::size_t>(pivot)]);
+      }
+      const cd reciprocal = inverse(m[at_ij(k, k)]);
+      for (int i = k + 1; i < n_; ++i) {
+        const cd factor = m[at_ij(i, k)] * reciprocal;
+        for (int j = k; j < n_; ++j) m[at_ij(i, j)] -= factor * m[at_ij(k, j)];
+        x[static_cast<std::size_t>(i)] -= factor * x[static_cast<std::size_t>(k)];
+      }
+    }
+    cd out = 0.0;
+    for (int i = n_ - 1; i >= 0; --i) {
+      cd acc = x[static_cast<std::size_t>(i)];
+      for (int j = i + 1; j < n_; ++j) acc -= m[at_ij(i, j)] * x[static_cast<std::size_t>(j)];
+      x[static_cast<std::size_t>(i)] = acc * inverse(m[at_ij(i, i)]);
+      out += c_[static_cast<std::size_t>(i)] * x[static_cast<std::size_t>(i)];
+    }
+    return out;
+  }
+
+  /// z^{-l}, with the extra phase of a delay below 0 (a pure advance).
+  cd delay_factor(double w, double advance_periods) const {
+    return std::polar(1.0, -w * period_ * (static_cast<double>(whole_) + advance_periods));
+  }
+
+ private:
+  int n_;
+  int whole_ = 0;
+  double period_ = 0.0;
+  std::array<double, max_states * max_states> phi_{};
+  std::array<double, max_states> g0_{}, g1_{}, c_{};
+};
+
 /// G_u (motor force, with the fitted delay) and G_h (a force on the mass or
 /// body, no delay) at every bin. The delay below 0 (an advance: possible in a
 /// fit, not in a device) continues as a pure phase so that the cost is smooth at 0.
@@ -147,12 +223,15 @@ bool responses(const Structure& s, const Eigen::VectorXd& theta, const Frequency
       plant.dynamics.a, plant.dynamics.b.col(world::motor_force_input), t, std::max(tau, 0.0) * t);
   const DelayedZoh hand =
       discretize_delayed_zoh(plant.dynamics.a, plant.dynamics.b.col(world::hand_force_input), t, 0.0);
+  if (!motor.phi.allFinite() || !motor.gamma0.allFinite() || !motor.gamma1.allFinite()) return false;
+  const SampledResponse motor_response(motor, c);
+  const SampledResponse hand_response(hand, c);
   gu.resize(data.size());
   gh.resize(data.size());
   for (std::size_t k = 0; k < data.size(); ++k) {
     const double w = 2.0 * std::numbers::pi * data.frequency_hz[k];
-    gu[k] = frequency_response(motor, c, w) * std::polar(1.0, -w * std::min(tau, 0.0) * t);
-    gh[k] = s.coulomb >= 0 ? frequency_response(hand, c, w) : cd(0.0);
+    gu[k] = motor_response.at(w) * motor_response.delay_factor(w, std::min(tau, 0.0));
+    gh[k] = s.coulomb >= 0 ? hand_response.at(w) : cd(0.0);
   }
   return true;
 }
@@ -236,10 +315,21 @@ struct CableMode {
 };
 
 CableMode cable_mode(const FrequencyResponse& data, const SecondOrder& low) {
-  std::vector<double> ratio(data.size());
+  std::vector<double> raw(data.size());
   for (std::size_t k = 0; k < data.size(); ++k) {
     const cd s(0.0, 2.0 * std::numbers::pi * data.frequency_hz[k]);
-    ratio[k] = std::abs(data.response(k)) * std::abs(low.a2 * s * s + low.a1 * s + low.a0);
+    raw[k] = std::abs(data.response(k)) * std::abs(low.a2 * s * s + low.a1 * s + low.a0);
+  }
+  // A running median over +-10 % in frequency: the encoder's quantization
+  // makes single bins of a small response scatter by tens of percent.
+  std::vector<double> ratio(data.size());
+  std::size_t lo = 0, hi = 0;
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    while (data.frequency_hz[lo] < data.frequency_hz[k] / 1.1) ++lo;
+    while (hi + 1 < data.size() && data.frequency_hz[hi + 1] <= data.frequency_hz[k] * 1.1) ++hi;
+    std::vector<double> window(raw.begin() + static_cast<long>(lo), raw.begin() + static_cast<long>(hi) + 1);
+    std::nth_element(window.begin(), window.begin() + static_cast<long>(window.size() / 2), window.end());
+    ratio[k] = window[window.size() / 2];
   }
   const auto dip = static_cast<std::size_t>(std::min_element(ratio.begin(), ratio.end()) - ratio.begin());
   const auto peak = static_cast<std::size_t>(
@@ -255,10 +345,10 @@ CableMode cable_mode(const FrequencyResponse& data, const SecondOrder& low) {
   m.resonance = 2.0 * std::numbers::pi * data.frequency_hz[peak];
   // Half-power width of the peak: the mode's z_n (s^2 + z_n s + w_n^2).
   const double half = ratio[peak] / std::sqrt(2.0);
-  std::size_t lo = peak, hi = peak;
-  while (lo > dip && ratio[lo] > half) --lo;
-  while (hi + 1 < ratio.size() && ratio[hi] > half) ++hi;
-  m.width = 2.0 * std::numbers::pi * (data.frequency_hz[hi] - data.frequency_hz[lo]);
+  std::size_t below = peak, above = peak;
+  while (below > dip && ratio[below] > half) --below;
+  while (above + 1 < ratio.size() && ratio[above] > half) ++above;
+  m.width = 2.0 * std::numbers::pi * (data.frequency_hz[above] - data.frequency_hz[below]);
   return m;
 }
 
@@ -344,7 +434,12 @@ void describe_results(const Structure& s, Identification& id) {
   for (Eigen::Index i = 0; i < s.size(); ++i) {
     for (Eigen::Index j = i + 1; j < s.size(); ++j) {
       const double rho = fit.correlation(i, j);
-      if (!(std::abs(rho) > confounded_correlation)) continue;
+      // Strongly correlated and at least one of them loose: only a
+      // combination is known. (Correlated but both tight is no problem.)
+      const auto loose = [&](Eigen::Index k) {
+        return !(fit.half_width(k) <= confounded_spread * std::abs(fit.parameters(k)));
+      };
+      if (!(std::abs(rho) > confounded_correlation) || !(loose(i) || loose(j))) continue;
       Confounded c;
       c.first = s.names[static_cast<std::size_t>(i)];
       c.second = s.names[static_cast<std::size_t>(j)];
@@ -498,7 +593,12 @@ Identification identify(const FrequencyResponse& data, IdentifiedPlant kind, Han
   }
   Identification best;
   best.fit.cost = std::numeric_limits<double>::infinity();
+  double total = 0.0;
+  for (const cd& y : data.position) total += std::norm(y);
   for (const Eigen::VectorXd& start : starting_points(s, data)) {
+    // The other starting points only when this one left a poor fit: on a
+    // model that fits, the first lands within the encoder's noise.
+    if (std::isfinite(best.fit.cost) && std::sqrt(best.fit.cost / total) < 1e-3) break;
     LeastSquaresProblem problem;
     problem.residuals = [&](const Eigen::VectorXd& theta) { return residuals(s, theta, data); };
     problem.start = start;
@@ -523,8 +623,6 @@ Identification identify(const FrequencyResponse& data, IdentifiedPlant kind, Han
   std::vector<cd> gu, gh;
   responses(s, id.fit.parameters, data, gu, gh);
   id.fitted = gu;
-  double total = 0.0;
-  for (const cd& y : data.position) total += std::norm(y);
   id.fit_error = std::sqrt(id.fit.cost / total);
   id.complete = hand == HandCondition::free;
   if (!id.complete) {

@@ -76,7 +76,9 @@ struct IdentifiedParameter {
   std::string note;         ///< e.g. "includes the hand's damping"
 };
 
-/// Two parameters the data cannot tell apart (|correlation| > 0.99).
+/// Two parameters the data cannot tell apart: |correlation| > 0.99 and at
+/// least one of them known only to worse than 5 % (95 %): the data fixes a
+/// combination of them, not each.
 struct Confounded {
   std::string first, second;
   double correlation = 0.0;

@@ -75,7 +75,7 @@ LeastSquaresFit levenberg_marquardt(const LeastSquaresProblem& problem) {
     for (Eigen::Index c = 0; c < n; ++c) d(c) = std::max(d(c), 1e-300);
     bool improved = false;
     double decrease = 0.0;
-    for (int attempt = 0; attempt < 30 && !improved; ++attempt) {
+    for (int attempt = 0; attempt < 12 && !improved; ++attempt) {
       const Eigen::VectorXd trial = fit.parameters + lm_step(j, fit.residuals, d, lambda);
       const Eigen::VectorXd r = problem.residuals(trial);
       const double cost = finite(r) ? r.squaredNorm() : std::numeric_limits<double>::infinity();

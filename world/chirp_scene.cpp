@@ -1,5 +1,6 @@
 #include "world/chirp_scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -30,8 +31,9 @@ ChirpScene::ChirpScene(const ChirpParameters& p, double period_s) : amplitude_(p
         "frequency 1/(2T) = " +
         std::to_string(nyquist) + " Hz");
   }
-  if (!(std::isfinite(p.sweep_s) && whole_periods(p.sweep_s, period_s) >= 2)) {
-    throw std::invalid_argument("sweep must last at least 2 periods");
+  if (!(std::isfinite(p.sweep_s) && whole_periods(p.sweep_s, period_s) >= 2 &&
+        whole_periods(p.sweep_s, period_s) <= max_chirp_sweep_steps)) {
+    throw std::invalid_argument("sweep must last 2 to " + std::to_string(max_chirp_sweep_steps) + " periods");
   }
   if (!(std::isfinite(p.duration_s) && whole_periods(p.duration_s, period_s) >= 1)) {
     throw std::invalid_argument("duration must last at least 1 period");
@@ -43,6 +45,14 @@ ChirpScene::ChirpScene(const ChirpParameters& p, double period_s) : amplitude_(p
   const double sweep = static_cast<double>(sweep_steps_) * period_s;
   growth_per_step_ = log_ratio / static_cast<double>(sweep_steps_);
   phase_scale_ = 2.0 * std::numbers::pi * p.start_frequency * sweep / log_ratio;
+  double sum = 0.0;
+  for (std::int64_t j = 0; j < sweep_steps_; ++j) {
+    sum += std::sin(phase_scale_ * (std::exp(growth_per_step_ * static_cast<double>(j)) - 1.0));
+  }
+  mean_ = sum / static_cast<double>(sweep_steps_);
+  gain_ = amplitude_ / (1.0 + std::abs(mean_));
+  const std::int64_t cycle = whole_periods(1.0 / p.start_frequency, period_s);
+  fade_steps_ = std::max<std::int64_t>(1, std::min({cycle, sweep_steps_ / 2, duration_steps_ / 2}));
 }
 
 double ChirpScene::step(double /*measured_position*/) noexcept {
@@ -50,11 +60,15 @@ double ChirpScene::step(double /*measured_position*/) noexcept {
     frequency_hz_ = 0.0;
     return 0.0;
   }
-  const auto j = static_cast<double>(steps_ % sweep_steps_);
-  ++steps_;
-  const double growth = std::exp(growth_per_step_ * j);
+  const std::int64_t n = steps_++;
+  const double growth = std::exp(growth_per_step_ * static_cast<double>(n % sweep_steps_));
   frequency_hz_ = start_hz_ * growth;
-  return amplitude_ * std::sin(phase_scale_ * (growth - 1.0));
+  const double force = gain_ * (std::sin(phase_scale_ * (growth - 1.0)) - mean_);
+  const std::int64_t edge = std::min(n, duration_steps_ - n);  // steps from the nearer end
+  if (edge >= fade_steps_) return force;
+  const double fade =
+      0.5 - 0.5 * std::cos(std::numbers::pi * static_cast<double>(edge) / static_cast<double>(fade_steps_));
+  return fade * force;
 }
 
 }  // namespace hapticd::world

@@ -22,6 +22,9 @@
 
 namespace hapticd::world {
 
+/// Longest sweep in periods: its mean is summed once, off the RT path.
+inline constexpr std::int64_t max_chirp_sweep_steps = 10'000'000;
+
 struct ChirpParameters {
   double amplitude = 1.0;        ///< A, N (or N m), > 0
   double start_frequency = 0.5;  ///< f0, Hz, > 0
@@ -50,6 +53,8 @@ class ChirpScene {
   /// Samples per sweep, N: the excitation's period.
   std::int64_t sweep_steps() const noexcept { return sweep_steps_; }
   std::int64_t duration_steps() const noexcept { return duration_steps_; }
+  /// Steps of the fade in at the start and out at the end.
+  std::int64_t fade_steps() const noexcept { return fade_steps_; }
   bool finished() const noexcept { return steps_ >= duration_steps_; }
 
  private:
@@ -57,6 +62,9 @@ class ChirpScene {
   double start_hz_;
   double growth_per_step_;  ///< ln(f1/f0) / N
   double phase_scale_;      ///< 2 pi f0 N T / ln(f1/f0)
+  double mean_ = 0.0;       ///< mu, the mean of sin(phi) over a sweep
+  double gain_ = 1.0;       ///< A / (1 + |mu|)
+  std::int64_t fade_steps_ = 1;
   std::int64_t sweep_steps_;
   std::int64_t duration_steps_;
   std::int64_t steps_ = 0;

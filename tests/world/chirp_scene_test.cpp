@@ -17,7 +17,7 @@ namespace {
 constexpr double T = 1e-3;
 
 // A chirp keeps no memory beyond its step count and constants.
-static_assert(sizeof(ChirpScene) <= 8 * sizeof(double));
+static_assert(sizeof(ChirpScene) <= 11 * sizeof(double));
 
 std::vector<double> run(ChirpScene& chirp, int steps) {
   std::vector<double> out;
@@ -25,19 +25,30 @@ std::vector<double> run(ChirpScene& chirp, int steps) {
   return out;
 }
 
-TEST(ChirpScene, BoundedPeriodicAndStartsAtZero) {
-  ChirpScene chirp({2.5, 1.0, 100.0, 2.0, 6.0}, T);
+TEST(ChirpScene, BoundedPeriodicZeroMeanAndFadedAtBothEnds) {
+  ChirpScene chirp({2.5, 1.0, 100.0, 2.0, 9.0}, T);
   EXPECT_EQ(chirp.sweep_steps(), 2000);
+  EXPECT_EQ(chirp.fade_steps(), 1000);  // one cycle of f0
   chirp.reset(0.3);
-  const auto f = run(chirp, 6000);
-  EXPECT_EQ(f[0], 0.0);  // sin(0): no force step when loaded
-  double peak = 0.0;
-  for (const double v : f) peak = std::max(peak, std::abs(v));
+  const auto f = run(chirp, 9000);
+  EXPECT_EQ(f[0], 0.0);                // no force step when loaded
+  EXPECT_LT(std::abs(f[8999]), 1e-4);  // nor when it ends
+  double peak = 0.0, sum = 0.0;
+  for (int n = 2000; n < 4000; ++n) {
+    peak = std::max(peak, std::abs(f[static_cast<std::size_t>(n)]));
+    sum += f[static_cast<std::size_t>(n)];
+  }
   EXPECT_LE(peak, 2.5);
-  EXPECT_GT(peak, 2.49);
-  for (int n = 0; n < 2000; ++n) {
-    ASSERT_EQ(f[static_cast<std::size_t>(n)], f[static_cast<std::size_t>(n + 2000)]) << n;
-    ASSERT_EQ(f[static_cast<std::size_t>(n)], f[static_cast<std::size_t>(n + 4000)]) << n;
+  EXPECT_GT(peak, 2.3);
+  EXPECT_NEAR(sum, 0.0, 1e-9);      // no mean force: a free device is not pushed away
+  for (int n = 0; n < 2000; ++n) {  // sweeps 2, 3 and 4 (past the fade in, before the fade out)
+    ASSERT_EQ(f[static_cast<std::size_t>(n + 2000)], f[static_cast<std::size_t>(n + 4000)]) << n;
+    ASSERT_EQ(f[static_cast<std::size_t>(n + 2000)], f[static_cast<std::size_t>(n + 6000)]) << n;
+  }
+  for (int n = 0; n < 1000; ++n) {  // inside the raised-cosine envelope at both ends
+    const double envelope = 2.5 * (0.5 - 0.5 * std::cos(std::numbers::pi * n / 1000.0)) + 1e-12;
+    ASSERT_LE(std::abs(f[static_cast<std::size_t>(n)]), envelope) << n;
+    ASSERT_LE(std::abs(f[static_cast<std::size_t>(9000 - n - 1)]), envelope + 0.01) << n;
   }
 }
 
@@ -55,8 +66,9 @@ TEST(ChirpScene, InstantaneousFrequencySweepsExponentially) {
 TEST(ChirpScene, EnergyLiesInTheSweptBand) {
   // One period of the excitation: the DFT at the harmonics of 1/Ts inside
   // [f0, f1] carries nearly all of the energy.
-  ChirpScene chirp({1.0, 5.0, 50.0, 4.0, 4.0}, T);
-  const auto f = run(chirp, 4000);
+  ChirpScene chirp({1.0, 5.0, 50.0, 4.0, 12.0}, T);
+  auto f = run(chirp, 8000);
+  f.erase(f.begin(), f.begin() + 4000);  // the second sweep, past the fade in
   double inside = 0.0, total = 0.0;
   for (int k = 1; k < 2000; ++k) {
     std::complex<double> acc = 0.0;
