@@ -199,6 +199,18 @@ RelayAnalysis analyze_relay(std::span<const double> position, std::span<const do
                             double relay_amplitude) {
   RelayAnalysis a;
   a.spectrum = relay_spectrum(position, force, period_s);
+  const std::size_t half = position.size() / 2;
+  const auto first = relay_spectrum(position.first(half), force.first(half), period_s);
+  const auto second = relay_spectrum(position.subspan(half), force.subspan(half), period_s);
+  if (a.spectrum && first && second) {
+    a.first_half_hz = first->frequency_hz;
+    a.second_half_hz = second->frequency_hz;
+    const auto agrees = [&](const RelaySpectrum& part) {
+      return std::abs(part.frequency_hz / a.spectrum->frequency_hz - 1.0) < 0.03 &&
+             std::abs(part.gain_margin_db - a.spectrum->gain_margin_db) < 1.0;
+    };
+    a.steady = agrees(*first) && agrees(*second);
+  }
   a.describing_function =
       a.spectrum ? estimate_relay_at(position, period_s, relay_amplitude, a.spectrum->frequency_hz)
                  : estimate_relay(position, period_s, relay_amplitude);

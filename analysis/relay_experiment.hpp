@@ -63,8 +63,13 @@ struct RelaySpectrum {
 std::optional<RelaySpectrum> relay_spectrum(std::span<const double> position, std::span<const double> force,
                                             double period_s);
 
-/// Both estimates of one steady-state record.
+/// Both estimates of one steady-state record, and whether it was steady.
 struct RelayAnalysis {
+  /// The spectral peak of each half of the record agrees with the whole's
+  /// (frequency within 3 %, gain within 1 dB): a limit cycle, not a
+  /// transient or a switch between two cycles during the run.
+  bool steady = false;
+  double first_half_hz = 0.0, second_half_hz = 0.0;
   /// 4 h / (pi a) at the spectral peak's frequency (estimate_relay_at), or
   /// with the frequency from the crossings when there is no spectrum.
   std::optional<RelayEstimate> describing_function;

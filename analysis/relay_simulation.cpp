@@ -124,7 +124,7 @@ RelayBias relay_bias(const SampledRelay& relay, std::int64_t steps, std::int64_t
   bias.describing_gain_db = bias.describing_frequency_ratio = nan;
   if (!bias.model.assessed() || !bias.simulated.spectrum) return bias;
   bias.locked = matching_crossover(bias.crossovers, bias.simulated.spectrum->frequency_hz);
-  if (bias.locked != critical_crossover(bias.crossovers)) return bias;
+  if (!bias.simulated.steady || bias.locked != critical_crossover(bias.crossovers)) return bias;
   bias.spectrum_gain_db = bias.simulated.spectrum->gain_margin_db - bias.model.gain_margin_db;
   bias.spectrum_frequency_ratio = bias.simulated.spectrum->frequency_hz / bias.model.crossover_hz;
   if (const auto& df = bias.simulated.describing_function) {
