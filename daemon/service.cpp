@@ -93,7 +93,7 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
   model_ = make_device_model(*device_.device, cfg.loop.period_s);
   if (!cfg.device.model.empty()) {
     // An identified model named by the config replaces the driver's for the gate.
-    const auto keys = config::load_model_file(cfg.device.model);
+    const auto keys = config::load_model_file(cfg.device.model, cfg.device.model_where);
     model_ = make_device_model(
         model_from_keys(keys, model_.info, cfg.loop.period_s, "identified: " + cfg.device.model,
                         config::SourcePosition{cfg.device.model, 0, 0}),

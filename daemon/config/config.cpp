@@ -503,9 +503,17 @@ DaemonConfig load_config(const std::filesystem::path& path) {
   return parse_config(text.str(), path.string());
 }
 
-ParameterList load_model_file(const std::filesystem::path& path) {
+ParameterList load_model_file(const std::filesystem::path& path, const SourcePosition& named_at) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(SourcePosition{path.string(), 0, 0}, "", "cannot read the model file");
+  if (!in) {
+    std::error_code ec;
+    const bool regular = std::filesystem::is_regular_file(path, ec);
+    const std::string reason = ec ? ec.message() : regular ? "not readable" : "not a regular file";
+    throw ConfigError(named_at.file.empty() ? SourcePosition{path.string(), 0, 0} : named_at, "device.model",
+                      "cannot read the model file " + path.string() + " (" + reason +
+                          "); device.model names a file written by `hapticctl identify`, relative to the "
+                          "config file");
+  }
   std::ostringstream text;
   text << in.rdbuf();
   return Parser(path.string()).parse_model(text.str());

@@ -139,8 +139,9 @@ DaemonConfig load_config(const std::filesystem::path& path);
 DaemonConfig parse_config(std::string_view text, std::string_view source_name);
 /// A device model file's [model] table (docs/config.md, "Device model
 /// files"), flattened in file order with positions; unvalidated. Throws
-/// ConfigError when it cannot be read, is not TOML, or holds anything but [model].
-ParameterList load_model_file(const std::filesystem::path& path);
+/// ConfigError when it cannot be read (at `named_at`, the device.model key
+/// that names it, with the reason), is not TOML, or holds anything but [model].
+ParameterList load_model_file(const std::filesystem::path& path, const SourcePosition& named_at = {});
 
 /// The built-in default: loopback rotary wheel, scene spring-wheel with the
 /// exact integrator, 1 ms period. Identical to config/hapticd.toml.

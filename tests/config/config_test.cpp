@@ -245,9 +245,10 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
             "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, model, and a table "
             "[device.<driver>] for the selected driver");
-  EXPECT_EQ(error_of("[device.serial]\nx = 1"),
-            "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, model, and a table "
-            "[device.<driver>] for the selected driver");
+  EXPECT_EQ(
+      error_of("[device.serial]\nx = 1"),
+      "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, model, and a table "
+      "[device.<driver>] for the selected driver");
 }
 
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {
