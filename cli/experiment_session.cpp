@@ -159,7 +159,7 @@ json ExperimentSession::call(const std::string& method, const json& params) {
 std::optional<std::string> ExperimentSession::set_hand(const json& script) {
   try {
     const json reply = client_->call("hand.set", script);
-    hand_set_ = true;
+    hand_set_ = changed_ = true;
     return reply.value("hand", std::string());
   } catch (const rpc::RpcError& e) {
     if (e.code() == rpc::code::method_not_found) return std::nullopt;
@@ -176,13 +176,14 @@ double ExperimentSession::position() {
 }
 
 std::uint64_t ExperimentSession::load(const std::string& scene, const json& parameters) {
+  changed_ = true;  // before the call: a load that fails half-way is undone too
   const json reply = call("scene.load", {{"scene", scene}, {"params", parameters}});
   return reply.at("effective_cycle").get<std::uint64_t>();
 }
 
 std::filesystem::path ExperimentSession::start_recording(const std::string& name) {
   const json reply = call("record.start", {{"path", name}});
-  recording_ = true;
+  recording_ = changed_ = true;
   return reply.value("file", reply.value("path", std::string()));
 }
 
@@ -218,7 +219,7 @@ void ExperimentSession::wait_for_cycle(std::uint64_t cycle) {
 }
 
 std::string ExperimentSession::restore() {
-  if (restored_) return {};
+  if (restored_ || !changed_) return {};
   restored_ = true;
   std::string done;
   if (recording_) {

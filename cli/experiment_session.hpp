@@ -93,7 +93,8 @@ class ExperimentSession {
   /// Interrupted on Ctrl-C, runtime_error when the loop stops advancing.
   void wait_for_cycle(std::uint64_t cycle);
   /// Reloads the scene that was loaded at the start (with force if it had
-  /// been forced), after stopping the recording; idempotent. Returns what it did.
+  /// been forced), after stopping the recording; idempotent, and nothing
+  /// when the session changed nothing (refused flags). Returns what it did.
   std::string restore();
   static bool interrupted() noexcept;
 
@@ -110,6 +111,7 @@ class ExperimentSession {
   std::string driver_;
   bool recording_ = false;
   bool restored_ = false;
+  bool changed_ = false;  ///< a scene, recording or hand was set: restore() has work
 };
 
 /// "N/m" or "N m/rad" etc. for the session's motion.
