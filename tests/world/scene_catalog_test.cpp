@@ -28,7 +28,8 @@ ScenePlan plan_of(std::string_view name, const ParameterSet& given, double perio
 TEST(SceneCatalog, ListsTheFiveScenes) {
   std::vector<std::string> names;
   for (const auto& s : scene_catalog()) names.push_back(s.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"spring-wheel", "spring-mass", "wall", "relay", "chirp", "free"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"spring-wheel", "spring-mass", "wall", "relay", "chirp", "free"}));
   EXPECT_TRUE(find_scene("free")->parameters.empty());
   const auto* wall = find_scene("wall");
   ASSERT_NE(wall, nullptr);
