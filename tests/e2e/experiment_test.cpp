@@ -150,6 +150,15 @@ TEST(Experiment, IdentifyTwoMassLoopbackRecoversTableOneWithinTheirIntervals) {
   expect_recovered(fit, "cable_stiffness", 79500.0, 0.05);
   expect_recovered(fit, "cable_damping", 15.0, 0.05);
   expect_recovered(fit, "body_damping", 3.4, 0.05);
+  // b_m alone is loose (b_m + b_d is what a free device shows): the command says so.
+  ASSERT_EQ(out.at("confounded").size(), 1u) << out.dump(1);
+  const json& pair = out["confounded"][0];
+  EXPECT_EQ(pair.at("first"), "motor_damping");
+  EXPECT_EQ(pair.at("second"), "body_damping");
+  // Within the 5 %, not asserted inside its interval: that interval
+  // (7e-5 N s/m) is as narrow as the bias encoder quantization leaves, which
+  // is not the white noise the interval assumes (README, Measured).
+  EXPECT_LE(std::abs(pair.at("sum").get<double>() / 3.5 - 1.0), 0.05) << pair;
   EXPECT_EQ(scene_of(d), "spring-wheel");
 }
 
