@@ -319,5 +319,69 @@ TEST(Experiment, BadFlagsAreRefusedBeforeTheDeviceMoves) {
   EXPECT_GT(status.at("cycle").get<std::uint64_t>(), before);
 }
 
+json ask(const Daemon& d, const json& request) {
+  RawConnection c(d.socket());
+  EXPECT_TRUE(c.send(request.dump() + "\n"));
+  const std::string reply = c.read_line();
+  return reply.empty() ? json() : json::parse(reply, nullptr, false);
+}
+
+// device.model.set (what --apply sends) with a model the loaded wall would
+// not be stable on is refused, naming the scene; the gate's model stays; a
+// key out of range is invalid params at that key.
+TEST(Experiment, DeviceModelSetIsRefusedWhenTheLoadedSceneWouldNotBeStableOnIt) {
+  TempDir dir;
+  std::string c = rigid_config();
+  Daemon d(dir, c.substr(0, c.find("[scene]")) + wall_scene());
+  json model{{"plant", "rigid"}, {"motion", "linear"}, {"period", 0.001},
+             {"delay", 12},      {"mass", 0.5},        {"damping", 2.0}};
+  json reply = ask(d, {{"jsonrpc", "2.0"},
+                       {"id", 1},
+                       {"method", "device.model.set"},
+                       {"params", {{"model", model}, {"file", "/tmp/m.toml"}}}});
+  ASSERT_TRUE(reply.contains("error")) << reply.dump();
+  EXPECT_EQ(reply["error"]["code"], -32000) << reply.dump();
+  EXPECT_NE(reply["error"]["message"].get<std::string>().find("the loaded scene wall would not be stable"),
+            std::string::npos)
+      << reply.dump();
+  EXPECT_EQ(device_model_of(d), "config");
+  model["delay"] = 1;
+  model["mass"] = -1.0;
+  reply =
+      ask(d, {{"jsonrpc", "2.0"}, {"id", 2}, {"method", "device.model.set"}, {"params", {{"model", model}}}});
+  ASSERT_TRUE(reply.contains("error")) << reply.dump();
+  EXPECT_EQ(reply["error"]["code"], -32602) << reply.dump();
+  EXPECT_NE(reply["error"]["message"].get<std::string>().find("model.mass = -1.0 is not accepted"),
+            std::string::npos)
+      << reply.dump();
+  EXPECT_EQ(device_model_of(d), "config");
+  model["mass"] = 0.5;
+  reply =
+      ask(d, {{"jsonrpc", "2.0"}, {"id", 3}, {"method", "device.model.set"}, {"params", {{"model", model}}}});
+  ASSERT_TRUE(reply.contains("result")) << reply.dump();
+  EXPECT_EQ(device_model_of(d), "identified");
+}
+
+// Ctrl-C during a run: exit 130, the loaded scene restored, the recording
+// stopped, nothing written.
+TEST(Experiment, CtrlCDuringTheRelayRestoresTheSceneAndStopsTheRecording) {
+  TempDir dir;
+  Daemon d(dir, rigid_config());
+  const auto r = run(
+      "/usr/bin/timeout",
+      {"--preserve-status", "-s", "INT", "1", hapticctl_binary().string(), "--socket", d.socket().string(),
+       "tune", "relay", "--duration", "20000s", "--out", (dir.path / "tune").string()},
+      std::chrono::seconds(60));
+  EXPECT_EQ(r.exit_code, 130) << r.out << r.err;
+  EXPECT_NE(r.err.find("stopped by Ctrl-C; recording stopped; scene spring-wheel restored"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path / "tune" / "relay_trials.json"));
+  const json status = json::parse(d.ctl({"status", "--json"}).out);
+  EXPECT_EQ(status.at("scene").at("name"), "spring-wheel");
+  const auto stop = d.ctl({"record", "stop"});
+  EXPECT_NE(stop.exit_code, 0) << "no recording left running: " << stop.out;
+}
+
 }  // namespace
 }  // namespace hapticd::e2e
