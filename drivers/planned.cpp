@@ -33,16 +33,6 @@ P counts_per_unit() {
 
 }  // namespace
 
-DriverDescription usb_hid_driver() {
-  return planned(
-      "usb-hid", "USB encoder/motor board over libusb-1.0 (interrupt IN and OUT reports)",
-      {P::text("vendor_id", "USB vendor id, e.g. \"0x1209\""),
-       P::text("product_id", "USB product id, e.g. \"0x0001\""),
-       P::text("serial", "serial number to choose among several boards (empty: any)").defaults_to(""),
-       counts_per_unit(),
-       P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
-}
-
 DriverDescription canopen_driver() {
   return planned(
       "canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)",

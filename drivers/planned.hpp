@@ -8,7 +8,6 @@
 
 namespace hapticd::drivers::planned {
 
-DriverDescription usb_hid_driver();
 DriverDescription canopen_driver();
 DriverDescription gpio_pwm_driver();
 
