@@ -375,9 +375,15 @@ LinkResult ModbusLink::tcp_exchange(std::span<const std::uint8_t> pdu, std::uint
                 received_.begin() + static_cast<std::ptrdiff_t>(received_size_), received_.begin());
       received_size_ -= length;
       if (ours) {
-        counters_.responses.fetch_add(1, std::memory_order_relaxed);
         const double measured = monotonic_s() - started;
         const double stamped = received_at - sent_at;
+        // poll() reports data that came after its timeout if this thread
+        // ran late: the kernel's receive time says whether it was in time.
+        if (stamped > settings_.response_timeout_s) {
+          counters_.late_replies.fetch_add(1, std::memory_order_relaxed);
+          return fail(LinkOutcome::timeout, function, ETIMEDOUT);
+        }
+        counters_.responses.fetch_add(1, std::memory_order_relaxed);
         last_round_trip_s_ = stamped > 0.0 && stamped <= measured ? stamped : measured;
         LinkResult r;
         r.function = function;

@@ -58,6 +58,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(*amplifier_) : mb::sim::AmplifierServer::tcp(*amplifier_);
     server_->start();
+    (void)server_->make_realtime(70);  // as an amplifier is its own hardware, when permitted
   }
 
   mb::ModbusConfig device_config(Values values = {}) {

@@ -52,6 +52,7 @@ class LinkTest : public ::testing::TestWithParam<mb::Transport> {
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(amplifier_) : mb::sim::AmplifierServer::tcp(amplifier_);
     server_->start();
+    (void)server_->make_realtime(70);  // as an amplifier is its own hardware, when permitted
   }
   ~LinkTest() override { server_->stop(); }
 
@@ -402,12 +403,12 @@ TEST(ModbusLinkErrors, LibmodbusErrnosMapToOutcomes) {
 // A reply that arrives after its transaction timed out must not be taken
 // for the next transaction's (on RTU it would look valid: no transaction id).
 TEST_P(LinkTest, ALateReplyIsDroppedBeforeTheNextRequest) {
-  mb::ModbusLink link(settings(0.03));
+  mb::ModbusLink link(settings(0.02));
   link.open();
-  server_->inject(mb::sim::Injection::late, 1, 0, 100);
+  server_->inject(mb::sim::Injection::late, 1, 0, 300);
   std::array<std::uint16_t, 6> state{};
   EXPECT_EQ(exchange(link, 100, state).outcome, LinkOutcome::timeout);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the late reply is in the buffer now
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the late reply is in the buffer now
   ASSERT_TRUE(amplifier_.state().steps == 1u);
   link.set_response_timeout(test_response_timeout_s);
   const mb::LinkResult next = exchange(link, 200, state);
