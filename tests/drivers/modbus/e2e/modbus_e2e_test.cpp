@@ -243,7 +243,10 @@ TEST_P(ModbusEndToEnd, SpringWheelStepMatchesTheLoopbackRun) {
   for (std::size_t i = 0; i < b; ++i) ASSERT_EQ(got[i], 0.0) << "row " << i << " before the step";
   // k z0, and in the step's period the damping (auto: b = T k) on the step's velocity as much again.
   EXPECT_NEAR(peak, 2 * 0.5 * 0.785398, 0.01) << "k z0 + b z0 / T";
-  EXPECT_LE(worst, 0.01 * peak) << "largest torque difference " << worst << " N m, peak " << peak;
+  std::size_t flagged = 0;  // read errors (4), latches (1): a transaction failed on this shared VM
+  for (const double f : modbus.values("flags")) flagged += f != 0.0 ? 1 : 0;
+  EXPECT_LE(worst, 0.01 * peak) << "largest torque difference " << worst << " N m, peak " << peak << "; "
+                                << flagged << " rows flagged in the modbus run";
   std::printf(
       "modbus %s vs loopback (delay 1): %zu samples from the step, peak %.6f N m, largest difference "
       "%.3g N m (%.3g %% of peak); amplifier plant %zu steps ahead\n",
