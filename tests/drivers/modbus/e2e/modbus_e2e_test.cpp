@@ -407,7 +407,7 @@ TEST_P(ModbusEndToEnd, AKilledHapticdLetsTheAmplifierWatchdogDisableIt) {
   ASSERT_TRUE(d.running()) << d.log();
   std::this_thread::sleep_for(400ms);
   const json before = amplifier.state();
-  ASSERT_TRUE(before["enabled"].get<bool>()) << before.dump();
+  ASSERT_TRUE(before["enabled"].get<bool>()) << before.dump() << "\n" << status_of(d).dump();
   ASSERT_TRUE(before["watchdog_armed"].get<bool>()) << before.dump();
 
   ::kill(d.pid(), SIGKILL);  // no close(): nothing disables the amplifier but its watchdog
