@@ -162,6 +162,39 @@ TEST(Experiment, IdentifyTwoMassLoopbackRecoversTableOneWithinTheirIntervals) {
   EXPECT_EQ(scene_of(d), "spring-wheel");
 }
 
+// The loopback's hand scripted to hold the body still (two-mass) or to hold
+// it with a spring (rigid): the motor side and the cable, or the mass with
+// the hand's spring, recovered within the bands; the command says it
+// is not a device model for the gate and writes no model file.
+TEST(Experiment, IdentifyWithTheHandHoldingOrOnASpringRecoversWhatThatRunShows) {
+  TempDir dir;
+  {
+    Daemon d(dir, two_mass_config());
+    const auto r = d.ctl({"identify", "--hand", "hold", "--out", (dir.path / "hold").string(), "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+    const json out = parse_out(r);
+    const auto fit = estimates(out);
+    for (const auto& [name, truth] :
+         {std::pair{"motor_mass", 0.3}, {"cable_stiffness", 79500.0}, {"motor_and_cable_damping", 15.1}}) {
+      ASSERT_TRUE(fit.count(name)) << name;
+      EXPECT_LE(std::abs(fit.at(name).value / truth - 1.0), 0.05) << name << " = " << fit.at(name).value;
+    }
+    EXPECT_FALSE(out.at("complete").get<bool>());
+    EXPECT_FALSE(out.contains("model_file")) << out.dump(1);
+    EXPECT_EQ(scene_of(d), "spring-wheel");
+  }
+  Daemon d(dir, rigid_config());
+  const auto r = d.ctl({"identify", "--hand", "spring", "--hand-stiffness", "20", "--out",
+                        (dir.path / "spring").string(), "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const json out = parse_out(r);
+  const auto fit = estimates(out);
+  expect_recovered(fit, "mass", 0.5, 0.02);
+  ASSERT_TRUE(fit.count("hand_stiffness"));
+  EXPECT_LE(std::abs(fit.at("hand_stiffness").value / 20.0 - 1.0), 0.02) << fit.at("hand_stiffness").value;
+  EXPECT_FALSE(out.at("complete").get<bool>());
+}
+
 std::string device_model_of(const Daemon& d) {
   const auto r = d.ctl({"status", "--json"});
   return json::parse(r.out).at("device").at("model_source").get<std::string>();
