@@ -9,6 +9,8 @@
 //   - a drive that stops answering (its heartbeat lost) zeroes and latches
 //     with the drive's reason, and `fault clear` re-enables it through the
 //     CiA 402 state machine once it answers again;
+//   - hapticctl device sdo reads and writes objects of the running drive,
+//     refusing the mapping while enabled and decoding the drive's aborts;
 //   - a killed hapticd lets the drive's heartbeat consumer disable it.
 // The canopen runs use the real clock (the drive answers in its own process);
 // the loopback reference runs on the virtual clock.
@@ -387,6 +389,47 @@ TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
   EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque flows again";
   EXPECT_EQ(d.stop(), 0) << d.log();
   EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv")), 1);
+}
+
+TEST(Canopen, HapticctlDeviceSdoCommissionsTheRunningDrive) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000));
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(
+      eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows since 0.5 s
+  EXPECT_EQ(status_of(d)["device"]["state"], "enabled");
+
+  auto r = d.ctl({"device", "sdo", "read", "0x6041", "0", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto statusword = json::parse(r.out)["value"].get<int>();
+  EXPECT_EQ(statusword & 0x6F, 0x27) << "Operation Enabled by the mask/value table: " << statusword;
+  r = d.ctl({"device", "sdo", "read", "0x6041", "0"});
+  EXPECT_EQ(r.out.rfind("0x6041:00 statusword = ", 0), 0U) << r.out;
+  std::cout << "hapticctl device sdo read 0x6041 0: " << r.out;
+
+  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "1500"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = d.ctl({"device", "sdo", "read", "0x6072", "0", "--json"});
+  EXPECT_EQ(json::parse(r.out)["value"].get<int>(), 1500) << r.out;
+
+  // The mapping is the cyclic exchange's: refused while enabled, in words.
+  r = d.ctl({"device", "sdo", "write", "0x1A00", "0", "0"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("is a PDO mapping parameter: changing it changes the cyclic exchange: refused while "
+                       "the drive is enabled"),
+            std::string::npos)
+      << r.err;
+  // The drive's own abort, decoded.
+  EXPECT_EQ(drive.command("sdo-abort 0x6072:0 0x06090031").rfind("ok", 0), 0U);
+  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "4000"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("aborted 0x06090031 (value too high)"), std::string::npos) << r.err;
+
+  // Commissioning went through the loop's exchange without disturbing it.
+  EXPECT_TRUE(status_of(d)["fault"].is_null()) << status_of(d)["device"].dump();
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque still flows";
+  EXPECT_EQ(d.stop(), 0) << d.log();
 }
 
 TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
