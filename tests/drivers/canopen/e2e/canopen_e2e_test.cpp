@@ -140,7 +140,8 @@ const std::string scene =
 
 /// heartbeat_timeout: both ways (the drive's 0x1016 on hapticd, hapticd on the
 /// drive's 0x1017). 1 s unless the test is about it: on this shared VM at load
-/// 10 a drive process went unscheduled for 100 ms, and once for 500 ms.
+/// 10 a drive process went unscheduled for 100 ms, and once for 500 ms (so
+/// the SDO timeout of the configuration is 1 s too, not the default 100 ms).
 std::string canopen_config(const std::string& interface, const std::string& loop, int tpdo_timeout,
                            const std::string& heartbeat_timeout = "1s") {
   // overrun_limit = 0: this VM stalls the loop for tens of ms now and then.
@@ -148,7 +149,8 @@ std::string canopen_config(const std::string& interface, const std::string& loop
          "[device]\ndriver = \"canopen\"\ntorque_limit = 1.0\n"
          "[device.canopen]\ninterface = \"" +
          interface + "\"\ncounts_per_unit = 16384\nmass = 0.01\ndamping = 0.002\ntpdo_timeout_periods = " +
-         std::to_string(tpdo_timeout) + "\nheartbeat_timeout = \"" + heartbeat_timeout + "\"\n" + scene;
+         std::to_string(tpdo_timeout) + "\nheartbeat_timeout = \"" + heartbeat_timeout +
+         "\"\nsdo_timeout = \"1s\"\n" + scene;
 }
 
 std::string loopback_config(const std::string& hand, int delay) {
@@ -233,18 +235,22 @@ bool eventually(Condition&& condition, std::chrono::milliseconds limit = 10s) {
 /// In the recording: every latched period has zero output, from the period
 /// the fault was seen; torque flowed just before each latch; after each clear
 /// the scene starts again at equilibrium (no step). Returns the latches seen.
-int check_latches_zero_and_clears_without_a_step(const Recording& rec) {
+/// A fault seen by read() (EMCY, statusword, missing TPDO or heartbeat) zeroes
+/// that period's output. Only a dead link can be seen by write() instead (the
+/// RPDO's send fails): that row's output was computed already, and went to no
+/// one; zero from the next row. `write_seen_latch` is that latch's number.
+int check_latches_zero_and_clears_without_a_step(const Recording& rec, int write_seen_latch = 0) {
   const auto flags = rec.values("flags"), applied = rec.values("applied_n_m");
   int latches = 0;
   for (std::size_t i = 1; i < flags.size(); ++i) {
     const bool latched = (static_cast<unsigned>(flags[i]) & 1u) != 0;
     const bool was = (static_cast<unsigned>(flags[i - 1]) & 1u) != 0;
-    if (latched) {
-      EXPECT_EQ(applied[i], 0.0) << "row " << i;
-    }
     if (latched && !was) {
       ++latches;
       EXPECT_GT(std::abs(applied[i - 1]), 0.01) << "torque was flowing before latch " << latches;
+    }
+    if (latched && !(latches == write_seen_latch && !was)) {
+      EXPECT_EQ(applied[i], 0.0) << "row " << i << ", latch " << latches;
     }
     if (!latched && was) {
       EXPECT_LT(std::abs(applied[i]), 0.01) << "torque step after the clear at row " << i;
@@ -346,7 +352,8 @@ TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) 
   EXPECT_NE(r.err.find("the drive stays in fault: the bus connection closed"), std::string::npos) << r.err;
   EXPECT_EQ(d.stop(), 0) << d.log();
 
-  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv")), 3);
+  // The third, the killed drive, may be seen by read() or by write().
+  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv"), 3), 3);
 }
 
 TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
@@ -435,7 +442,9 @@ TEST(Canopen, HapticctlDeviceSdoCommissionsTheRunningDrive) {
 TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
   TempDir dir;
   SimulatedDrive drive(dir, step_hand);
-  Daemon d(dir, canopen_config(drive.interface(), "", 200, "100ms"));
+  // 300 ms: with 100 ms the drive's consumer faulted it while hapticd was
+  // alive, once, at load 11 (hapticd's loop went unscheduled that long).
+  Daemon d(dir, canopen_config(drive.interface(), "", 200, "300ms"));
   ASSERT_TRUE(d.running()) << d.log();
   ASSERT_TRUE(eventually(
       [&] { return drive.command("status").find("state=\"Operation Enabled\"") != std::string::npos; }));
@@ -446,7 +455,7 @@ TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
   std::string status;
   ASSERT_TRUE(eventually([&] {
     status = drive.command("status");
-    return status.find("fault=\"heartbeat of node 127 lost (consumer time 100 ms)\"") != std::string::npos;
+    return status.find("fault=\"heartbeat of node 127 lost (consumer time 300 ms)\"") != std::string::npos;
   })) << status;
   const auto seen_ms =
       std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - killed);
@@ -454,7 +463,7 @@ TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
       eventually([&] { return drive.command("status").find("state=\"Fault\"") != std::string::npos; }));
   EXPECT_NE(drive.command("status").find(" force=0 "), std::string::npos);
   std::cout << "drive disabled itself " << seen_ms.count()
-            << " ms after hapticd was killed (consumer time 100 ms)\n";
+            << " ms after hapticd was killed (consumer time 300 ms)\n";
 }
 
 }  // namespace
