@@ -40,9 +40,9 @@ std::string resolve_client_socket_path(std::string_view configured, std::string_
     struct stat st {};
     return ::stat(path.c_str(), &st) == 0 && S_ISSOCK(st.st_mode);
   };
-  const std::string own = resolve_socket_path();
+  std::string own = resolve_socket_path();
   if (is_socket(own)) return own;
-  if (const std::string service = service_socket_path(); is_socket(service)) return service;
+  if (std::string service = service_socket_path(); is_socket(service)) return service;
   return own;
 }
 

@@ -33,20 +33,6 @@ P counts_per_unit() {
 
 }  // namespace
 
-DriverDescription canopen_driver() {
-  return planned(
-      "canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)",
-      {P::text("interface", "SocketCAN interface, or unix:/path for the simulated bus").defaults_to("can0"),
-       P::integer("node_id", "", "CANopen node id").defaults_to(1.0).at_least(1).at_most(127),
-       P::number("bitrate", "bit/s", "bus bitrate, for the bus budget")
-           .defaults_to(1e6)
-           .at_least(10e3)
-           .at_most(1e6),
-       counts_per_unit(),
-       P::number("rated_torque", "N m | N", "rated torque 0x6076 in SI (0x6071 is per mille of it)")
-           .above(0.0)});
-}
-
 DriverDescription gpio_pwm_driver() {
   return planned("gpio-pwm", "GPIO lines and kernel PWM through libgpiod and sysfs (Hapkit-class rigs)",
                  {P::text("chip", "GPIO chip of the lines").defaults_to("/dev/gpiochip0"),

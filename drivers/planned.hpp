@@ -8,7 +8,6 @@
 
 namespace hapticd::drivers::planned {
 
-DriverDescription canopen_driver();
 DriverDescription gpio_pwm_driver();
 
 }  // namespace hapticd::drivers::planned

@@ -250,7 +250,7 @@ std::string BoardLink::clear_fault() {
     throw LinkError("the RT loop did not hand the board over within " + format_duration(handover_s) +
                     " (is it running?)");
   const LatchedFault before = session_.fault();
-  const std::string cleared = session_.describe(before);
+  std::string cleared = session_.describe(before);
   try {
     if (before.reason == LinkFault::unplugged) {
       reopen();

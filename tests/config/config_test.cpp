@@ -250,11 +250,12 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
       error_of("[recorder]\ndir = \"x\""),
       "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
-            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, and a table "
+            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, model, and a table "
             "[device.<driver>] for the selected driver");
-  EXPECT_EQ(error_of("[device.serial]\nx = 1"),
-            "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, and a table "
-            "[device.<driver>] for the selected driver");
+  EXPECT_EQ(
+      error_of("[device.serial]\nx = 1"),
+      "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, model, and a table "
+      "[device.<driver>] for the selected driver");
 }
 
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {
@@ -327,8 +328,8 @@ TEST(ConfigErrors, DriversAndDriverTables) {
             "[device.loopback]");
   // Drivers not built yet still parse: the daemon refuses them, not the config.
   const DaemonConfig config =
-      parse_config("[device]\ndriver = \"canopen\"\n[device.canopen]\nnode_id = 5\n", "t");
-  EXPECT_EQ(config.device.driver, "canopen");
+      parse_config("[device]\ndriver = \"modbus\"\n[device.modbus]\nslave_id = 5\n", "t");
+  EXPECT_EQ(config.device.driver, "modbus");
   ASSERT_EQ(config.device.parameters.size(), 1u);
   EXPECT_EQ(config.device.parameters[0].value, ParameterValue{5.0});
 }

@@ -25,10 +25,11 @@ extern "C" void on_signal(int) { stop_requested = 1; }
 
 /// The testbed helper needs the preload in this process: start again with it.
 void reexec_with_preload(char** argv) {
+  // NOLINTNEXTLINE(concurrency-mt-unsafe): single-threaded, replaced by execv next
   setenv("LD_PRELOAD", "libumockdev-preload.so.0", 1);
   execv("/proc/self/exe", argv);
   std::perror("hapticd-devsim: re-exec with libumockdev-preload");
-  std::exit(1);
+  std::exit(1);  // NOLINT(concurrency-mt-unsafe): single-threaded start-up
 }
 
 struct Options {
@@ -86,6 +87,7 @@ devsim::SimulatedPeer usb_hid_peer() {
         std::ifstream cmdline("/proc/self/cmdline");
         for (std::string arg; std::getline(cmdline, arg, '\0');) args.push_back(arg);
         std::vector<char*> argv;
+        argv.reserve(args.size() + 1);
         for (auto& a : args) argv.push_back(a.data());
         argv.push_back(nullptr);
         reexec_with_preload(argv.data());
