@@ -12,6 +12,7 @@ packages=(
   libsystemd-dev systemd   # sd_notify; systemd-analyze verify in the tests
   libgtest-dev libgmock-dev libbenchmark-dev
   libusb-1.0-0-dev libmodbus-dev libgpiod-dev
+  umockdev libumockdev-dev # gpio-pwm tests: libgpiod against an emulated /dev/gpiochipN (LD_PRELOAD testbed)
   rt-tests                 # cyclictest, the latency reference in bench/
   clang-format clang-tidy
 )
