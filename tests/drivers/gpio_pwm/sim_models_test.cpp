@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "drivers/gpio_pwm/sim/amplifier.hpp"
 #include "drivers/gpio_pwm/sim/gpio_chip_model.hpp"
 #include "drivers/gpio_pwm/sim/pwm_channel_model.hpp"
 #include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
@@ -172,6 +173,48 @@ TEST(QuadratureEncoderModel, EdgesFollowThePublishedSequence) {
   EXPECT_EQ(edges, back);
   EXPECT_EQ(e.state(), quadrature_state(true, true));
   EXPECT_EQ(QuadratureEncoder::state_of(-1), quadrature_state(false, true));
+}
+
+TEST(Amplifier, DrivesOnlyWhenEnabledNotBrakingNotFaulted) {
+  Amplifier amp({0.8, 0});
+  AmplifierInputs in{true, true, false, false, 0.25};
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.2);
+  in.direction_positive = false;
+  EXPECT_DOUBLE_EQ(amp.step(in), -0.2);
+  in.enable = false;
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.0);
+  in.enable = true;
+  in.brake = true;
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.0);
+  EXPECT_FALSE(amp.powered());
+  in.brake = false;
+  amp.trip("over-current");
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.0);
+  EXPECT_TRUE(amp.fault());
+  EXPECT_EQ(amp.fault_reason(), "over-current");
+  amp.set_reset(true);
+  EXPECT_TRUE(amp.fault());  // cleared at the end of the pulse, not its start
+  amp.set_reset(false);
+  EXPECT_FALSE(amp.fault());
+  EXPECT_EQ(amp.resets(), 1u);
+  EXPECT_DOUBLE_EQ(amp.step(in), -0.2);
+}
+
+TEST(Amplifier, ChargePumpWatchdogCutsThePowerWhenTheWaveStops) {
+  Amplifier amp({1.0, 3});
+  AmplifierInputs in{true, true, false, false, 0.5};
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.0);  // no wave yet: not armed
+  for (int period = 0; period < 10; ++period) {
+    in.charge_pump = !in.charge_pump;  // toggled every period, as the driver does
+    EXPECT_DOUBLE_EQ(amp.step(in), 0.5) << period;
+  }
+  EXPECT_EQ(amp.pump_edges(), 10u);
+  // The controller stops (killed): the line keeps its last level.
+  for (int period = 1; period <= 3; ++period) EXPECT_DOUBLE_EQ(amp.step(in), 0.5) << period;
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.0);
+  EXPECT_TRUE(amp.watchdog_expired());
+  in.charge_pump = !in.charge_pump;
+  EXPECT_DOUBLE_EQ(amp.step(in), 0.5);  // the wave is back
 }
 
 }  // namespace
