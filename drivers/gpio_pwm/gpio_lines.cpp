@@ -281,15 +281,17 @@ void QuadratureReader::publish(const QuadratureDecoder& decoder) noexcept {
 }
 
 void QuadratureReader::run() noexcept {
-  // Everything pending on one line, in its order; the kernel queues at most
-  // 16 per line, more can arrive while we read.
+  // Everything pending on each line, in its order. The kernel queues at
+  // most 16 per line; a few passes can gather more.
   constexpr std::size_t capacity = 4 * kernel_event_queue_depth;
+  constexpr int max_passes = 8;
   std::array<EdgeEvent, capacity> a_events, b_events;
-  const auto drain = [this](EdgeInput& line, bool invert, std::array<EdgeEvent, capacity>& events) {
-    std::size_t n = 0;
+  // Appends what one line has queued now; returns how many.
+  const auto drain = [this](EdgeInput& line, std::array<EdgeEvent, capacity>& events, std::size_t& n) {
+    std::size_t got_total = 0;
     while (n < events.size()) {
-      const int got = line.read(std::span<EdgeEvent>(events).subspan(
-          n, std::min<std::size_t>(kernel_event_queue_depth, events.size() - n)));
+      const std::size_t room = std::min<std::size_t>(kernel_event_queue_depth, events.size() - n);
+      const int got = line.read(std::span<EdgeEvent>(events).subspan(n, room));
       if (got < 0) {
         read_errors_.fetch_add(1, std::memory_order_relaxed);
         break;
@@ -298,11 +300,9 @@ void QuadratureReader::run() noexcept {
       if (static_cast<unsigned>(got) == kernel_event_queue_depth)
         full_.fetch_add(1, std::memory_order_relaxed);
       n += static_cast<std::size_t>(got);
+      got_total += static_cast<std::size_t>(got);
     }
-    if (invert) {
-      for (std::size_t i = 0; i < n; ++i) events[i].rising = !events[i].rising;
-    }
-    return n;
+    return got_total;
   };
   publish(decoder_);
   for (;;) {
@@ -315,8 +315,22 @@ void QuadratureReader::run() noexcept {
     }
     if ((fds[2].revents & POLLIN) != 0) return;
     wakeups_.fetch_add(1, std::memory_order_relaxed);
-    const std::size_t na = drain(a_, a_invert_, a_events);
-    const std::size_t nb = drain(b_, b_invert_, b_events);
+    // The two queues are read one after the other, not atomically: an edge
+    // on A can arrive while B is read, after a later edge on B was taken.
+    // So both are read again until one pass finds both empty; merged by
+    // timestamp, the batch then holds every edge older than the last one
+    // taken, in order.
+    std::size_t na = 0, nb = 0;
+    for (int pass = 0; pass < max_passes; ++pass) {
+      const std::size_t got = drain(a_, a_events, na) + drain(b_, b_events, nb);
+      if (got == 0) break;
+    }
+    if (a_invert_) {
+      for (std::size_t i = 0; i < na; ++i) a_events[i].rising = !a_events[i].rising;
+    }
+    if (b_invert_) {
+      for (std::size_t i = 0; i < nb; ++i) b_events[i].rising = !b_events[i].rising;
+    }
     decoder_.edges(std::span<const EdgeEvent>(a_events.data(), na),
                    std::span<const EdgeEvent>(b_events.data(), nb));
     publish(decoder_);

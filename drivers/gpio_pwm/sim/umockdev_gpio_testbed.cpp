@@ -13,6 +13,7 @@
 #include <cstring>
 #include <deque>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string_view>
 
@@ -66,7 +67,8 @@ struct UmockdevGpioTestbed::Impl {
   std::vector<Slot> slots;
   std::atomic<std::uint64_t> dropped{0};
   std::atomic<std::uint64_t> served{0};
-  ValuesObserver observer;  // guarded by the owner's mutex
+  ValuesObserver observer;     // guarded by the owner's mutex
+  ReadObserver read_observer;  // guarded by the owner's mutex
 
   std::mutex& mutex() { return *owner->mutex_; }
   GpioChipModel& chip() { return *owner->chip_; }
@@ -278,6 +280,15 @@ gboolean on_handle_read(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointe
     return TRUE;
   }
   UMockdevIoctlData* arg = umockdev_ioctl_client_get_arg(client);
+  UmockdevGpioTestbed::ReadObserver observer;
+  std::optional<unsigned> line;
+  {
+    std::lock_guard lock(impl->mutex());
+    observer = impl->read_observer;
+    if (const LineRequest* r = impl->chip().request(impl->id_of(*slot)); r != nullptr && !r->offsets.empty())
+      line = r->offsets.front();
+  }
+  if (observer && line) observer(*line);
   std::lock_guard lock(impl->mutex());
   const LineRequest* request = impl->chip().request(impl->id_of(*slot));
   if (request == nullptr || request->kind != LineRequest::Kind::event ||
@@ -426,10 +437,24 @@ void UmockdevGpioTestbed::drive_input(unsigned offset, bool physical_level, std:
   impl.ring(slot);
 }
 
+std::size_t UmockdevGpioTestbed::queued_events() {
+  std::lock_guard lock(*mutex_);
+  std::size_t n = 0;
+  for (const auto& s : impl_->slots) {
+    n += s.queue.size();
+  }
+  return n;
+}
+
 std::uint64_t UmockdevGpioTestbed::dropped_events() const { return impl_->dropped.load(); }
 std::uint64_t UmockdevGpioTestbed::requests_served() const { return impl_->served.load(); }
 
 void UmockdevGpioTestbed::reap_closed_locked() { impl_->reap_closed(); }
+
+void UmockdevGpioTestbed::set_read_observer(ReadObserver observer) {
+  std::lock_guard lock(*mutex_);
+  impl_->read_observer = std::move(observer);
+}
 
 void UmockdevGpioTestbed::set_values_observer(ValuesObserver observer) {
   std::lock_guard lock(*mutex_);

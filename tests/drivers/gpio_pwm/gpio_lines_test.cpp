@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <random>
@@ -12,6 +13,7 @@
 
 #include "drivers/gpio_pwm/gpio_lines.hpp"
 #include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
+#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
 #include "tests/drivers/gpio_pwm/line_backends.hpp"
 #include "tests/support/alloc_counter.hpp"
 
@@ -222,6 +224,36 @@ TEST_P(GpioLines, QuadratureReaderStartsFromTheLinesLevelsAndHonoursActiveLow) {
   reader.start();
   drive_encoder(*bed_, encoder, 7, t, true);
   EXPECT_TRUE(eventually([&] { return reader.count() == -5; })) << reader.count();
+  EXPECT_EQ(reader.stats().invalid_transitions + reader.stats().lost_edges, 0u);
+}
+
+// Regression: the reader took B's queue after A's, so an A edge that
+// arrived between the two reads was decoded after a later B edge (a paced
+// injection showed counts lost without any error). Here the edges B+(2),
+// A-(3), B-(4) arrive exactly while the reader is between its first read
+// of A and its read of B.
+TEST(QuadratureReaderOrder, AnEdgeArrivingBetweenTheTwoReadsIsDecodedInOrder) {
+  sim::GpioChipSpec spec;
+  spec.line_names = line_names;
+  sim::UmockdevGpioTestbed bed(spec);
+  GpioChip chip(bed.chip_path());
+  EdgeInput a(chip, 3, "hapticd", "encoder_a_line");
+  EdgeInput b(chip, 4, "hapticd", "encoder_b_line");
+  QuadratureReader reader(a, b, false, false, false);
+  std::atomic<bool> injected{false};
+  bed.set_read_observer([&](unsigned offset) {
+    if (offset != 4 || injected.exchange(true)) return;
+    bed.drive_input(4, true, 2);   // B+
+    bed.drive_input(3, false, 3);  // A-
+    bed.drive_input(4, false, 4);  // B-
+  });
+  reader.start();
+  bed.drive_input(3, true, 1);  // A+: wakes the reader
+  ASSERT_TRUE(eventually([&] { return reader.stats().edges >= 4; }));
+  reader.stop();
+  bed.set_read_observer(nullptr);
+  EXPECT_TRUE(injected.load());
+  EXPECT_EQ(reader.count(), 4);
   EXPECT_EQ(reader.stats().invalid_transitions + reader.stats().lost_edges, 0u);
 }
 

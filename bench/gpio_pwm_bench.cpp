@@ -1,0 +1,194 @@
+// gpio-pwm: the cost of each per-period operation of the driver, and the
+// highest quadrature edge rate the decoding thread follows without loss.
+//
+// Run: build/bench/gpio_pwm_bench (re-executes itself under
+// libumockdev-preload). What each figure measures:
+//   BM_CounterRead, BM_DutyWrite: the sysfs transport's pread()/pwrite() on
+//     tmpfs files: the system-call floor (a real sysfs attribute adds the
+//     kernel's show()/store() and, for the PWM, the chip's register write);
+//   BM_OutputsSet, BM_FaultQueueRead: libgpiod's ioctl and event read on the
+//     umockdev chip: each is a round trip to umockdev's handler thread, so
+//     this is the emulation's cost, far above a kernel ioctl;
+//   BM_DecodeEdge: the quadrature decoder's cost per edge (pure);
+//   BM_QuadratureEdgeRate: edges injected on the emulated A/B lines at a
+//     paced real-time rate while the reader thread decodes; reports
+//     lost=1 when any edge was dropped or mis-decoded. Every read of an
+//     event fd is a round trip to umockdev's handler thread, so this is the
+//     emulation's limit on this machine, not the kernel's (see README:
+//     32 counts per longest read gap).
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "drivers/gpio_pwm/gpio_lines.hpp"
+#include "drivers/gpio_pwm/quadrature_decoder.hpp"
+#include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
+#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "drivers/gpio_pwm/sysfs_attributes.hpp"
+
+namespace gp = hapticd::drivers::gpio_pwm;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string temp_root() {
+  std::string pattern =
+      fs::is_directory("/dev/shm") ? "/dev/shm/gpio-pwm-bench.XXXXXX" : "/tmp/gpio-pwm-bench.XXXXXX";
+  return ::mkdtemp(pattern.data());
+}
+
+// A PWM channel and a count as plain files, as the kernel lays them out.
+struct PlainSysfs {
+  std::string root = temp_root();
+  PlainSysfs() {
+    const std::string channel = root + "/pwmchip0/pwm0";
+    fs::create_directories(channel);
+    std::ofstream(root + "/pwmchip0/npwm") << "1\n";
+    for (const char* a : {"period", "duty_cycle", "enable"}) std::ofstream(channel + "/" + a) << "0\n";
+    std::ofstream(channel + "/polarity") << "normal\n";
+    fs::create_directories(root + "/counter0/count0");
+    std::ofstream(root + "/counter0/count0/count") << "123456\n";
+  }
+  ~PlainSysfs() { fs::remove_all(root); }
+};
+
+void BM_CounterRead(benchmark::State& state) {
+  PlainSysfs files;
+  gp::CounterInput counter(files.root + "/counter0", 0);
+  std::uint64_t raw = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(counter.read(raw));
+  }
+  benchmark::DoNotOptimize(raw);
+}
+BENCHMARK(BM_CounterRead);
+
+void BM_DutyWrite(benchmark::State& state) {
+  PlainSysfs files;
+  gp::PwmOutput pwm({files.root + "/pwmchip0", 0, 50'000, false, 1.0});
+  std::uint64_t duty = 0;
+  for (auto _ : state) {
+    duty = duty == 12'500 ? 12'501 : 12'500;  // changes every period: one pwrite
+    benchmark::DoNotOptimize(pwm.set_duty(duty));
+  }
+}
+BENCHMARK(BM_DutyWrite);
+
+gp::sim::GpioChipSpec chip_spec() {
+  gp::sim::GpioChipSpec s;
+  s.line_names = {"EN", "DIR", "FAULT", "ENC_A", "ENC_B", "PUMP", "", ""};
+  return s;
+}
+
+void BM_OutputsSet(benchmark::State& state) {
+  gp::sim::UmockdevGpioTestbed bed(chip_spec());
+  gp::GpioChip chip(bed.chip_path());
+  const unsigned offsets[] = {0, 1, 5};
+  const int initial[] = {0, 0, 0};
+  const std::string keys[] = {"enable_line", "direction_line", "charge_pump_line"};
+  gp::OutputLines outputs(chip, offsets, initial, "bench", keys);
+  int pump = 0;
+  for (auto _ : state) {
+    pump ^= 1;
+    const int levels[] = {1, 1, pump};
+    benchmark::DoNotOptimize(outputs.set(levels));
+  }
+}
+BENCHMARK(BM_OutputsSet)->UseRealTime();
+
+void BM_FaultQueueRead(benchmark::State& state) {
+  gp::sim::UmockdevGpioTestbed bed(chip_spec());
+  gp::GpioChip chip(bed.chip_path());
+  gp::EdgeInput fault(chip, 2, "bench", "fault_line");
+  std::array<gp::EdgeEvent, 16> events;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(fault.read(events));  // empty: EAGAIN
+  }
+}
+BENCHMARK(BM_FaultQueueRead)->UseRealTime();
+
+void BM_DecodeEdge(benchmark::State& state) {
+  gp::sim::QuadratureEncoder encoder(0);
+  std::vector<gp::sim::EncoderEdge> edges;
+  encoder.move_to(4096, 0, 4'096'000, edges);
+  std::vector<gp::EdgeEvent> a, b;
+  for (const auto& e : edges) (e.line == gp::QuadratureLine::a ? a : b).push_back({e.timestamp_ns, e.level});
+  for (auto _ : state) {
+    gp::QuadratureDecoder decoder(0);
+    decoder.edges(a, b);
+    benchmark::DoNotOptimize(decoder.count());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(edges.size()));
+}
+BENCHMARK(BM_DecodeEdge);
+
+// Edges at state.range(0) edges per second (both lines together), for
+// 20 ms of real time (at least 64 edges), paced by sleeping to each edge's
+// due time (late edges go at once, in a burst, as late interrupts would).
+void BM_QuadratureEdgeRate(benchmark::State& state) {
+  const double rate = static_cast<double>(state.range(0));
+  bool lost = false;
+  double achieved = 0.0;
+  for (auto _ : state) {
+    gp::sim::UmockdevGpioTestbed bed(chip_spec());
+    gp::GpioChip chip(bed.chip_path());
+    gp::EdgeInput a(chip, 3, "bench", "encoder_a_line");
+    gp::EdgeInput b(chip, 4, "bench", "encoder_b_line");
+    gp::QuadratureReader reader(a, b, false, false, false);
+    reader.start();
+    gp::sim::QuadratureEncoder encoder(0);
+    const auto edges_total = static_cast<std::int64_t>(std::max(64.0, rate * 0.02));
+    std::vector<gp::sim::EncoderEdge> edges;
+    encoder.move_to(edges_total, 0, static_cast<std::uint64_t>(static_cast<double>(edges_total) * 1e9 / rate),
+                    edges);
+    const auto start = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+      const auto due =
+          start + std::chrono::nanoseconds(static_cast<std::int64_t>(static_cast<double>(i) * 1e9 / rate));
+      std::this_thread::sleep_until(due);  // the edges come from hardware: this thread must not take a CPU
+      const auto& e = edges[i];
+      bed.drive_input(e.line == gp::QuadratureLine::a ? 3 : 4, e.level, e.timestamp_ns);
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    achieved = static_cast<double>(edges.size()) / seconds;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (reader.count() != edges_total && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::yield();
+    reader.stop();
+    const auto s = reader.stats();
+    lost = lost || reader.count() != edges_total || bed.dropped_events() != 0 || s.full_reads != 0 ||
+           s.lost_edges != 0 || s.invalid_transitions != 0;
+  }
+  state.counters["lost"] = lost ? 1.0 : 0.0;
+  state.counters["edges_per_s"] = achieved;
+}
+BENCHMARK(BM_QuadratureEdgeRate)
+    ->Arg(1'000)
+    ->Arg(2'000)
+    ->Arg(3'000)
+    ->Arg(5'000)
+    ->Arg(7'000)
+    ->Arg(10'000)
+    ->Arg(20'000)
+    ->Arg(50'000)
+    ->Iterations(3)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (!gp::sim::ensure_umockdev_preload(argc, argv)) return 1;
+  if (std::getenv("TMPDIR") == nullptr && fs::is_directory("/dev/shm")) ::setenv("TMPDIR", "/dev/shm", 1);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
