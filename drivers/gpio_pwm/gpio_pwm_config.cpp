@@ -123,6 +123,13 @@ void validate(const GpioPwmConfig& c) {
               " is not below the largest force (force_at_full_duty x max_duty = " +
               number_text(c.force_at_full_duty * c.max_duty) + "): every command would give duty 0");
   require_finite_range(c.counts, "counts", 0.0, 1e12, true, "counts per revolution or metre");
+  require(c.mass > 0.0, "mass",
+          "mass is required (" +
+              std::string(c.motion == Motion::rotary ? "kg m^2: the moving inertia" : "kg: the moving mass") +
+              ", for the stability gate); accepted: above 0 up to 1000");
+  require_finite_range(c.mass, "mass", 0.0, 1000.0, true, c.motion == Motion::rotary ? "kg m^2" : "kg");
+  require_finite_range(c.damping, "damping", 0.0, 1e6, false,
+                       c.motion == Motion::rotary ? "N m s/rad" : "N s/m");
   require_finite_range(c.reset_pulse_s, "reset_pulse", 1e-6, 1.0, false, "s");
   require_finite_range(c.export_timeout_s, "export_timeout", 0.0, 10.0, true, "s");
   if (c.position_source() == PositionSource::counter) {

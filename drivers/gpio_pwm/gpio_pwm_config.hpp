@@ -75,6 +75,10 @@ struct GpioPwmConfig {
   double counts = 16384.0;  ///< counts per revolution (rotary) or per metre (linear), x4
   bool reverse = false;     ///< the encoder counts down for a positive force
 
+  // The device model for the stability gate (the driver cannot measure it).
+  double mass = 0.0;     ///< kg (linear) or kg m^2 (rotary): the moving mass or inertia; required
+  double damping = 0.0;  ///< N s/m or N m s/rad to ground
+
   // Timing of non-RT steps.
   double reset_pulse_s = 0.01;    ///< width of the reset pulse
   double export_timeout_s = 1.0;  ///< wait for pwmN/ after export (udev may fix permissions)

@@ -199,7 +199,7 @@ int PwmOutput::set_timing(const PwmTiming& target) noexcept {
     const bool period = w.attribute == PwmAttribute::period;
     if (const int error = (period ? period_ : duty_).write_u64(w.value_ns); error != 0) return error;
     (period ? timing_.period_ns : timing_.duty_ns) = w.value_ns;
-    ++writes_;
+    writes_.store(writes_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);  // single writer
   }
   return 0;
 }

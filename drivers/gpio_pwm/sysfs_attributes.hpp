@@ -13,6 +13,7 @@
 /// the per-period calls (PwmOutput::set_duty, CounterInput::read) return an
 /// errno and neither allocate, lock nor throw.
 
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -80,9 +81,9 @@ class PwmOutput {
   int off() noexcept { return set_duty(0); }
   PwmTiming timing() const noexcept { return timing_; }
   const std::string& channel_dir() const noexcept { return channel_dir_; }
-  /// The number of sysfs writes made by set_duty/set_timing (for tests and
-  /// the benchmark: unchanged values cost nothing).
-  std::uint64_t writes() const noexcept { return writes_; }
+  /// The number of sysfs writes made by set_duty/set_timing (unchanged
+  /// values cost nothing). Readable from any thread.
+  std::uint64_t writes() const noexcept { return writes_.load(std::memory_order_relaxed); }
 
  private:
   void export_channel(const Settings& settings);
@@ -91,7 +92,7 @@ class PwmOutput {
   std::string channel_dir_;
   SysfsAttribute period_, duty_, enable_;
   PwmTiming timing_;
-  std::uint64_t writes_ = 0;
+  std::atomic<std::uint64_t> writes_{0};  // written by the RT thread only
 };
 
 /// One count of a kernel counter device (ti-eqep, stm32-lptimer-cnt,

@@ -10,7 +10,8 @@
 /// Lockstep: the board advances one period each time the driver sets the
 /// output lines (the GPIOHANDLE_SET_LINE_VALUES_IOCTL of the request that
 /// holds the direction line, which the driver issues once per write(),
-/// after the period's duty write). Inside that ioctl, before it returns,
+/// after the period's duty write, and once more in disable(): the plant
+/// keeps moving while the stage goes off). Inside that ioctl, before it returns,
 /// the board reads the lines and the PWM channel, steps the amplifier and
 /// the plant, and publishes the new position: the counter's count file, or
 /// the encoder's edges queued on the A/B lines with timestamps spread over

@@ -43,11 +43,20 @@ int PwmChannelModel::write(std::string_view name, std::string_view text) {
 }
 
 std::string PwmChannelModel::read(std::string_view name) const {
-  if (name == "period") return std::to_string(state_.period_ns) + "\n";
-  if (name == "duty_cycle") return std::to_string(state_.duty_ns) + "\n";
-  if (name == "enable") return state_.enabled ? "1\n" : "0\n";
-  if (name == "polarity") return state_.inversed ? "inversed\n" : "normal\n";
-  return {};
+  char text[32];
+  return std::string(text, format(name, text, sizeof text));
+}
+
+std::size_t PwmChannelModel::format(std::string_view name, char* out, std::size_t size) const noexcept {
+  if (size < 24) return 0;
+  if (name == "period" || name == "duty_cycle") {
+    return format_sysfs_u64(name == "period" ? state_.period_ns : state_.duty_ns, std::span<char>(out, size));
+  }
+  std::string_view text;
+  if (name == "enable") text = state_.enabled ? "1\n" : "0\n";
+  if (name == "polarity") text = state_.inversed ? "inversed\n" : "normal\n";
+  text.copy(out, text.size());
+  return text.size();
 }
 
 double PwmChannelModel::high_fraction() const noexcept {

@@ -44,6 +44,9 @@ class PwmChannelModel {
   int write(std::string_view name, std::string_view text);
   /// What reading the attribute gives ("%llu\n", "%d\n", "normal\n").
   std::string read(std::string_view name) const;
+  /// The same text into `out` without allocating; returns its length (0 for
+  /// an unknown attribute or a buffer under 24 bytes).
+  std::size_t format(std::string_view name, char* out, std::size_t size) const noexcept;
 
   const PwmChannelState& state() const noexcept { return state_; }
   /// The fraction of each period the pin is high: duty / period, or

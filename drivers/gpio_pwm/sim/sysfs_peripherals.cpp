@@ -1,5 +1,8 @@
 #include "drivers/gpio_pwm/sim/sysfs_peripherals.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -30,7 +33,7 @@ SimulatedPwmChip::SimulatedPwmChip(std::string root, std::string chip_path, unsi
     : chip_dir_(root + chip_path),
       npwm_(npwm),
       initial_(initial),
-      hook_(chip_dir_, [this](const std::string& path, std::string_view text) { return store(path, text); }) {
+      hook_(chip_dir_, [this](const char* path, std::string_view text) { return store(path, text); }) {
   fs::create_directories(chip_dir_);
   write_file(chip_dir_ + "/npwm", std::to_string(npwm) + "\n");
   write_file(chip_dir_ + "/export", "");
@@ -46,13 +49,28 @@ void SimulatedPwmChip::create_channel(unsigned channel) {
   channels_.emplace(channel, model);
 }
 
-// pwm_export_store()/pwm_unexport_store() and the channel attributes' store().
-int SimulatedPwmChip::store(const std::string& path, std::string_view text) {
+namespace {
+
+// The file as the kernel would print the attribute: written with plain
+// system calls from a stack buffer (this runs on the driver's RT thread).
+void rewrite(const char* path, const char* text, std::size_t length) noexcept {
+  const int fd = ::open(path, O_WRONLY | O_TRUNC | O_CLOEXEC);
+  if (fd < 0) return;
+  [[maybe_unused]] const ssize_t n = ::write(fd, text, length);
+  ::close(fd);
+}
+
+}  // namespace
+
+// pwm_export_store()/pwm_unexport_store() and the channel attributes'
+// store(). The accepted path allocates nothing.
+int SimulatedPwmChip::store(const char* path_text, std::string_view text) {
   std::lock_guard lock(mutex_);
   ++writes_seen_;
-  const std::string relative = path.substr(chip_dir_.size() + 1);
-  const auto refuse = [&](unsigned channel, const std::string& attribute, int error) {
-    refused_.push_back({channel, attribute, std::string(text), error});
+  const std::string_view path(path_text);
+  const std::string_view relative = path.substr(chip_dir_.size() + 1);
+  const auto refuse = [&](unsigned channel, std::string_view attribute, int error) {
+    refused_.push_back({channel, std::string(attribute), std::string(text), error});
     return error;
   };
   if (relative == "export" || relative == "unexport") {
@@ -72,16 +90,16 @@ int SimulatedPwmChip::store(const std::string& path, std::string_view text) {
   }
   // pwmN/<attribute>
   const std::size_t slash = relative.find('/');
-  if (relative.rfind("pwm", 0) != 0 || slash == std::string::npos)
-    return EACCES;  // npwm and the like: read-only
+  if (relative.substr(0, 3) != "pwm" || slash == std::string_view::npos) return EACCES;  // npwm: read-only
   const auto channel_number = parse_sysfs_u64(relative.substr(3, slash - 3));
-  const std::string attribute = relative.substr(slash + 1);
+  const std::string_view attribute = relative.substr(slash + 1);
   const auto it = channel_number ? channels_.find(static_cast<unsigned>(*channel_number)) : channels_.end();
   if (it == channels_.end()) return ENODEV;
   const unsigned channel = it->first;
   if (const int error = it->second.write(attribute, text); error != 0)
     return refuse(channel, attribute, error);
-  write_file(path, it->second.read(attribute));
+  char shown[32];
+  rewrite(path_text, shown, it->second.format(attribute, shown, sizeof shown));
   return 0;
 }
 

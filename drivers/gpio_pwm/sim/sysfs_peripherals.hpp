@@ -55,7 +55,7 @@ class SimulatedPwmChip {
   std::string chip_dir() const { return chip_dir_; }
 
  private:
-  int store(const std::string& path, std::string_view text);
+  int store(const char* path, std::string_view text);
   void create_channel(unsigned channel);
   std::string channel_dir(unsigned channel) const { return chip_dir_ + "/pwm" + std::to_string(channel); }
 

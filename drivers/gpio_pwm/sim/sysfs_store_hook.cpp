@@ -33,9 +33,9 @@ ssize_t hooked_pwrite(pwrite_function real, int fd, const void* buffer, size_t c
     char path[PATH_MAX];
     const ssize_t n = ::readlink(link, path, sizeof path - 1);
     if (n > 0 && hook->covers(std::string_view(path, static_cast<size_t>(n)))) {
+      path[n] = '\0';
       calls.fetch_add(1, std::memory_order_relaxed);
-      const int error = hook->store(std::string(path, static_cast<size_t>(n)),
-                                    std::string_view(static_cast<const char*>(buffer), count));
+      const int error = hook->store(path, std::string_view(static_cast<const char*>(buffer), count));
       writers_inside.fetch_sub(1, std::memory_order_acq_rel);
       if (error != 0) {
         errno = error;

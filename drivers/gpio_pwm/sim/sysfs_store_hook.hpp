@@ -21,8 +21,10 @@ namespace hapticd::drivers::gpio_pwm::sim {
 
 class SysfsStoreHook {
  public:
-  /// `path`: the real path written to; `text`: the bytes of the write.
-  using Handler = std::function<int(const std::string& path, std::string_view text)>;
+  /// `path`: the real path written to (NUL-terminated); `text`: the bytes
+  /// of the write. Called on the writer's thread: the RT thread when the
+  /// driver writes a duty, so an accepted store must not allocate.
+  using Handler = std::function<int(const char* path, std::string_view text)>;
 
   /// Installs the hook for files under `directory` (a real path). One hook
   /// at a time; throws std::logic_error if one is installed.
@@ -34,7 +36,7 @@ class SysfsStoreHook {
 
   /// Used by the pwrite() definition.
   bool covers(std::string_view path) const noexcept;
-  int store(const std::string& path, std::string_view text) const { return handler_(path, text); }
+  int store(const char* path, std::string_view text) const { return handler_(path, text); }
 
  private:
   std::string directory_;

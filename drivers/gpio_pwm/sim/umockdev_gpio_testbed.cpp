@@ -205,6 +205,7 @@ gboolean UmockdevGpioTestbed::Impl::chip_ioctl(UMockdevIoctlClient* client, gulo
     case GPIO_GET_LINEINFO_IOCTL: {
       auto* info = resolve<gpioline_info>(arg, &holder);
       std::lock_guard lock(mutex());
+      reap_closed();  // a line released by a closed fd shows free, as in the kernel
       error = info == nullptr ? EFAULT : chip().line_info(*info);
       break;
     }

@@ -17,6 +17,7 @@ GpioPwmConfig valid_counter_config() {
   c.direction_line = parse_line_spec("direction_line", "MOTOR_DIR");
   c.force_at_full_duty = 0.8;
   c.counter = "/sys/bus/counter/devices/counter0";
+  c.mass = 0.01;
   return c;
 }
 
@@ -80,6 +81,9 @@ TEST(GpioPwmConfig, EachRefusalNamesItsKey) {
       {"deadband", [](GpioPwmConfig& c) { c.deadband = -0.1; }},
       {"deadband", [](GpioPwmConfig& c) { c.deadband = 0.8; }},  // >= 0.8 x 0.95
       {"counts", [](GpioPwmConfig& c) { c.counts = 0.0; }},
+      {"mass", [](GpioPwmConfig& c) { c.mass = 0.0; }},
+      {"mass", [](GpioPwmConfig& c) { c.mass = std::nan(""); }},
+      {"damping", [](GpioPwmConfig& c) { c.damping = -1.0; }},
       {"reset_pulse", [](GpioPwmConfig& c) { c.reset_pulse_s = 2.0; }},
       {"export_timeout", [](GpioPwmConfig& c) { c.export_timeout_s = 0.0; }},
       {"counter", [](GpioPwmConfig& c) { c.counter = "counter0"; }},

@@ -125,6 +125,19 @@ TEST(PwmOutput, SetDutyDoesNotAllocate) {
   EXPECT_EQ(allocations, 0u);
 }
 
+// The simulated store runs on the writer's thread (the RT thread in the
+// device tests): an accepted write must not allocate there either.
+TEST(PwmOutput, SimulatedStoreDoesNotAllocateOnTheWritersThread) {
+  TempRoot root;
+  sim::SimulatedPwmChip chip(root.path(), pwm_chip_path, 1);
+  PwmOutput pwm(settings(root));
+  testing::AllocationGuard guard;
+  for (std::uint64_t i = 0; i < 1000; ++i) pwm.set_duty((i * 37) % 50'000);
+  const auto allocations = guard.count();
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(chip.state(0).duty_ns, (999u * 37) % 50'000);
+}
+
 // The simulated kernel refuses a wrong order with the kernel's errno, so
 // the tests above can fail, and a driver sees what it would see on a chip.
 TEST(PwmOutput, SimulatedChipRefusesWhatTheKernelRefuses) {
