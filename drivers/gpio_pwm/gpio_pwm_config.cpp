@@ -100,7 +100,7 @@ LineSpec parse_line_spec(std::string_view key, std::string_view text, bool activ
 }
 
 double GpioPwmConfig::metres_or_radians_per_count() const noexcept {
-  return motion == Motion::rotary ? 2.0 * std::numbers::pi / counts : 1.0 / counts;
+  return motion == Motion::rotary ? 2.0 * std::numbers::pi / counts_per_unit : 1.0 / counts_per_unit;
 }
 
 void validate(const GpioPwmConfig& c) {
@@ -122,7 +122,8 @@ void validate(const GpioPwmConfig& c) {
           "deadband = " + number_text(c.deadband) +
               " is not below the largest force (force_at_full_duty x max_duty = " +
               number_text(c.force_at_full_duty * c.max_duty) + "): every command would give duty 0");
-  require_finite_range(c.counts, "counts", 0.0, 1e12, true, "counts per revolution or metre");
+  require_finite_range(c.counts_per_unit, "counts_per_unit", 0.0, 1e12, true,
+                       "counts per revolution or metre");
   require(c.mass > 0.0, "mass",
           "mass is required (" +
               std::string(c.motion == Motion::rotary ? "kg m^2: the moving inertia" : "kg: the moving mass") +

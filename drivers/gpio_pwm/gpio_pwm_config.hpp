@@ -72,8 +72,8 @@ struct GpioPwmConfig {
   std::string counter;         ///< sysfs directory of a counter device, "" = quadrature lines
   unsigned counter_count = 0;  ///< countY under it
   Motion motion = Motion::rotary;
-  double counts = 16384.0;  ///< counts per revolution (rotary) or per metre (linear), x4
-  bool reverse = false;     ///< the encoder counts down for a positive force
+  double counts_per_unit = 16384.0;  ///< counts per revolution (rotary) or per metre (linear), x4
+  bool reverse = false;              ///< the encoder counts down for a positive force
 
   // The device model for the stability gate (the driver cannot measure it).
   double mass = 0.0;     ///< kg (linear) or kg m^2 (rotary): the moving mass or inertia; required

@@ -80,7 +80,7 @@ TEST(GpioPwmConfig, EachRefusalNamesItsKey) {
       {"max_duty", [](GpioPwmConfig& c) { c.max_duty = 0.0; }},
       {"deadband", [](GpioPwmConfig& c) { c.deadband = -0.1; }},
       {"deadband", [](GpioPwmConfig& c) { c.deadband = 0.8; }},  // >= 0.8 x 0.95
-      {"counts", [](GpioPwmConfig& c) { c.counts = 0.0; }},
+      {"counts_per_unit", [](GpioPwmConfig& c) { c.counts_per_unit = 0.0; }},
       {"mass", [](GpioPwmConfig& c) { c.mass = 0.0; }},
       {"mass", [](GpioPwmConfig& c) { c.mass = std::nan(""); }},
       {"damping", [](GpioPwmConfig& c) { c.damping = -1.0; }},

@@ -63,7 +63,7 @@ GpioPwmConfig device_config(bool counter) {
   c.force_at_full_duty = 0.8;
   c.max_duty = 1.0;
   c.pwm_period_ns = 50'000;
-  c.counts = counts_per_rev;
+  c.counts_per_unit = counts_per_rev;
   c.mass = 0.01;
   c.reset_pulse_s = 0.002;
   if (counter) {
