@@ -13,8 +13,6 @@
 namespace hapticd::drivers::gpio_pwm {
 namespace {
 
-std::string reason(int error) { return std::strerror(error); }
-
 std::string chip_open_advice(int error) {
   switch (error) {
     case ENOENT:
@@ -28,7 +26,7 @@ std::string chip_open_advice(int error) {
     case ENODEV:
       return "not a GPIO character device";
     default:
-      return reason(error);
+      return system_reason(error);
   }
 }
 
@@ -77,7 +75,7 @@ unsigned GpioChip::resolve(const LineSpec& spec, std::string_view key) const {
         k,
         k + " = \"" + spec.name + "\": " +
             (error == ENOENT ? "no line of that name on " + describe() + " (`gpioinfo` lists them)"
-                             : "looking it up on " + describe() + " failed: " + reason(error)),
+                             : "looking it up on " + describe() + " failed: " + system_reason(error)),
         error);
   }
   return gpiod_line_offset(line);
@@ -87,7 +85,7 @@ gpiod_line* GpioChip::line(unsigned offset) const {
   gpiod_line* l = gpiod_chip_get_line(chip_, offset);
   if (l == nullptr) {
     throw TransportError(
-        "chip", "line " + std::to_string(offset) + " of " + describe() + ": " + reason(errno), errno);
+        "chip", "line " + std::to_string(offset) + " of " + describe() + ": " + system_reason(errno), errno);
   }
   return l;
 }
@@ -151,7 +149,7 @@ OutputLines::OutputLines(const GpioChip& chip, std::span<const unsigned> offsets
     throw TransportError(keys[0],
                          "requesting " + line_words(chip, offsets[0], keys[0]) +
                              (offsets.size() > 1 ? " and the other outputs" : "") +
-                             " as outputs failed: " + reason(error),
+                             " as outputs failed: " + system_reason(error),
                          error);
   }
 }
@@ -178,7 +176,8 @@ EdgeInput::EdgeInput(const GpioChip& chip, unsigned offset, const std::string& c
     const int error = errno;
     throw TransportError(
         std::string(key),
-        "requesting edge events on " + line_words(chip, offset, key) + " failed: " + reason(error), error);
+        "requesting edge events on " + line_words(chip, offset, key) + " failed: " + system_reason(error),
+        error);
   }
   line_ = line;
   const int fd = gpiod_line_event_get_fd(line_);
@@ -188,7 +187,8 @@ EdgeInput::EdgeInput(const GpioChip& chip, unsigned offset, const std::string& c
     gpiod_line_release(line_);
     throw TransportError(
         std::string(key),
-        "making the event fd of " + std::string(key) + " non-blocking failed: " + reason(error), error);
+        "making the event fd of " + std::string(key) + " non-blocking failed: " + system_reason(error),
+        error);
   }
 }
 
@@ -222,10 +222,10 @@ namespace {
 bool initial_level(EdgeInput& line, bool invert) {
   const int level = line.level();
   if (level < 0) {
-    throw TransportError(
-        "encoder_a_line",
-        "reading the level of encoder line " + std::to_string(line.offset()) + " failed: " + reason(-level),
-        -level);
+    throw TransportError("encoder_a_line",
+                         "reading the level of encoder line " + std::to_string(line.offset()) +
+                             " failed: " + system_reason(-level),
+                         -level);
   }
   return (level != 0) != invert;
 }
@@ -240,7 +240,7 @@ QuadratureReader::QuadratureReader(EdgeInput& a, EdgeInput& b, bool a_active_low
       b_invert_(b_active_low),
       decoder_(quadrature_state(initial_level(a, a_active_low), initial_level(b, b_active_low)), reverse) {
   stop_fd_ = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-  if (stop_fd_ < 0) throw TransportError("encoder_a_line", "eventfd: " + reason(errno), errno);
+  if (stop_fd_ < 0) throw TransportError("encoder_a_line", "eventfd: " + system_reason(errno), errno);
 }
 
 QuadratureReader::~QuadratureReader() {
@@ -283,7 +283,7 @@ void QuadratureReader::publish(const QuadratureDecoder& decoder) noexcept {
 void QuadratureReader::run() noexcept {
   // Everything pending on each line, in its order. The kernel queues at
   // most 16 per line; a few passes can gather more.
-  constexpr std::size_t capacity = 4 * kernel_event_queue_depth;
+  constexpr std::size_t capacity = std::size_t{4} * kernel_event_queue_depth;
   constexpr int max_passes = 8;
   std::array<EdgeEvent, capacity> a_events, b_events;
   // Appends what one line has queued now; returns how many.

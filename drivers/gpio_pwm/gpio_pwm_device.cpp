@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <thread>
@@ -17,8 +18,8 @@ std::string line_words(const GpioChip& chip, unsigned offset) {
 
 std::string format_hz(std::uint64_t period_ns) {
   const double hz = 1e9 / static_cast<double>(period_ns);
-  return hz >= 1000.0 ? std::to_string(static_cast<long long>(hz / 1000.0 + 0.5)) + " kHz"
-                      : std::to_string(static_cast<long long>(hz + 0.5)) + " Hz";
+  return hz >= 1000.0 ? std::to_string(std::llround(hz / 1000.0)) + " kHz"
+                      : std::to_string(std::llround(hz)) + " Hz";
 }
 
 }  // namespace
@@ -90,7 +91,7 @@ void GpioPwmDevice::configure(double period_s) {
       std::uint64_t raw = 0;
       if (const int error = counter_->read(raw); error != 0) {
         throw TransportError(
-            "counter", "counter: reading " + counter_->path() + " failed: " + std::strerror(error), error);
+            "counter", "counter: reading " + counter_->path() + " failed: " + system_reason(error), error);
       }
       unwrap_.emplace(counter_->ceiling(), raw);
       position_words = "position from " + counter_->path() +
@@ -129,7 +130,7 @@ void GpioPwmDevice::enable() {
   if (s == GpioPwmState::enabled) return;
   if (const int error = pwm_->off(); error != 0) {
     throw TransportError("pwm_channel",
-                         std::string("gpio-pwm: setting duty 0 failed: ") + std::strerror(error), error);
+                         std::string("gpio-pwm: setting duty 0 failed: ") + system_reason(error), error);
   }
   // The enable line goes active with the first write(), in the same ioctl
   // as the first charge-pump edge: every output commit is one period's
@@ -142,7 +143,7 @@ bool GpioPwmDevice::fault_line_active() {
   const int level = fault_->level();
   if (level < 0) {
     throw TransportError(
-        "fault_line", std::string("fault_line: reading its level failed: ") + std::strerror(-level), -level);
+        "fault_line", std::string("fault_line: reading its level failed: ") + system_reason(-level), -level);
   }
   return (level != 0) != config_.fault_line.active_low;
 }
@@ -152,13 +153,13 @@ void GpioPwmDevice::pulse_reset() {
   const int active[] = {low ? 0 : 1};
   const int inactive[] = {low ? 1 : 0};
   if (const int error = reset_->set(active); error != 0) {
-    throw TransportError("reset_line", std::string("reset_line: setting it failed: ") + std::strerror(error),
+    throw TransportError("reset_line", std::string("reset_line: setting it failed: ") + system_reason(error),
                          error);
   }
   std::this_thread::sleep_for(std::chrono::duration<double>(config_.reset_pulse_s));
   if (const int error = reset_->set(inactive); error != 0) {
     throw TransportError("reset_line",
-                         std::string("reset_line: releasing it failed: ") + std::strerror(error), error);
+                         std::string("reset_line: releasing it failed: ") + system_reason(error), error);
   }
   // The amplifier's fault output follows the reset: give it the pulse's
   // width again (bounded) to go inactive.
@@ -182,7 +183,7 @@ std::string GpioPwmDevice::clear_fault() {
                                            ": the amplifier's fault persists");
   }
   fault_latched_.store(false, std::memory_order_release);
-  const long long pulse_ms = static_cast<long long>(config_.reset_pulse_s * 1000.0 + 0.5);
+  const long long pulse_ms = std::llround(config_.reset_pulse_s * 1000.0);
   return fault_reason_ + (reset_ ? ": cleared by a " + std::to_string(pulse_ms) + " ms reset pulse"
                                  : ": cleared, the line reads inactive again");
 }
@@ -328,7 +329,7 @@ GpioPwmStatus GpioPwmDevice::status() const {
   s.write_errors = write_errors_.load();
   s.faults = faults_.load();
   if (s.fault) s.fault_reason = fault_reason_;
-  if (const int e = last_errno_.load(); e != 0) s.last_error = std::strerror(e);
+  if (const int e = last_errno_.load(); e != 0) s.last_error = system_reason(e);
   s.counters.emplace_back("counter_range_errors", counter_range_errors_.load());
   if (s.state != GpioPwmState::closed && pwm_) s.counters.emplace_back("pwm_writes", pwm_->writes());
   if (s.state != GpioPwmState::closed && quadrature_) {

@@ -15,8 +15,6 @@
 namespace hapticd::drivers::gpio_pwm {
 namespace {
 
-std::string reason(int error) { return std::strerror(error); }
-
 bool exists(const std::string& path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0;
@@ -44,7 +42,8 @@ SysfsAttribute::SysfsAttribute(std::string path, bool writable, std::string_view
           "PWM/counter attributes is the usual way)";
     }
     throw TransportError(std::string(key),
-                         std::string(key) + ": cannot open " + path_ + ": " + reason(error) + advice, error);
+                         std::string(key) + ": cannot open " + path_ + ": " + system_reason(error) + advice,
+                         error);
   }
 }
 
@@ -85,7 +84,7 @@ int SysfsAttribute::write_u64(std::uint64_t value) const noexcept {
 std::string SysfsAttribute::read_text() const {
   char text[256];
   const ssize_t n = ::pread(fd_, text, sizeof text, 0);
-  if (n < 0) throw TransportError("", "reading " + path_ + ": " + reason(errno), errno);
+  if (n < 0) throw TransportError("", "reading " + path_ + ": " + system_reason(errno), errno);
   return first_line(std::string(text, static_cast<std::size_t>(n)));
 }
 
@@ -107,7 +106,7 @@ void PwmOutput::export_channel(const Settings& s) {
     if (error != 0 && error != EBUSY) {
       throw TransportError("pwm_channel",
                            "pwm_channel = " + channel + ": exporting it through " + exporter.path() +
-                               " failed: " + reason(error),
+                               " failed: " + system_reason(error),
                            error);
     }
   }
@@ -132,7 +131,7 @@ void PwmOutput::write_or_throw(const SysfsAttribute& attribute, std::uint64_t va
   if (const int error = attribute.write_u64(value); error != 0) {
     throw TransportError(key,
                          std::string(key) + ": writing " + std::to_string(value) + " to " + attribute.path() +
-                             " failed: " + reason(error),
+                             " failed: " + system_reason(error),
                          error);
   }
 }
@@ -177,16 +176,16 @@ PwmOutput::PwmOutput(const Settings& s) : channel_dir_(s.chip_dir + "/pwm" + std
       timing_.period_ns = s.period_ns;
     }
     if (const int error = polarity.write_text(wanted_polarity + "\n"); error != 0) {
-      throw TransportError(
-          "pwm_inversed",
-          "pwm_inversed: writing " + wanted_polarity + " to " + polarity.path() + " failed: " + reason(error),
-          error);
+      throw TransportError("pwm_inversed",
+                           "pwm_inversed: writing " + wanted_polarity + " to " + polarity.path() +
+                               " failed: " + system_reason(error),
+                           error);
     }
   }
   if (const int error = set_timing({s.period_ns, 0}); error != 0) {
     throw TransportError("pwm_period",
                          "pwm_period = " + std::to_string(s.period_ns) + " ns: " + channel_dir_ +
-                             " refused it: " + reason(error),
+                             " refused it: " + system_reason(error),
                          error);
   }
   if (enabled == 0) write_or_throw(enable_, 1, "pwm_channel");
@@ -225,7 +224,8 @@ CounterInput::CounterInput(const std::string& counter_dir, unsigned index) {
   count_ = SysfsAttribute(count_dir + "/count", false, "counter");
   std::uint64_t probe = 0;
   if (const int error = count_.read_u64(probe); error != 0) {
-    throw TransportError("counter", "counter: reading " + count_.path() + " failed: " + reason(error), error);
+    throw TransportError("counter", "counter: reading " + count_.path() + " failed: " + system_reason(error),
+                         error);
   }
   if (exists(count_dir + "/ceiling")) {
     if (SysfsAttribute(count_dir + "/ceiling", false, "counter").read_u64(ceiling_) != 0) {

@@ -6,8 +6,14 @@
 
 #include <stdexcept>
 #include <string>
+#include <system_error>
 
 namespace hapticd::drivers::gpio_pwm {
+
+/// The system's words for an errno (thread-safe, unlike strerror).
+inline std::string system_reason(int error) {
+  return std::error_code(error, std::generic_category()).message();
+}
 
 class TransportError : public std::runtime_error {
  public:

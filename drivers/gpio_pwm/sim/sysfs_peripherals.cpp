@@ -28,8 +28,8 @@ constexpr std::array<const char*, 4> channel_attributes{"period", "duty_cycle", 
 
 }  // namespace
 
-SimulatedPwmChip::SimulatedPwmChip(std::string root, std::string chip_path, unsigned npwm,
-                                   std::vector<unsigned> exported, PwmChannelState initial)
+SimulatedPwmChip::SimulatedPwmChip(const std::string& root, const std::string& chip_path, unsigned npwm,
+                                   const std::vector<unsigned>& exported, PwmChannelState initial)
     : chip_dir_(root + chip_path),
       npwm_(npwm),
       initial_(initial),
@@ -123,8 +123,8 @@ std::uint64_t SimulatedPwmChip::writes_seen() const {
   return writes_seen_;
 }
 
-SimulatedCounter::SimulatedCounter(std::string root, std::string counter_path, unsigned index,
-                                   std::uint64_t ceiling, std::string function)
+SimulatedCounter::SimulatedCounter(const std::string& root, const std::string& counter_path, unsigned index,
+                                   std::uint64_t ceiling, const std::string& function)
     : ceiling_(ceiling) {
   if (ceiling != UINT64_MAX && ceiling > static_cast<std::uint64_t>(INT64_MAX)) {
     throw std::invalid_argument(

@@ -40,8 +40,8 @@ class SimulatedPwmChip {
   /// export and unexport, and installs the store hook on it. `exported`
   /// channels get their pwmN/ at once, with `initial` state; the others
   /// when "N" is written to export.
-  SimulatedPwmChip(std::string root, std::string chip_path, unsigned npwm,
-                   std::vector<unsigned> exported = {}, PwmChannelState initial = {});
+  SimulatedPwmChip(const std::string& root, const std::string& chip_path, unsigned npwm,
+                   const std::vector<unsigned>& exported = {}, PwmChannelState initial = {});
   SimulatedPwmChip(const SimulatedPwmChip&) = delete;
   SimulatedPwmChip& operator=(const SimulatedPwmChip&) = delete;
 
@@ -72,8 +72,8 @@ class SimulatedPwmChip {
 class SimulatedCounter {
  public:
   /// Creates <root><counter_path>/count<index>/{count,ceiling,function}.
-  SimulatedCounter(std::string root, std::string counter_path, unsigned index, std::uint64_t ceiling,
-                   std::string function = "quadrature x4");
+  SimulatedCounter(const std::string& root, const std::string& counter_path, unsigned index,
+                   std::uint64_t ceiling, const std::string& function = "quadrature x4");
   /// The raw count for a position in counts (wrapped into 0..ceiling).
   void set_position(std::int64_t counts);
   std::uint64_t raw() const noexcept { return raw_; }

@@ -1,5 +1,7 @@
 #include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
 
+#include "drivers/gpio_pwm/transport_error.hpp"
+
 #include <fcntl.h>
 #include <linux/gpio.h>
 #include <sys/stat.h>
@@ -28,18 +30,19 @@ std::string node_of_slot(unsigned slot) { return "/dev/umockdev-gpio/request" + 
 
 }  // namespace
 
+// getenv/setenv: called at program start, before any thread.
 bool umockdev_preload_active() {
-  const char* preload = std::getenv("LD_PRELOAD");
+  const char* preload = std::getenv("LD_PRELOAD");  // NOLINT(concurrency-mt-unsafe)
   return preload != nullptr &&
          std::string_view(preload).find("libumockdev-preload") != std::string_view::npos;
 }
 
 bool ensure_umockdev_preload(int argc, char** argv) {
   if (umockdev_preload_active()) return true;
-  const char* old = std::getenv("LD_PRELOAD");
+  const char* old = std::getenv("LD_PRELOAD");  // NOLINT(concurrency-mt-unsafe)
   std::string value = preload_library;
   if (old != nullptr && old[0] != '\0') value += std::string(":") + old;
-  ::setenv("LD_PRELOAD", value.c_str(), 1);
+  ::setenv("LD_PRELOAD", value.c_str(), 1);  // NOLINT(concurrency-mt-unsafe)
   std::vector<char*> args(argv, argv + argc);
   args.push_back(nullptr);
   ::execv("/proc/self/exe", args.data());
@@ -394,7 +397,7 @@ UmockdevGpioTestbed::UmockdevGpioTestbed(const GpioChipSpec& spec)
     if (s.master_fd < 0 || n <= 0) fail("no PTY behind " + s.node);
     // The real /dev/pts path: not in the testbed, so not emulated.
     s.direct_fd = ::open(target, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-    if (s.direct_fd < 0) fail(std::string("open ") + target + ": " + std::strerror(errno));
+    if (s.direct_fd < 0) fail(std::string("open ") + target + ": " + system_reason(errno));
   }
 }
 
