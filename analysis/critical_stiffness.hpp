@@ -15,6 +15,7 @@
 
 #include <Eigen/Dense>
 
+#include "analysis/verdict.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::analysis {
@@ -44,13 +45,24 @@ struct PhaseCrossover {
 };
 
 /// Frequencies in (0, pi/T] where H is real and negative: a log-spaced scan
-/// of sign changes of Im H from 1e-4/T to pi/T, each bisected to a relative
-/// 1e-13, plus the Nyquist frequency itself. If the phase is already below
-/// -180 deg at the first scan point (no damping: the crossover is at w -> 0)
-/// a crossover {0, ..., stiffness 0} is reported first.
-std::vector<PhaseCrossover> phase_crossovers(const DelayedZoh& sys, const Eigen::RowVectorXd& c);
+/// of sign changes of Im H from `lowest_rad_per_s` (default 1e-4/T) to pi/T,
+/// each bisected to a relative 1e-13, plus the Nyquist frequency itself. If
+/// the phase is already below -180 deg at the first scan point (no damping:
+/// the crossover is at w -> 0) a crossover {0, ..., stiffness 0} is reported first.
+std::vector<PhaseCrossover> phase_crossovers(const DelayedZoh& sys, const Eigen::RowVectorXd& c,
+                                             double lowest_rad_per_s = 0.0);
+
+/// Largest loop delay, in periods, whose phase the scan resolves: between
+/// two of its 6000 points z^-l turns by l * 0.0054 rad at Nyquist, which must
+/// stay well below pi for no sign change of Im H to slip between them.
+inline constexpr int max_delay_periods = 100;
 
 struct CriticalStiffness {
+  /// Empty when assessed; else why not (the plant's ZOH or H overflowed, or
+  /// no phase crossover was found: then no finite K_CR is known). The numbers
+  /// below mean nothing then.
+  NumericRecord numerics;
+  bool assessed() const noexcept { return numerics.clean(); }
   double k_cr = 0.0;                 ///< N/m: the spring is stable for 0 < K < k_cr
   double crossover_rad_per_s = 0.0;  ///< frequency of the oscillation at K = k_cr
   double crossover_hz = 0.0;
@@ -59,8 +71,14 @@ struct CriticalStiffness {
 
 /// K_CR of a pure spring on `plant` (motor-force input, position from
 /// `sensor`) sampled at T with total loop delay td >= 0 (eq. 23, 28, 30).
-/// Throws std::invalid_argument if T <= 0, td < 0, or H never crosses the
-/// negative real axis (then no finite stiffness limit was found).
+/// The scan starts at 1e-4/T, or at 1e-2 of the plant's slowest nonzero mode
+/// if that is lower (a light damping's corner b/m can lie below 1e-4/T at
+/// T = 1 us). K_CR = 0 (phase past -180 deg at the start) only for a plant
+/// with a double pole at s = 0 (no damping at all).
+/// Throws std::invalid_argument if T <= 0, td < 0 or td > max_delay_periods T
+/// (or either is not finite). Not assessed (see `numerics`) if H never
+/// crosses the negative real axis, the phase is past -180 deg at the start
+/// of a plant with damping, or a number on the way is not finite.
 CriticalStiffness critical_stiffness(const world::LinearPlant& plant, world::Sensor sensor, double period_s,
                                      double delay_s);
 

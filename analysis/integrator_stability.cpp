@@ -12,29 +12,40 @@ IntegratorVerdict analyze_integrator(const SpringScene& scene) {
       !std::isfinite(scene.inertia) || !(scene.period_s > 0.0) || !std::isfinite(scene.period_s)) {
     throw std::invalid_argument("spring scene needs k >= 0, J > 0, b >= 0, T > 0");
   }
-  world::ContinuousStateSpace sys;
-  sys.a = Eigen::MatrixXd::Zero(2, 2);
-  sys.a(0, 1) = 1.0;
-  sys.a(1, 0) = -scene.stiffness / scene.inertia;
-  sys.a(1, 1) = -scene.damping / scene.inertia;
-  sys.b = Eigen::MatrixXd::Zero(2, 1);
-  sys.b(1, 0) = 1.0 / scene.inertia;
-  const world::DiscreteStateSpace d = world::discretize(sys, scene.period_s, scene.integrator);
+  NumericRecord record;
+  const double k_over_j = scene.stiffness / scene.inertia;
+  const double b_over_j = scene.damping / scene.inertia;
+  const std::string over_j = " / " + short_number(scene.inertia);
+  record.check_finite("k / J = " + short_number(scene.stiffness) + over_j, k_over_j);
+  record.check_finite("b / J = " + short_number(scene.damping) + over_j, b_over_j);
+  const double wt = std::sqrt(k_over_j) * scene.period_s;
+  const double damping_t = b_over_j * scene.period_s;
 
   IntegratorVerdict v;
-  v.ad = d.ad;
-  const Eigen::EigenSolver<Eigen::Matrix2d> solver(v.ad, false);
-  for (Eigen::Index i = 0; i < 2; ++i) {
-    v.eigenvalues.push_back(solver.eigenvalues()(i));
-    v.eigenvalue_magnitude = std::max(v.eigenvalue_magnitude, std::abs(solver.eigenvalues()(i)));
+  v.ad.setConstant(std::numeric_limits<double>::quiet_NaN());
+  v.eigenvalue_magnitude = std::numeric_limits<double>::quiet_NaN();
+  if (record.clean()) {
+    world::ContinuousStateSpace sys;
+    sys.a = Eigen::MatrixXd::Zero(2, 2);
+    sys.a(0, 1) = 1.0;
+    sys.a(1, 0) = -k_over_j;
+    sys.a(1, 1) = -b_over_j;
+    sys.b = Eigen::MatrixXd::Zero(2, 1);
+    sys.b(1, 0) = 1.0 / scene.inertia;
+    v.ad = world::discretize(sys, scene.period_s, scene.integrator).ad;
+    const Spectrum s = spectrum("the discrete state matrix Ad", v.ad, record);
+    v.eigenvalues = s.eigenvalues;
+    v.eigenvalue_magnitude = s.radius;
   }
-  const double wt = std::sqrt(scene.stiffness / scene.inertia) * scene.period_s;
-  const double damping_t = scene.damping / scene.inertia * scene.period_s;
   v.tolerance = marginal_tolerance + 64.0 * std::numeric_limits<double>::epsilon() * (wt + damping_t);
-  v.stable = v.eigenvalue_magnitude <= 1.0 + v.tolerance;
-  v.marginal = std::abs(v.eigenvalue_magnitude - 1.0) <= v.tolerance;
-  v.growth_per_second = std::pow(v.eigenvalue_magnitude, 1.0 / scene.period_s);
-  v.growth_per_second_log10 = std::log10(v.eigenvalue_magnitude) / scene.period_s;
+  v.verdict = judge_radius(v.eigenvalue_magnitude, v.tolerance, scene.period_s, record,
+                           "w_n T = " + short_number(wt) + ", b T / J = " + short_number(damping_t));
+  if (v.verdict.assessed()) {
+    v.growth_per_second = std::pow(v.eigenvalue_magnitude, 1.0 / scene.period_s);
+    v.growth_per_second_log10 = std::log10(v.eigenvalue_magnitude) / scene.period_s;
+  } else {
+    v.growth_per_second = v.growth_per_second_log10 = std::numeric_limits<double>::quiet_NaN();
+  }
   return v;
 }
 

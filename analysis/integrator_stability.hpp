@@ -11,6 +11,7 @@
 
 #include <Eigen/Dense>
 
+#include "analysis/verdict.hpp"
 #include "world/integrator.hpp"
 
 namespace hapticd::analysis {
@@ -27,16 +28,21 @@ struct SpringScene {
 /// when w T is small; it grows with the rounding of the discretization,
 /// 64 eps (w T + b T / J), so that an exact ZOH at w T = 3e5 (|lambda| - 1 =
 /// 1e-12 from rounding) is not called unstable. Real instabilities are far
-/// larger there: forward Euler's |lambda| - 1 is about (w T)^2 / 2.
+/// larger there: forward Euler's |lambda| - 1 is about (w T)^2 / 2. Where the
+/// tolerance passes max_radius_tolerance (w T + b T / J > 7e6) a radius near
+/// 1 cannot be assessed (verdict.hpp): e.g. the exact ZOH of k = 1e20,
+/// J = 0.0258 at T = 1 ms, w_n T = 6e7.
 inline constexpr double marginal_tolerance = 1e-12;
 
 struct IntegratorVerdict {
-  Eigen::Matrix2d ad;                             ///< discrete state matrix
+  Eigen::Matrix2d ad;                             ///< discrete state matrix (NaN if not computable)
   std::vector<std::complex<double>> eigenvalues;  ///< of ad
   double eigenvalue_magnitude = 0.0;              ///< max |lambda|
   double tolerance = 0.0;                         ///< on |lambda| - 1, see marginal_tolerance
-  bool stable = false;                            ///< max |lambda| <= 1 + tolerance
-  bool marginal = false;  ///< | max |lambda| - 1 | <= tolerance (neither grows nor decays)
+  Verdict
+      verdict;  ///< from judge_radius: cannot_assess when k/J, b/J, Ad or lambda overflow or w T is too large
+  bool stable() const noexcept { return verdict.stable(); }      ///< max |lambda| <= 1 + tolerance
+  bool marginal() const noexcept { return verdict.marginal(); }  ///< | max |lambda| - 1 | <= tolerance
   double growth_per_second =
       0.0;  ///< max|lambda|^(1/T): free-oscillation amplitude factor per second (may be inf)
   double growth_per_second_log10 = 0.0;  ///< log10(max|lambda|) / T: finite even when the factor overflows

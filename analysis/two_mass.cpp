@@ -37,6 +37,12 @@ ResonanceParameters resonance_parameters(const world::TwoMassPlant& p) {
   r.z_n = r.z_1 + r.z_2 - b / m;
   r.q = p.motor_mass * r.z_n * r.omega_n;
   r.q_db = 20.0 * std::log10(r.q);
+  r.numerics.check_finite("omega_1 = sqrt(k_c / m_m)", r.omega_1);
+  r.numerics.check_finite("omega_2 = sqrt(k_c / m_d)", r.omega_2);
+  r.numerics.check_finite("omega_n = sqrt(k_c m / (m_d m_m))", r.omega_n);
+  r.numerics.check_finite("z_n = z_1 + z_2 - b / m", r.z_n);
+  r.numerics.check_finite("Q = m_m z_n omega_n", r.q);
+  r.numerics.check_finite("20 log10(Q)", r.q_db);
   return r;
 }
 
@@ -60,7 +66,9 @@ std::complex<double> motor_transfer(const world::TwoMassPlant& p, std::complex<d
 }
 
 std::optional<ResonantPeak> resonant_peak(const world::TwoMassPlant& p) {
-  const double wn = resonance_parameters(p).omega_n;
+  const ResonanceParameters modes = resonance_parameters(p);
+  if (!modes.assessed()) return std::nullopt;
+  const double wn = modes.omega_n;
   const double lo = 0.5 * wn, hi = 2.0 * wn;
   auto neg_mag = [&](double w) { return -std::abs(motor_transfer(p, {0.0, w})); };
   const Minimum m = grid_then_golden(neg_mag, lo, hi, 200, 1e-9 * wn);
@@ -70,7 +78,13 @@ std::optional<ResonantPeak> resonant_peak(const world::TwoMassPlant& p) {
   peak.omega_rad_per_s = m.x;
   peak.distance = -1.0 / m.value;
   peak.distance_db = 20.0 * std::log10(peak.distance);
+  if (!std::isfinite(peak.distance_db)) return std::nullopt;
   return peak;
+}
+
+std::optional<bool> rigid_model_suffices(const ResonanceParameters& modes, const CriticalStiffness& k) {
+  if (!modes.assessed() || !k.assessed()) return std::nullopt;
+  return modes.q >= k.k_cr;
 }
 
 }  // namespace hapticd::analysis

@@ -5,13 +5,18 @@
 #include <complex>
 #include <optional>
 
+#include "analysis/critical_stiffness.hpp"
 #include "analysis/polynomial.hpp"
+#include "analysis/verdict.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::analysis {
 
 /// Eq. (11)-(16) and the resonance distance estimate of eq. (24).
 struct ResonanceParameters {
+  /// Clean unless a parameter below overflowed or is NaN (e.g. k_c m in omega_n).
+  NumericRecord numerics;
+  bool assessed() const noexcept { return numerics.clean(); }
   double omega_1 = 0.0;  ///< sqrt(k_c / m_m), rad/s (11)
   double omega_2 = 0.0;  ///< sqrt(k_c / m_d) (12)
   double omega_n = 0.0;  ///< sqrt(k_c m / (m_d m_m)) (13)
@@ -41,7 +46,13 @@ struct ResonantPeak {
   double distance_db = 0.0;  ///< 20 log10(distance)
 };
 /// Golden-section maximum of |G_m(j w)| on [omega_n/2, 2 omega_n]; nothing if
-/// the maximum sits on the bracket's edge (mode too damped to peak).
+/// the maximum sits on the bracket's edge (mode too damped to peak) or the
+/// numbers are not finite.
 std::optional<ResonantPeak> resonant_peak(const world::TwoMassPlant& plant);
+
+/// Diaz & Gil after eq. (24): the rigid model suffices at this delay while
+/// Q >= K_CR (the cable mode lies above the loop's gain margin). Nothing
+/// unless both were assessed: no comparison with a number that overflowed.
+std::optional<bool> rigid_model_suffices(const ResonanceParameters& modes, const CriticalStiffness& k);
 
 }  // namespace hapticd::analysis

@@ -209,14 +209,32 @@ WallVerdict analyze_wall(double mass_kg, double period_s, int delay_samples,
   v.damping = b;
   v.alpha = normalized_stiffness(k, mass_kg, period_s);
   v.beta = normalized_damping(b, mass_kg, period_s);
-  if (v.alpha == 0.0) {
-    // The drift root z = 1 is not an instability of the wall: divide it out.
-    v.pole_radius = root_radius(add_scaled(reduced_mass_term(delay_samples), v.beta, reduced_damping_term));
-    v.stable = v.beta == 0.0 || v.pole_radius < 1.0;  // no feedback at all is harmless
-  } else {
-    v.pole_radius = pole_radius(v.alpha, v.beta, delay_samples);
-    v.stable = v.pole_radius < 1.0;
+  NumericRecord record;
+  record.check_finite("alpha = K T^2 / m", v.alpha);
+  record.check_finite("beta = B T / m", v.beta);
+  // Companion-matrix roots are exact for coefficients perturbed by eps times
+  // their norm: past 1e-7 of the mass term's 2 they no longer describe the device.
+  const auto rounding = [](double sum) {
+    return 32.0 * std::numeric_limits<double>::epsilon() * (2.0 + sum);
+  };
+  const auto resolvable = [&](double sum) {
+    return std::isfinite(sum) && rounding(sum) <= max_radius_tolerance;
+  };
+  record.require(resolvable(v.alpha + v.beta),
+                 "alpha = " + short_number(v.alpha) + ", beta = " + short_number(v.beta) +
+                     ": the mass term 2 z^(1+d) (z-1)^2 of Hulin eq. (3) is lost in their rounding");
+  v.pole_radius = std::numeric_limits<double>::quiet_NaN();
+  if (record.clean()) {
+    // alpha = 0: the drift root z = 1 is not an instability of the wall: divide it out.
+    const Polynomial p = v.alpha == 0.0
+                             ? add_scaled(reduced_mass_term(delay_samples), v.beta, reduced_damping_term)
+                             : wall_characteristic_polynomial(v.alpha, v.beta, delay_samples);
+    const auto poles = roots(p);
+    record.check_finite("the roots of Hulin eq. (3)", poles);
+    v.pole_radius = 0.0;
+    for (const auto& z : poles) v.pole_radius = std::max(v.pole_radius, std::abs(z));
   }
+  v.verdict = judge_radius(v.pole_radius, rounding(v.alpha + v.beta), period_s, record);
   const BoundaryPoint top = max_stiffness_point(delay_samples);
   v.alpha_max = top.alpha;
   v.beta_at_alpha_max = top.beta;
@@ -224,17 +242,27 @@ WallVerdict analyze_wall(double mass_kg, double period_s, int delay_samples,
   v.b_at_k_max = physical_damping(top.beta, mass_kg, period_s);
   v.beta_max_at_zero_stiffness = beta_max_at_zero_stiffness(delay_samples);
   v.b_max_at_zero_stiffness = physical_damping(v.beta_max_at_zero_stiffness, mass_kg, period_s);
-  v.alpha_max_for_damping = alpha_max(v.beta, delay_samples);
-  v.k_max_for_damping = physical_stiffness(v.alpha_max_for_damping, mass_kg, period_s);
-  if (const auto range = stable_damping_range(v.alpha, delay_samples)) {
-    v.damping_range = Interval{physical_damping(range->lower, mass_kg, period_s),
-                               physical_damping(range->upper, mass_kg, period_s)};
+  // The limits at the requested damping (stiffness) only where its own term is resolvable.
+  if (resolvable(v.beta)) {
+    v.alpha_max_for_damping = alpha_max(v.beta, delay_samples);
+    v.k_max_for_damping = physical_stiffness(v.alpha_max_for_damping, mass_kg, period_s);
+  }
+  if (resolvable(v.alpha)) {
+    if (const auto range = stable_damping_range(v.alpha, delay_samples)) {
+      v.damping_range = Interval{physical_damping(range->lower, mass_kg, period_s),
+                                 physical_damping(range->upper, mass_kg, period_s)};
+    }
   }
   return v;
 }
 
 std::string refusal_message(const WallVerdict& v) {
-  if (v.stable) return {};
+  if (v.stable()) return {};
+  if (!v.verdict.assessed()) {
+    return "K = " + format_number(v.stiffness) + " N/m with B = " + format_number(v.damping) +
+           " N s/m on m = " + format_number(v.mass_kg) + " kg, T = " + format_period(v.period_s) +
+           " cannot be assessed: " + v.verdict.reason;
+  }
   std::string s = "K = " + format_number(v.stiffness) + " N/m with B = " + format_number(v.damping) +
                   " N s/m is outside the stable region for m = " + format_number(v.mass_kg) +
                   " kg, T = " + format_period(v.period_s) + ", d = " + std::to_string(v.delay_samples) +

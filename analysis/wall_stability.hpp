@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "analysis/polynomial.hpp"
+#include "analysis/verdict.hpp"
 
 namespace hapticd::analysis {
 
@@ -99,9 +100,13 @@ struct WallVerdict {
   double damping = 0.0;    ///< B, N s/m
   double alpha = 0.0;
   double beta = 0.0;
-  bool stable = false;
-  double pole_radius = 0.0;
-  double alpha_max = 0.0;  ///< Remark 2 maximum over all damping
+  /// judge_radius on the roots of eq. (3), to +-32 eps (2 + alpha + beta) (the
+  /// companion matrix's rounding relative to the mass term's 2): cannot_assess
+  /// when alpha or beta overflow or swamp the mass term (alpha + beta > 3e6).
+  Verdict verdict;
+  bool stable() const noexcept { return verdict.stable(); }
+  double pole_radius = 0.0;  ///< NaN when not assessed
+  double alpha_max = 0.0;    ///< Remark 2 maximum over all damping
   double beta_at_alpha_max = 0.0;
   double k_max = 0.0;       ///< N/m
   double b_at_k_max = 0.0;  ///< N s/m
@@ -117,8 +122,8 @@ struct WallVerdict {
 WallVerdict analyze_wall(double mass_kg, double period_s, int delay_samples,
                          std::optional<double> stiffness_n_per_m, std::optional<double> damping_n_s_per_m);
 
-/// One sentence saying why the request is refused and what would hold;
-/// empty if the verdict is stable.
+/// One sentence saying why the request is refused and what would hold (or,
+/// for cannot_assess, why no verdict was possible); empty if the verdict is stable.
 std::string refusal_message(const WallVerdict& verdict);
 
 }  // namespace hapticd::analysis

@@ -4,8 +4,14 @@
 #include <cstdio>
 
 #include "cli/analyze.hpp"
+#include "cli/arguments.hpp"
 
 namespace hapticd::cli {
+
+double period_flag(const std::string& text) {
+  return duration_within("--period", text, min_period_s, max_period_s,
+                         "a duration from 1 us to 1 s such as 1ms, 250us or 0.001s");
+}
 
 std::string fmt(double value) {
   char buffer[32];

@@ -9,6 +9,13 @@
 
 namespace hapticd::cli {
 
+/// Every analysis takes sampling periods from 1 us to 1 s: shorter or longer
+/// ones are typos (1e-300, 1e308), not haptic loops.
+inline constexpr double min_period_s = 1e-6;
+inline constexpr double max_period_s = 1.0;
+/// --period within that range; a UsageError naming it otherwise.
+double period_flag(const std::string& text);
+
 /// Numbers with 6 significant digits, for humans (--json prints full precision).
 std::string fmt(double value);
 /// 0.001 -> "1 ms", 2.5e-4 -> "250 us".

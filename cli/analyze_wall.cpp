@@ -7,6 +7,7 @@
 #include "analysis/wall_stability.hpp"
 #include "cli/analyze_common.hpp"
 #include "cli/arguments.hpp"
+#include "cli/usage_error.hpp"
 
 namespace hapticd::cli {
 
@@ -14,15 +15,24 @@ namespace {
 
 struct WallArgs {
   std::string mass, period, delay, stiffness, damping;
+  CLI::Option* stiffness_flag = nullptr;  ///< given at all (an empty value is an error, not "absent")
+  CLI::Option* damping_flag = nullptr;
   bool json = false;
 };
 
+std::optional<double> optional_flag(const CLI::Option* flag, const std::string& text, std::string_view unit) {
+  if (flag->count() == 0) return std::nullopt;
+  return non_negative_number(flag->get_name(), text, unit);
+}
+
+void print_wall(const analysis::WallVerdict& v, bool have_point, bool have_stiffness);
+
 void run_wall(const WallArgs& a) {
   const double mass = positive_number("--mass", a.mass, "kg");
-  const double period = positive_duration("--period", a.period);
+  const double period = period_flag(a.period);
   const int delay = whole_number("--delay", a.delay, 0, 64);
-  const auto stiffness = optional_non_negative("--stiffness", a.stiffness, "N/m");
-  const auto damping = optional_non_negative("--damping", a.damping, "N s/m");
+  const auto stiffness = optional_flag(a.stiffness_flag, a.stiffness, "N/m");
+  const auto damping = optional_flag(a.damping_flag, a.damping, "N s/m");
   const analysis::WallVerdict v = analysis::analyze_wall(mass, period, delay, stiffness, damping);
 
   nlohmann::json out{{"mass", mass},
@@ -37,14 +47,18 @@ void run_wall(const WallArgs& a) {
                      {"beta_max_at_zero_stiffness", v.beta_max_at_zero_stiffness},
                      {"b_max_at_zero_stiffness", v.b_max_at_zero_stiffness}};
   const bool have_point = stiffness.has_value() || damping.has_value();
+  const bool assessed = !have_point || v.verdict.assessed();
   if (have_point) {
     out["stiffness"] = v.stiffness;
     out["damping"] = v.damping;
-    out["stable"] = v.stable;
-    out["pole_radius"] = v.pole_radius;
+    out["verdict"] = analysis::to_string(v.verdict.state);
+    out["reason"] = assessed ? nlohmann::json(nullptr) : nlohmann::json(v.verdict.reason);
+    out["stable"] = v.stable();
+    out["pole_radius"] = assessed ? nlohmann::json(v.pole_radius) : nlohmann::json(nullptr);
     out["alpha_max_for_damping"] = v.alpha_max_for_damping;
     out["k_max_for_damping"] = v.k_max_for_damping;
   } else {
+    out["verdict"] = nullptr;
     out["stable"] = nullptr;
   }
   if (stiffness) {
@@ -54,19 +68,30 @@ void run_wall(const WallArgs& a) {
   }
   if (a.json) {
     std::cout << out.dump(2) << "\n";
-    return;
+  } else {
+    print_wall(v, have_point, stiffness.has_value());
   }
+  if (!assessed) throw CannotAssess(v.verdict.reason);
+}
+
+void print_wall(const analysis::WallVerdict& v, bool have_point, bool have_stiffness) {
+  const double mass = v.mass_kg, period = v.period_s;
+  const int delay = v.delay_samples;
   Table t;
   t.row("device", fmt(mass) + " kg, T = " + fmt_duration(period) + ", d = " + std::to_string(delay));
   if (have_point) {
     t.row("wall", "K = " + fmt(v.stiffness) + " N/m, B = " + fmt(v.damping) + " N s/m");
     t.row("normalized", "alpha = " + fmt(v.alpha) + ", beta = " + fmt(v.beta) + "  (Hulin eq. 2)");
-    t.row("verdict", v.stable ? "stable" : "UNSTABLE");
-    t.row("pole radius", fmt(v.pole_radius));
-    t.row("largest K at this B",
-          fmt(v.k_max_for_damping) + " N/m (alpha = " + fmt(v.alpha_max_for_damping) + ")");
+    if (v.verdict.assessed()) {
+      t.row("verdict", v.stable() ? "stable" : "UNSTABLE");
+      t.row("pole radius", fmt(v.pole_radius));
+      t.row("largest K at this B",
+            fmt(v.k_max_for_damping) + " N/m (alpha = " + fmt(v.alpha_max_for_damping) + ")");
+    } else {
+      t.row("verdict", "cannot assess (see below)");
+    }
   }
-  if (stiffness) {
+  if (have_stiffness) {
     t.row("stable B range",
           v.damping_range ? fmt(v.damping_range->lower) + " .. " + fmt(v.damping_range->upper) + " N s/m"
                           : std::string("none: no damping makes this K stable"));
@@ -75,7 +100,7 @@ void run_wall(const WallArgs& a) {
                          fmt(v.alpha_max) + ", beta = " + fmt(v.beta_at_alpha_max) + ")");
   t.row("largest B at K = 0",
         fmt(v.b_max_at_zero_stiffness) + " N s/m (beta = " + fmt(v.beta_max_at_zero_stiffness) + ")");
-  if (have_point && !v.stable) t.row("why", analysis::refusal_message(v));
+  if (have_point && v.verdict.assessed() && !v.stable()) t.row("why", analysis::refusal_message(v));
   t.print(std::cout);
 }
 
@@ -105,17 +130,17 @@ void add_analyze_wall(CLI::App& analyze) {
   auto* wall = analyze.add_subcommand(
       "wall", "Virtual wall on a rigid mass (Hulin eq. 1-4): stability region, limits");
   wall->add_option("--mass", args->mass, "device mass, kg")->required();
-  wall->add_option("--period", args->period, "sampling period (s, ms, us)")->required();
-  wall->add_option("--delay", args->delay, "output delay d, whole samples >= 0")->required();
-  wall->add_option("--stiffness", args->stiffness, "wall stiffness K, N/m");
-  wall->add_option("--damping", args->damping, "wall damping B, N s/m");
+  wall->add_option("--period", args->period, "sampling period, 1 us to 1 s (s, ms, us)")->required();
+  wall->add_option("--delay", args->delay, "output delay d, whole samples 0 to 64")->required();
+  args->stiffness_flag = wall->add_option("--stiffness", args->stiffness, "wall stiffness K, N/m");
+  args->damping_flag = wall->add_option("--damping", args->damping, "wall damping B, N s/m");
   wall->add_flag("--json", args->json, "print one JSON object");
   wall->callback([args] { run_wall(*args); });
 
   auto bargs = std::make_shared<BoundaryArgs>();
   auto* boundary =
       analyze.add_subcommand("boundary", "Points of the exact boundary alpha_max(beta) (Hulin Fig. 4-7)");
-  boundary->add_option("--delay", bargs->delay, "output delay d, whole samples >= 0")->required();
+  boundary->add_option("--delay", bargs->delay, "output delay d, whole samples 0 to 64")->required();
   boundary->add_option("--points", bargs->points, "number of points (default 50)");
   boundary->add_flag("--json", bargs->json, "print one JSON object");
   boundary->callback([bargs] { run_boundary(*bargs); });

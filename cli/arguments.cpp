@@ -41,6 +41,16 @@ double non_negative_duration(std::string_view flag, const std::string& text) {
   return *value;
 }
 
+double duration_within(std::string_view flag, const std::string& text, double min_s, double max_s,
+                       std::string_view expected) {
+  const auto value = world::units::parse_duration_s(text);
+  constexpr double slack = 1e-12;
+  if (!value || !(*value >= min_s * (1.0 - slack)) || !(*value <= max_s * (1.0 + slack))) {
+    reject(flag, text, expected);
+  }
+  return *value;
+}
+
 int whole_number(std::string_view flag, const std::string& text, int min, int max) {
   const auto value = world::units::parse_finite(text);
   if (!value || *value != std::floor(*value) || *value < min || *value > max) {

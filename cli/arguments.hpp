@@ -17,6 +17,11 @@ double non_negative_number(std::string_view flag, const std::string& text, std::
 double positive_duration(std::string_view flag, const std::string& text);
 /// Duration >= 0 with optional s/ms/us suffix, in seconds.
 double non_negative_duration(std::string_view flag, const std::string& text);
+/// Duration in [min_s, max_s] (to a relative 1e-12, so "1us" and "0.001ms"
+/// both reach 1e-6) with optional s/ms/us suffix, in seconds; `expected`
+/// says what is accepted ("a duration from 1 us to 1 s such as 1ms").
+double duration_within(std::string_view flag, const std::string& text, double min_s, double max_s,
+                       std::string_view expected);
 /// Whole number in [min, max].
 int whole_number(std::string_view flag, const std::string& text, int min, int max);
 

@@ -1,11 +1,13 @@
 // hapticctl: drive hapticd from the shell, and analyze stability offline.
-// Exit codes: 0 ok, 1 refused by the daemon, 2 bad usage, 3 daemon unreachable.
+// Exit codes: 0 ok, 1 refused by the daemon (or analyze cannot assess), 2 bad
+// usage, 3 daemon unreachable.
 
 #include <CLI/CLI.hpp>
 #include <iostream>
 #include <stdexcept>
 
 #include "cli/analyze.hpp"
+#include "cli/report.hpp"
 #include "cli/usage_error.hpp"
 #include "cli/verbs.hpp"
 
@@ -15,8 +17,12 @@ int main(int argc, char** argv) {
   hapticctl::CommonOptions options;
   hapticctl::add_daemon_commands(app, options);
   hapticd::cli::add_analyze_command(app);
+  hapticd::cli::add_report_command(app);
   try {
     return hapticctl::run(app, argc, argv);
+  } catch (const hapticd::cli::CannotAssess& e) {
+    std::cerr << "hapticctl: cannot assess: " << e.what() << "\n";
+    return hapticd::cli::exit_refused;
   } catch (const hapticd::cli::UsageError& e) {
     std::cerr << "hapticctl: " << e.what() << "\n";
     return hapticd::cli::exit_usage;

@@ -63,8 +63,9 @@ void add_stream_command(CLI::App& app,
 void add_hand_command(CLI::App& app, CommonOptions& opts);  ///< hand [MODE] [key=value ...]
 void add_fault_command(CLI::App& app,
                        CommonOptions& opts);  ///< fault inject KIND [key=value ...] | fault clear
-void add_estop_command(CLI::App& app, CommonOptions& opts);  ///< estop
-void add_stats_command(CLI::App& app, CommonOptions& opts);  ///< stats
+void add_estop_command(CLI::App& app, CommonOptions& opts);   ///< estop
+void add_stats_command(CLI::App& app, CommonOptions& opts);   ///< stats
+void add_device_command(CLI::App& app, CommonOptions& opts);  ///< device [describe] | device call METHOD ...
 
 /// All of the above, plus the common options on `app`, in one call.
 void add_daemon_commands(CLI::App& app, CommonOptions& opts);

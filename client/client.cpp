@@ -143,6 +143,11 @@ std::optional<nlohmann::json> Client::next_message(Clock::time_point deadline) {
       std::string line = inbuf_.substr(0, nl);
       inbuf_.erase(0, nl + 1);
       if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      if (rpc::nests_deeper_than(line, rpc::max_nesting_depth)) {
+        // Not parsed: printing or comparing a deeper tree recurses per level.
+        throw ProtocolError("hapticd at " + path_ + " sent a line nesting arrays and objects more than " +
+                            std::to_string(rpc::max_nesting_depth) + " levels deep");
+      }
       auto msg = nlohmann::json::parse(line, nullptr, false);
       if (msg.is_discarded() || !msg.is_object()) {
         throw ProtocolError("hapticd at " + path_ +

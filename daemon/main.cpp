@@ -8,19 +8,36 @@
 #include "daemon/config/config.hpp"
 #include "daemon/service.hpp"
 #include "daemon/version.hpp"
-#include "drivers/loopback/loopback_config.hpp"
+#include "drivers/registry.hpp"
 #include "world/scene_catalog.hpp"
 #include "world/units.hpp"
 
 namespace {
 
-void list_drivers() {
-  std::cout << "loopback: simulated plant (rigid or two-mass), scripted hand, fault injection\n";
-  for (const auto& p : hapticd::drivers::loopback::loopback_parameters()) {
-    std::cout << "  " << p.name << " (" << p.type << (p.unit.empty() ? "" : ", " + p.unit) << ", default "
-              << p.default_value << "): " << p.help << "\n";
+/// Every driver from the registry, as text, JSON or the markdown reference page.
+void list_drivers(const std::string& format) {
+  namespace drivers = hapticd::drivers;
+  if (format == "json") {
+    nlohmann::json all = nlohmann::json::array();
+    for (const auto& d : drivers::driver_registry()) all.push_back(drivers::to_json(d));
+    std::cout << all.dump(2) << "\n";
+    return;
   }
-  std::cout << "usb-hid, canopen, modbus, gpio: not built in this version\n";
+  if (format == "markdown") {
+    std::cout << drivers::to_markdown(drivers::driver_registry());
+    return;
+  }
+  for (const auto& d : drivers::driver_registry()) {
+    std::cout << d.name << (d.ready ? "" : " (planned: not built in this version)") << ": " << d.summary
+              << "\n";
+    for (const auto& p : d.parameters) {
+      std::string def = p.default_value ? drivers::to_text(*p.default_value)
+                                        : (p.type == drivers::ParameterType::table ? "-" : "required");
+      if (!p.default_note.empty()) def += " (" + p.default_note + ")";
+      std::cout << "  " << p.name << ": " << drivers::accepted_text(p) << "; default " << def << ". "
+                << p.help << "\n";
+    }
+  }
 }
 
 void list_scenes() {
@@ -41,6 +58,7 @@ int main(int argc, char** argv) {
   bool require_rt = false;
   bool check_config = false;
   bool show_drivers = false;
+  std::string drivers_format = "text";
   bool show_scenes = false;
   bool show_version = false;
   std::string clock;
@@ -55,7 +73,11 @@ int main(int argc, char** argv) {
                  "record from the first cycle to this file name in the recording directory");
   app.add_option("--socket", socket, "control socket path");
   app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
-  app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters");
+  app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters (ready or planned)");
+  app.add_option("--format", drivers_format, "--list-drivers output: text, json or markdown")
+      ->check(CLI::IsMember({"text", "json", "markdown"}));
+  bool drivers_json = false;
+  app.add_flag("--json", drivers_json, "--list-drivers as JSON (same as --format json)");
   app.add_flag("--list-scenes", show_scenes, "list scenes and their parameters");
   app.add_flag("--version", show_version, "print the version");
   try {
@@ -70,7 +92,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (show_drivers) {
-    list_drivers();
+    list_drivers(drivers_json ? "json" : drivers_format);
     return 0;
   }
   if (show_scenes) {
@@ -113,7 +135,10 @@ int main(int argc, char** argv) {
       }
       loop.duration_s = *d;
     }
-    if (!socket.empty()) options.config.control.socket = socket;
+    if (!socket.empty()) {
+      options.config.control.socket = socket;
+      options.config.control.socket_where = {"--socket", 0, 0};  // errors name the flag, not the file
+    }
     options.record_name = record;
     hapticd::daemon::Service service(std::move(options));
     if (check_config) {
@@ -121,6 +146,9 @@ int main(int argc, char** argv) {
       return 0;
     }
     return service.run();
+  } catch (const hapticd::drivers::DeviceError& e) {
+    std::cerr << "hapticd: device: " << e.what() << "\n";
+    return 1;
   } catch (const hapticd::daemon::config::ConfigError& e) {
     std::cerr << "hapticd: " << e.what() << "\n";
     return 2;

@@ -1,10 +1,11 @@
 #pragma once
 /// \file
-/// Off-RT planning of a scene for the device at hand: validate the parameters
-/// (world/scene_catalog), then check numerical and closed-loop stability
-/// (analysis/) with the device's mass or inertia, period and delay, before
-/// anything reaches the RT thread. Unstable sets are refused with the limit
-/// that would have held, unless forced (to show an instability on purpose).
+/// Off-RT planning of a scene for the device at hand, before anything reaches
+/// the RT thread: the stability gate of analysis/stability_gate.hpp (validate
+/// the parameters, check numerical and closed-loop stability with the
+/// device's mass or inertia, period and delay; refuse unstable sets with the
+/// limit that would have held, unless forced), on the driver's DeviceModel,
+/// with the answers in the protocol's JSON.
 
 #include <string>
 #include <string_view>
@@ -12,41 +13,33 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/stability_gate.hpp"
 #include "drivers/device.hpp"
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::drivers::loopback {
-class LoopbackDevice;
-}
-
 namespace hapticd::daemon {
 
-/// What the stability checks know about the device.
+/// What the stability checks know about the device, at the loop's period.
 struct DeviceModel {
-  drivers::DeviceInfo info;
-  world::LinearPlant plant;  ///< rigid from info, or the loopback's two-mass model
+  drivers::DeviceModel info;  ///< what the driver says (mass, damping, delay, optional plant)
+  world::LinearPlant plant;   ///< info.plant, or the rigid mass with its viscous damping
   world::Sensor sensor = world::Sensor::motor;
   double period_s = 1e-3;
   world::Motion motion() const noexcept {
     return info.motion == drivers::Motion::rotary ? world::Motion::rotary : world::Motion::linear;
   }
+  /// The same device as the stability gate (analysis/stability_gate.hpp) sees it.
+  analysis::GateDevice gate() const;
   /// "J = 0.01 kg m^2, b = 0 N m s/rad, T = 1 ms, d = 0" (or m = ... kg for a linear device).
   std::string describe() const;
 };
 
-DeviceModel make_device_model(const drivers::Device& device,
-                              const drivers::loopback::LoopbackDevice* loopback, double period_s);
+/// The model of a configured device for the gate.
+DeviceModel make_device_model(const drivers::Device& device, double period_s);
 
 /// The verdict that goes with a plan, reported to clients and recordings.
-struct StabilityVerdict {
-  bool checked = false;  ///< false for scenes without a linear model (relay, free)
-  bool stable = true;
-  double scene_radius = 0.0;        ///< largest |eigenvalue| of the scene alone (device held)
-  double closed_loop_radius = 0.0;  ///< largest |pole| with the device released (worst case, Hulin 2)
-  double growth_per_second = 1.0;   ///< amplitude factor per second of the worst mode
-  std::string summary;              ///< one sentence
-};
+using StabilityVerdict = analysis::SceneStability;
 nlohmann::json to_json(const StabilityVerdict& verdict);
 
 struct PlannedScene {
@@ -59,6 +52,10 @@ struct PlanRefusal {
   bool invalid = false;  ///< bad parameters (vs. valid but unstable)
   std::string message;   ///< one line: what was wrong and what would be accepted or hold
   nlohmann::json data;   ///< e.g. {"limit": {"stiffness": ...}}
+  bool assessed = true;  ///< false: no stability verdict could be computed; force does not apply
+  /// The given parameter at fault (world::SceneError::parameter); empty when
+  /// the set as a whole is refused (unstable, or it cannot be built).
+  std::string parameter{};
 };
 
 using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
@@ -67,11 +64,12 @@ using PlanOutcome = std::variant<PlannedScene, PlanRefusal>;
 inline constexpr std::string_view force_over_rpc = "Send force=true (hapticctl --force)";
 inline constexpr std::string_view force_in_config = "Set force = true in [scene]";
 
-/// The refusal's message, plus for an unstable (not invalid) set how to load
-/// it anyway (`how`: force_over_rpc or force_in_config).
+/// The refusal's message, plus for an unstable (not invalid, assessed) set
+/// how to load it anyway (`how`: force_over_rpc or force_in_config).
 std::string refusal_text(const PlanRefusal& refusal, std::string_view how);
 
-/// Plans `scene` with `parameters` (missing ones take their defaults) for the device.
+/// Plans `scene` with `parameters` (missing ones take their defaults) for the
+/// device: analysis::gate_scene, with the refusal's limits as JSON.
 PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters,
                            const DeviceModel& device, bool force);
 

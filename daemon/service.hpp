@@ -1,8 +1,10 @@
 #pragma once
 /// \file
-/// hapticd as a whole: builds the device and the first scene from the
-/// config, runs the RT engine, the recorder and the control server, answers
-/// the JSON-RPC methods (docs/protocol.md), and shuts down safely on SIGTERM.
+/// hapticd as a whole: builds and configures the device and plans the first
+/// scene from the config, runs the RT engine, the recorder and the control
+/// server, answers the JSON-RPC methods (docs/protocol.md; one file per area
+/// in daemon/methods/, plus the methods the driver adds), and shuts down
+/// safely on SIGTERM: engine stop, device disable and close, recording flush.
 
 #include <cstdint>
 #include <memory>
@@ -42,8 +44,10 @@ struct CurrentScene {
 
 class Service {
  public:
-  /// Builds the device and plans the configured scene. Throws
-  /// config::ConfigError (file, line, key) on anything the config got wrong.
+  /// Builds and configures the device (the bus is open from here on) and
+  /// plans the configured scene. Throws config::ConfigError (file, line, key)
+  /// on anything the config got wrong, drivers::DeviceError when the device
+  /// cannot be configured.
   explicit Service(ServiceOptions options);
   ~Service();
   Service(const Service&) = delete;
@@ -57,17 +61,36 @@ class Service {
   std::string describe() const;
 
  private:
+  // run(), step by step.
+  void start_engine();
+  void start_recorder();
+  /// False if the loop could not start (the reason is printed).
+  bool start_loop(std::uint64_t initial_seq, CurrentScene first);
+  bool start_control();
+  int supervise();
+  void shutdown();
+
+  /// The one path from a requested scene to the loop: plan on this device,
+  /// refuse (with the limit) or publish and wait until it is in effect.
+  nlohmann::json plan_and_apply(const std::string& scene, const world::ParameterSet& requested, bool force);
   nlohmann::json apply(const PlannedScene& planned, const world::ParameterSet& requested);
   static CurrentScene scene_from(const PlannedScene& planned, const world::ParameterSet& requested);
   std::uint64_t publish(const PlannedScene& planned);  ///< returns the publication's sequence number
   void adopt(CurrentScene next);
+  CurrentScene current_scene() const;
   recorder::RecordingHeader header_for(const CurrentScene& scene) const;
+  std::string device_label() const;
+
+  // The control methods, one area per file in daemon/methods/.
   void register_methods(control::ControlServer& server);
+  void register_status_methods(control::ControlServer& server);
+  void register_scene_methods(control::ControlServer& server);
+  void register_record_methods(control::ControlServer& server);
+  void register_fault_methods(control::ControlServer& server);
+  void register_device_methods(control::ControlServer& server);
   nlohmann::json status() const;
   nlohmann::json stats() const;
   nlohmann::json sample_json(const TelemetrySample& sample, const std::vector<std::string>& wanted) const;
-  drivers::loopback::LoopbackDevice& loopback(const char* method) const;
-  void shutdown();
 
   ServiceOptions options_;
   BuiltDevice device_;

@@ -1,18 +1,32 @@
 #pragma once
 /// \file
-/// The device seam. The RT loop calls read() and write() once per period and
-/// nothing else; start() and stop() run outside the RT loop. Every driver
-/// lives in drivers/<kind>/ with its protocol notes and a simulated peer.
+/// The device seam (docs/drivers.md). A driver's life follows ros2_control's
+/// configure / activate and JACK2's open / start:
+///
+///   configure -> enable -> read/write once per period (RT) -> disable -> close
+///                  ^                         |
+///                  +---- clear_fault <-------+  (a latched device fault)
+///
+/// Everything but read() and write() runs outside the RT loop. Every driver
+/// lives in drivers/<kind>/ with its protocol note and a simulated peer.
 /// Units are SI: position in m (linear) or rad (rotary), force in N or N m.
 
 #include <cstdint>
+#include <functional>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "world/plant.hpp"
+
 namespace hapticd::drivers {
 
 enum class Motion { rotary, linear };
+std::string_view to_string(Motion motion) noexcept;  ///< "rotary", "linear"
 
 /// Result of one RT-side device call (ros2_control style return code).
 enum class IoResult : std::uint8_t {
@@ -26,49 +40,113 @@ struct Reading {
   double position = 0.0;  ///< m or rad, after encoder quantization
 };
 
-/// What a driver says about itself; filled outside the RT loop.
-struct DeviceInfo {
-  std::string driver;  ///< "loopback", "usb-hid", ...
+/// What the loop tells a driver at configure().
+struct LoopContext {
+  double period_s = 1e-3;
+};
+
+/// The model of the device the stability gate uses: from the config where
+/// the device cannot know it, from the device where it can, and from
+/// `hapticctl identify` once that exists. `source` says which.
+struct DeviceModel {
   Motion motion = Motion::rotary;
-  double effective_mass = 0.0;       ///< kg or kg m^2: what stability checks use
-  double viscous_damping = 0.0;      ///< N s/m or N m s/rad
+  double effective_mass = 0.0;       ///< kg or kg m^2
+  double viscous_damping = 0.0;      ///< N s/m or N m s/rad, to ground
   double position_resolution = 0.0;  ///< m or rad per count (0: continuous)
-  int inherent_delay_samples = 0;    ///< output delay the device adds, in periods
+  int delay_periods = 0;             ///< output delay the device adds (a synchronous CANopen RPDO: 1)
+  /// A richer linear model (e.g. the two-mass cable plant, Diaz & Gil eq.
+  /// 3-9); without it the gate uses the rigid mass with viscous damping.
+  std::optional<world::LinearPlant> plant;
+  world::Sensor sensor = world::Sensor::motor;  ///< where the position comes from (with `plant`)
+  std::string source = "config";                ///< "config", "device", "identified: <file>"
+  std::string description;  ///< a few words, e.g. "rotary, two-mass" or "Copley Accelnet, node 3"
 };
 
-/// A parameter a driver accepts (JACK2 style), so the CLI and the config can
-/// list them with their defaults and help.
-struct DriverParameter {
+enum class DeviceState { closed, configured, enabled, fault };
+std::string_view to_string(DeviceState state) noexcept;  ///< "closed", "configured", ...
+
+/// A driver-specific counter (late TPDOs, CRC errors, dropped frames ...).
+struct NamedCounter {
   std::string name;
-  std::string type;           ///< "number", "integer", "string", "bool"
-  std::string default_value;  ///< as it would be written in the TOML config
-  std::string unit;           ///< SI unit, empty if none
-  std::string help;
+  std::uint64_t value = 0;
 };
 
-/// Counters a driver keeps; read outside the RT loop (relaxed atomics or
-/// copies taken at a period boundary are the driver's business).
+/// Everything but the RT return codes (ros2_control: return codes plus a
+/// status struct). Read from non-RT threads at any time.
 struct DeviceStatus {
-  bool running = false;
+  DeviceState state = DeviceState::closed;
   std::uint64_t read_errors = 0;
   std::uint64_t write_errors = 0;
   std::uint64_t faults = 0;
-  std::string last_error;  ///< filled outside RT
+  std::string fault_reason;  ///< the device's own words ("EMCY 0x2310: over current"); "" if none
+  std::string last_error;
+  std::vector<NamedCounter> counters;
+};
+
+/// A non-RT lifecycle step failed: one line, with the figure ("3 frames =
+/// 0.39 ms at 500 kbit/s: a 250 us period needs 1 Mbit/s"). key() names the
+/// [device.<driver>] parameter to blame, if one is; the daemon turns it into
+/// that key's file:line:column.
+class DeviceError : public std::runtime_error {
+ public:
+  explicit DeviceError(const std::string& message, std::string key = {})
+      : std::runtime_error(message), key_(std::move(key)) {}
+  const std::string& key() const noexcept { return key_; }
+
+ private:
+  std::string key_;
+};
+
+/// A control-plane method a driver adds (the loopback's hand.set and
+/// fault.inject; a CANopen SDO read for commissioning). The handler runs on
+/// the control thread and throws rpc::RpcError for bad params.
+struct DeviceMethod {
+  std::string name;
+  bool needs_write = true;  ///< only writers may call it (else any reader)
+  std::string summary;
+  std::function<nlohmann::json(const nlohmann::json& params)> handler;
 };
 
 class Device {
  public:
   virtual ~Device() = default;
-  virtual DeviceInfo info() const = 0;
-  /// Open and enable (non-RT). Throws std::runtime_error with a clear message on failure.
-  virtual void start() = 0;
-  /// Zero the output and disable the amplifier (non-RT, also on every shutdown path).
-  virtual void stop() noexcept = 0;
-  /// RT: read the current position. No allocation, no locks.
+
+  // ---- non-RT lifecycle; each throws DeviceError, or std::logic_error when
+  // called out of order (a bug of the caller, not a device problem) ----
+
+  /// Open the bus, identify the device, read its identity and limits, check
+  /// the period against the link budget, arm the device's own watchdog.
+  /// read() is valid from here on; write() is refused until enable().
+  virtual void configure(const LoopContext& loop) = 0;
+  /// Power stage on, with zero output first.
+  virtual void enable() = 0;
+  /// Device-side reset (CiA 402 fault-reset edge, Modbus reset register,
+  /// board reset bit), then enable again. Runs on the control thread WHILE the
+  /// RT thread keeps calling read()/write() (the engine holds the output at
+  /// zero): hand the request over lock-free and wait, bounded, for the device
+  /// to confirm. Returns what it cleared on the device, in words ("" if it had
+  /// no fault); throws DeviceError if the device stays in fault.
+  virtual std::string clear_fault() = 0;
+  /// Output to zero, power stage off. Every exit path; idempotent; the RT
+  /// thread is no longer calling read()/write().
+  virtual void disable() noexcept = 0;
+  /// Release the bus (disable() first if needed). Idempotent.
+  virtual void close() noexcept = 0;
+
+  // ---- RT, once per period, from one thread: no allocation, lock, text, or
+  // syscall other than the device I/O; bounded well inside the period ----
+
   virtual IoResult read(Reading& out) noexcept = 0;
-  /// RT: command a force/torque for the coming period. No allocation, no locks.
+  /// Commands a force or torque for the coming period.
   virtual IoResult write(double force) noexcept = 0;
+
+  // ---- any non-RT thread ----
+
+  /// Valid after configure().
+  virtual DeviceModel model() const = 0;
   virtual DeviceStatus status() const = 0;
+  /// Control-plane methods of this driver (none by default).
+  virtual std::vector<DeviceMethod> methods() { return {}; }
 };
 
 }  // namespace hapticd::drivers

@@ -4,6 +4,7 @@
 /// stream socket (see docs/protocol.md). Header-only and shared by the server
 /// (daemon/control) and the client library (client/).
 
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -103,6 +104,40 @@ inline std::string to_line(const nlohmann::json& message) {
   std::string line = message.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   line.push_back('\n');
   return line;
+}
+
+/// Deepest nesting of arrays and objects accepted in one message, the
+/// message object itself being level 1 (docs/protocol.md, "Limits").
+/// nlohmann::json copies, compares and dumps a value by recursing once per
+/// level, so a line of 60,000 brackets would overflow the stack: both ends
+/// refuse deeper lines before parsing them.
+inline constexpr std::size_t max_nesting_depth = 64;
+
+/// True when `text` opens more than `limit` arrays/objects inside one
+/// another. Brackets inside strings do not count. One pass, no allocation;
+/// exact for valid JSON, and any text it passes holds no deeper nesting.
+constexpr bool nests_deeper_than(std::string_view text, std::size_t limit) noexcept {
+  std::size_t depth = 0;
+  bool in_string = false;
+  bool escaped = false;
+  for (const char ch : text) {
+    if (in_string) {
+      if (escaped) {
+        escaped = false;
+      } else if (ch == '\\') {
+        escaped = true;
+      } else if (ch == '"') {
+        in_string = false;
+      }
+    } else if (ch == '"') {
+      in_string = true;
+    } else if (ch == '[' || ch == '{') {
+      if (++depth > limit) return true;
+    } else if ((ch == ']' || ch == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return false;
 }
 
 /// The notification method name of stream telemetry.

@@ -11,9 +11,13 @@ packages=(
   libtomlplusplus-dev       # config files
   libsystemd-dev systemd   # sd_notify; systemd-analyze verify in the tests
   libgtest-dev libgmock-dev libbenchmark-dev
-  libusb-1.0-0-dev libmodbus-dev libgpiod-dev
-  umockdev libumockdev-dev # gpio-pwm tests: libgpiod against an emulated /dev/gpiochipN (LD_PRELOAD testbed)
+  # The drivers' libraries (every driver is always built), and umockdev:
+  # the USB and GPIO drivers are tested through libusb and libgpiod against
+  # emulated devices (DRIVERS.md).
+  libusb-1.0-0-dev libmodbus-dev libgpiod-dev umockdev libumockdev-dev
   rt-tests                 # cyclictest, the latency reference in bench/
+  libboost-dev             # Boost.Odeint: RK4 and dopri5 references in `hapticctl report accuracy`
+  gnuplot-nox              # draws the report figures (PNG, pngcairo terminal)
   clang-format clang-tidy
 )
 

@@ -10,7 +10,7 @@ declare -A allowed=(
   [analysis]="analysis world"
   [rt]="rt"
   [rpc]="rpc"
-  [drivers]="drivers rt world analysis"
+  [drivers]="drivers rt rpc world analysis"
   [client]="client rpc world"
   [cli]="cli client rpc world analysis"
 )

@@ -18,7 +18,7 @@ std::vector<std::string> integrator_list() {
 }
 
 ParameterDescription number(std::string name, std::string unit, std::string rotary_unit, double def,
-                            std::string help, std::optional<double> minimum, bool exclusive = false) {
+                            std::string help, std::optional<double> minimum, std::optional<double> maximum) {
   ParameterDescription p;
   p.name = std::move(name);
   p.type = ParameterType::number;
@@ -27,7 +27,7 @@ ParameterDescription number(std::string name, std::string unit, std::string rota
   p.default_value = def;
   p.help = std::move(help);
   p.minimum = minimum;
-  p.minimum_exclusive = exclusive;
+  p.maximum = maximum;
   return p;
 }
 
@@ -44,20 +44,22 @@ ParameterDescription enumeration(std::string name, std::string def, std::vector<
 
 std::vector<ParameterDescription> spring_parameters(bool rotary) {
   namespace d = scene_defaults;
+  namespace r = parameter_range;
   const std::string k_unit = rotary ? "N m/rad" : "N/m";
   const std::string b_unit = rotary ? "N m s/rad" : "N s/m";
   std::vector<ParameterDescription> out;
   out.push_back(number("stiffness", k_unit, k_unit, rotary ? d::wheel_stiffness : d::mass_stiffness,
-                       "spring k between device and virtual body", 0.0));
+                       "spring k between device and virtual body", 0.0, r::max_stiffness));
   if (rotary) {
-    out.push_back(
-        number("inertia", "kg m^2", "kg m^2", d::wheel_inertia, "virtual wheel inertia J_w", 0.0, true));
+    out.push_back(number("inertia", "kg m^2", "kg m^2", d::wheel_inertia, "virtual wheel inertia J_w",
+                         r::min_mass, r::max_mass));
   } else {
-    out.push_back(number("mass", "kg", "kg", d::mass_mass, "virtual mass m", 0.0, true));
+    out.push_back(number("mass", "kg", "kg", d::mass_mass, "virtual mass m", r::min_mass, r::max_mass));
   }
-  ParameterDescription damping = number(
-      "damping", b_unit, b_unit, 0.0,
-      "damper b; 'auto' = T k, which makes forward Euler a lossless oscillator (Freudenberg 2.24)", 0.0);
+  ParameterDescription damping =
+      number("damping", b_unit, b_unit, 0.0,
+             "damper b; 'auto' = T k, which makes forward Euler a lossless oscillator (Freudenberg 2.24)",
+             0.0, r::max_damping);
   damping.accepted = {"auto"};
   out.push_back(std::move(damping));
   out.push_back(enumeration("damping_reference", "relative", {"relative", "absolute"},
@@ -69,6 +71,7 @@ std::vector<ParameterDescription> spring_parameters(bool rotary) {
 
 std::vector<SceneDescription> build_catalog() {
   namespace d = scene_defaults;
+  namespace r = parameter_range;
   std::vector<SceneDescription> out;
   out.push_back({"spring-wheel", "Freudenberg 2.1-2.4, 2.16-2.24",
                  "virtual wheel J_w on a torsional spring k (and damper b) to the device",
@@ -81,10 +84,12 @@ std::vector<SceneDescription> build_catalog() {
                           "unilateral PD wall: F = -K (y - x_w) - B v while penetrating, delayed d samples",
                           {}};
     wall.parameters.push_back(
-        number("stiffness", "N/m", "N m/rad", d::wall_stiffness, "wall stiffness K", 0.0));
+        number("stiffness", "N/m", "N m/rad", d::wall_stiffness, "wall stiffness K", 0.0, r::max_stiffness));
     wall.parameters.push_back(number("damping", "N s/m", "N m s/rad", d::wall_damping,
-                                     "wall damping B on the backward-difference velocity", 0.0));
-    wall.parameters.push_back(number("position", "m", "rad", 0.0, "wall surface x_w", std::nullopt));
+                                     "wall damping B on the backward-difference velocity", 0.0,
+                                     r::max_damping));
+    wall.parameters.push_back(
+        number("position", "m", "rad", 0.0, "wall surface x_w", -r::max_position, r::max_position));
     wall.parameters.push_back(
         enumeration("side", "upper", {"upper", "lower"}, "upper: the wall occupies y > x_w; lower: y < x_w"));
     ParameterDescription delay;
@@ -103,9 +108,12 @@ std::vector<SceneDescription> build_catalog() {
                            "Diaz & Gil, section V (relay experiment)",
                            "F = -h sign(y - reference), optional hysteresis band",
                            {}};
-    relay.parameters.push_back(number("amplitude", "N", "N m", d::relay_amplitude, "relay amplitude h", 0.0));
-    relay.parameters.push_back(number("hysteresis", "m", "rad", 0.0, "hysteresis half-width eps", 0.0));
-    relay.parameters.push_back(number("reference", "m", "rad", 0.0, "reference position", std::nullopt));
+    relay.parameters.push_back(
+        number("amplitude", "N", "N m", d::relay_amplitude, "relay amplitude h", 0.0, r::max_force));
+    relay.parameters.push_back(
+        number("hysteresis", "m", "rad", 0.0, "hysteresis half-width eps", 0.0, r::max_position));
+    relay.parameters.push_back(
+        number("reference", "m", "rad", 0.0, "reference position", -r::max_position, r::max_position));
     out.push_back(std::move(relay));
   }
   out.push_back({"free", "Freudenberg 3 (released device)", "zero output", {}});
@@ -145,7 +153,7 @@ std::string accepted_text(const ParameterDescription& p, Motion motion) {
     case ParameterType::number: {
       std::string text = "a finite number";
       if (p.minimum) text += (p.minimum_exclusive ? " > " : " >= ") + format_number(*p.minimum);
-      if (p.maximum) text += " <= " + format_number(*p.maximum);
+      if (p.maximum) text += (p.minimum ? " and <= " : " <= ") + format_number(*p.maximum);
       if (!unit.empty()) text += " (" + unit + ")";
       for (const auto& word : p.accepted) text += " or " + word;
       return text;
@@ -352,7 +360,8 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
       std::vector<std::string> names;
       for (const auto& p : description->parameters) names.push_back(p.name);
       return SceneError{"unknown parameter '" + key + "' for scene " + description->name +
-                        "; accepted: " + (names.empty() ? std::string("none") : join(names))};
+                            "; accepted: " + (names.empty() ? std::string("none") : join(names)),
+                        key};
     }
   }
 
@@ -366,8 +375,8 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
     }
     auto canonical = validate(p, it->second);
     if (!canonical) {
-      return SceneError{p.name + ": " + format_value(it->second) + " is not accepted; " +
-                        accepted_text(p, motion)};
+      return SceneError{
+          p.name + ": " + format_value(it->second) + " is not accepted; " + accepted_text(p, motion), p.name};
     }
     plan.parameters[p.name] = std::move(*canonical);
   }

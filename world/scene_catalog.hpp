@@ -57,6 +57,8 @@ struct ChannelDescription {
 
 struct SceneError {
   std::string message;  ///< one line, names the bad parameter and what is accepted
+  /// The given parameter at fault; empty when no single one is (unknown scene, build failure).
+  std::string parameter{};
 };
 
 struct ScenePlan {
@@ -83,6 +85,20 @@ const std::vector<SceneDescription>& scene_catalog();
 const SceneDescription* find_scene(std::string_view name) noexcept;
 /// "spring-wheel, spring-mass, wall, relay, free"
 std::string scene_names();
+
+/// Accepted ranges of physical parameters: generous but finite, so that a
+/// typo (a 1e-300 kg mass, a 1e308 N s/m damper) is refused instead of
+/// overflowing the analysis or the scene. Shared by the scene catalog, the
+/// loopback driver and `hapticctl analyze`; docs/scenes.md and docs/config.md
+/// list them. Linear units; the same numbers on a rotary device (N m/rad, ...).
+namespace parameter_range {
+inline constexpr double max_stiffness = 1e9;  ///< N/m: a steel bar 1 cm^2 x 2 cm is 1e9 N/m
+inline constexpr double min_mass = 1e-9;      ///< kg (kg m^2): a microgram
+inline constexpr double max_mass = 1e6;       ///< kg (kg m^2): a thousand tonnes
+inline constexpr double max_damping = 1e6;    ///< N s/m
+inline constexpr double max_force = 1e6;      ///< N (N m)
+inline constexpr double max_position = 1e6;   ///< |x| in m (rad: ~160000 turns)
+}  // namespace parameter_range
 
 /// Named defaults, derived from the papers (computed, not typed in).
 namespace scene_defaults {

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <utility>
 
 namespace hapticd::world::units {
 
@@ -32,6 +33,18 @@ std::optional<double> parse_duration_s(std::string_view text) noexcept {
   const auto value = parse_finite(text);
   if (!value) return std::nullopt;
   return *value * scale;
+}
+
+std::string format_duration(double seconds) {
+  const double magnitude = std::abs(seconds);
+  const auto [scale, unit] = magnitude != 0.0 && magnitude < 1e-3  ? std::pair{1e6, "us"}
+                             : magnitude != 0.0 && magnitude < 1.0 ? std::pair{1e3, "ms"}
+                                                                   : std::pair{1.0, "s"};
+  char buffer[32];
+  // 12 significant digits: 250e-6 * 1e6 prints as 250, not 250.00000000000003.
+  const auto [end, ec] =
+      std::to_chars(buffer, buffer + sizeof buffer, seconds * scale, std::chars_format::general, 12);
+  return std::string(buffer, ec == std::errc{} ? end : buffer) + unit;
 }
 
 }  // namespace hapticd::world::units

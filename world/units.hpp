@@ -6,6 +6,7 @@
 
 #include <numbers>
 #include <optional>
+#include <string>
 #include <string_view>
 
 namespace hapticd::world::units {
@@ -27,6 +28,9 @@ constexpr double rad_per_s_to_hz(double w) noexcept { return w / (2.0 * pi); }
 /// "0.001" (seconds). Returns seconds, or nothing if the text is not a finite
 /// number followed by one of s, ms, us.
 std::optional<double> parse_duration_s(std::string_view text) noexcept;
+
+/// A duration in the unit that reads best: "250us", "10ms", "1.5s".
+std::string format_duration(double seconds);
 
 /// Parses a finite floating-point number; nothing on any trailing text, NaN or Inf.
 std::optional<double> parse_finite(std::string_view text) noexcept;

@@ -27,7 +27,10 @@ void add_common_options(CLI::App& app, CommonOptions& opts) {
     app.add_flag("--json", opts.json, "print the daemon's result as JSON");
   }
   if (app.get_option_no_throw("--timeout") == nullptr) {
-    app.add_option("--timeout", opts.timeout_s, "seconds to wait for the daemon")->check(CLI::PositiveNumber);
+    // Bounded: 1e300 s would overflow the milliseconds it becomes.
+    app.add_option("--timeout", opts.timeout_s, "seconds to wait for the daemon (up to 86400)")
+        ->check(CLI::PositiveNumber)
+        ->check(CLI::Range(0.0, 86400.0));
   }
 }
 

@@ -38,11 +38,22 @@ void add_stream_command(CLI::App& app, CommonOptions& opts) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("stream", "show live telemetry until Ctrl-C (or --count samples)");
   add_common_options(*cmd, opts);
-  cmd->add_option("--rate", args->rate_hz, "samples per second")->check(CLI::PositiveNumber);
+  cmd->add_option("--rate", args->rate_hz, "samples per second (hapticd streams 0.1 to 1000)")
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--count", args->count, "stop after N samples (0: until interrupted)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("channels", args->channels, "channels to show (default: the daemon's set)");
   cmd->callback([&opts, args] {
+    // --timeout is the longest silence accepted: a rate whose period is not
+    // shorter would always run into it.
+    const double period_s = 1.0 / args->rate_hz;
+    if (!(period_s < opts.timeout_s)) {
+      std::cerr << "hapticctl: stream: --rate " << detail::scalar(args->rate_hz)
+                << " Hz sends a sample every " << detail::scalar(period_s) << " s, not within --timeout "
+                << detail::scalar(opts.timeout_s) << " s; raise --timeout above " << detail::scalar(period_s)
+                << " or the rate\n";
+      throw Exit(exit_code::usage);
+    }
     auto client = detail::connect(opts);
     interrupted = 0;
     struct sigaction sa {};
@@ -57,9 +68,7 @@ void add_stream_command(CLI::App& app, CommonOptions& opts) {
     bool ended_on_error = false;
     try {
       client.subscribe(args->rate_hz, args->channels);
-      // Wait long enough for the slowest rate before calling it silence.
-      auto patience = std::chrono::milliseconds(static_cast<long long>(1000.0 / args->rate_hz)) +
-                      std::chrono::milliseconds(static_cast<long long>(opts.timeout_s * 1000.0));
+      const std::chrono::duration<double> patience(opts.timeout_s);
       auto last = std::chrono::steady_clock::now();
       while (interrupted == 0 && (args->count == 0 || received < args->count)) {
         auto n = client.read_notification(std::chrono::milliseconds(200));

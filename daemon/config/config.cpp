@@ -1,5 +1,7 @@
 #include "daemon/config/config.hpp"
 
+#include "drivers/registry.hpp"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -33,10 +35,10 @@ duration = ""
 driver = "loopback"
 torque_limit = 1.0
 
+# The loopback driver's own defaults (hapticd --list-drivers), as for a
+# file that leaves these keys out: one source of defaults.
 [device.loopback]
 motion = "rotary"
-damping = 0.002
-max_force = 1.2
 
 [scene]
 name = "spring-wheel"
@@ -98,18 +100,10 @@ std::string join(std::initializer_list<std::string_view> names) {
   return out;
 }
 
-std::string driver_list() {
-  std::string out;
-  for (const auto name : driver_kinds) {
-    if (!out.empty()) out += ", ";
-    out += name;
-  }
-  return out;
-}
+// Driver names come from the registry: every driver describes itself once.
+std::string driver_list() { return drivers::driver_names(); }
 
-bool is_driver_kind(std::string_view name) {
-  return std::find(std::begin(driver_kinds), std::end(driver_kinds), name) != std::end(driver_kinds);
-}
+bool is_driver_kind(std::string_view name) { return drivers::find_driver(name) != nullptr; }
 
 using Entry = std::pair<const toml::key*, const toml::node*>;
 
@@ -316,6 +310,7 @@ class Parser {
                "[" + dotted + "] does not match device.driver = " + quote(device.driver) +
                    "; accepted: [device." + device.driver + "]");
         }
+        device.table_where = position(key->source());
         collect(*sub, "", dotted, device.parameters);
       } else {
         unknown_key(*key, "device", accepted);
@@ -325,6 +320,7 @@ class Parser {
 
   void parse_scene(const toml::table& table, SceneConfig& scene) const {
     scene.parameters.clear();
+    scene.name_where = scene.table_where;
     const std::string accepted = "a non-empty scene name (spring-wheel, spring-mass, wall, relay, free, ...)";
     for (const auto& [key, node] : in_file_order(table)) {
       if (key->str() != "name") continue;
@@ -345,8 +341,10 @@ class Parser {
         const std::string range = "\"\" (default path) or a path of at most 107 bytes";
         control.socket = get_string(*node, dotted, range);
         if (control.socket.size() > 107) out_of_range(*node, dotted, range);
+        control.socket_where = position(node->source());
       } else if (name == "group") {
         control.group = get_string(*node, dotted, "\"\" (owner only) or a group name");
+        control.group_where = position(node->source());
       } else if (name == "max_clients") {
         control.max_clients =
             static_cast<std::uint32_t>(get_integer(*node, dotted, 1, 1024, "an integer from 1 to 1024"));
@@ -369,6 +367,7 @@ class Parser {
       if (name == "directory") {
         recorder.directory =
             get_string(*node, dotted, "\"\" ($STATE_DIRECTORY/recordings or .) or a directory");
+        recorder.directory_where = position(node->source());
       } else if (name == "ring_seconds") {
         const std::string range = "a number of seconds from 0.1 to 60";
         recorder.ring_seconds = get_number(*node, dotted, range);
@@ -390,14 +389,22 @@ class Parser {
     }
     DaemonConfig config;
     config.source = file_;
+    // Until a key says otherwise, what the file leaves out is blamed on the file.
+    const SourcePosition whole_file{file_, 0, 0};
+    config.device.driver_where = config.device.table_where = whole_file;
+    config.scene.name_where = config.scene.table_where = whole_file;
+    config.control.socket_where = config.control.group_where = whole_file;
+    config.recorder.directory_where = whole_file;
     static const std::string sections = join({"loop", "device", "scene", "control", "recorder"});
     for (const auto& [key, node] : in_file_order(root)) {
       const std::string_view name = key->str();
       if (name == "loop") {
         parse_loop(section_table(*key, *node), config.loop);
       } else if (name == "device") {
+        config.device.driver_where = config.device.table_where = position(key->source());
         parse_device(section_table(*key, *node), config.device);
       } else if (name == "scene") {
+        config.scene.table_where = position(key->source());
         parse_scene(section_table(*key, *node), config.scene);
       } else if (name == "control") {
         parse_control(section_table(*key, *node), config.control);

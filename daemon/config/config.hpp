@@ -68,22 +68,20 @@ struct LoopConfig {
   bool operator==(const LoopConfig&) const = default;
 };
 
-/// Driver kinds the configuration accepts. Only loopback is built in this
-/// version; the daemon (not the config) refuses the others.
-inline constexpr std::string_view driver_kinds[] = {"loopback", "usb-hid", "canopen", "modbus", "gpio"};
-
 struct DeviceConfig {
   std::string driver = "loopback";
   double torque_limit = 1.0;    ///< N (linear) or N m (rotary), > 0
   ParameterList parameters;     ///< the [device.<driver>] table, unvalidated
-  SourcePosition driver_where;  ///< position of device.driver (or of [device])
+  SourcePosition driver_where;  ///< position of device.driver's value, else of the [device] key
+  SourcePosition table_where;   ///< position of the [device.<driver>] key, else driver_where
   bool operator==(const DeviceConfig&) const = default;
 };
 
 struct SceneConfig {
   std::string name = "spring-wheel";
-  ParameterList parameters;  ///< every [scene] key except name, unvalidated
-  SourcePosition name_where;
+  ParameterList parameters;    ///< every [scene] key except name, unvalidated
+  SourcePosition name_where;   ///< position of scene.name's value, else of the [scene] key
+  SourcePosition table_where;  ///< position of the [scene] key (file only when absent)
   bool operator==(const SceneConfig&) const = default;
 };
 
@@ -93,6 +91,8 @@ struct ControlConfig {
   std::uint32_t max_clients = 16;           ///< 1..1024
   std::uint32_t max_message_bytes = 65536;  ///< 1 KiB .. 16 MiB
   double idle_timeout_s = 300.0;            ///< 0 = never
+  SourcePosition socket_where;              ///< position of socket's value (or "--socket")
+  SourcePosition group_where;               ///< position of group's value
   bool operator==(const ControlConfig&) const = default;
 };
 
@@ -100,8 +100,9 @@ struct RecorderConfig {
   /// Empty: $STATE_DIRECTORY/recordings under systemd, else "." (see
   /// resolve_recording_directory).
   std::string directory;
-  double ring_seconds = 2.0;      ///< telemetry ring capacity, seconds of samples; 0.1..60
-  double flush_interval_s = 0.1;  ///< 1ms..10s
+  double ring_seconds = 2.0;       ///< telemetry ring capacity, seconds of samples; 0.1..60
+  double flush_interval_s = 0.1;   ///< 1ms..10s
+  SourcePosition directory_where;  ///< position of directory's value (file only when absent)
   /// Ring capacity in samples for a loop period: ceil(ring_seconds / period), at least 2.
   std::size_t ring_capacity(double period_s) const noexcept;
   bool operator==(const RecorderConfig&) const = default;

@@ -40,15 +40,24 @@ struct ServerOptions {
   std::string group;
   /// A request line longer than this gets -32003 and the connection closes.
   std::size_t max_message_bytes = 64 * 1024;
-  /// Further connections get one -32002 error line and are closed.
+  /// Further connections get one -32002 error line and are closed, except a
+  /// peer with write access: it takes the slot of the read-only connection
+  /// idle the longest (which gets a -32002 line), so readers cannot lock the
+  /// writers (and their fault.clear) out.
   std::size_t max_clients = 16;
+  /// Requests served per client per loop turn; the rest wait for the next
+  /// turn, so a client pipelining thousands cannot hold the others up.
+  std::size_t requests_per_turn = 8;
   /// Clients silent for this long are disconnected, unless subscribed to a stream.
   std::chrono::milliseconds idle_timeout = std::chrono::seconds(300);  ///< 0: never disconnect an idle client
   /// Queued output per client: above it, stream notifications are dropped
   /// (and counted) and requests are no longer read until it drains; a client
   /// whose queue reaches four times this (replies it never reads) is disconnected.
   std::size_t max_output_bytes = 1024 * 1024;
-  /// Highest stream rate a client may ask for.
+  /// Stream rates a client may ask for; outside: -32602 naming the range.
+  /// The lower bound keeps the timer period (1 / rate) a sane number: below
+  /// ~1.1e-10 Hz it no longer fits the timer and became a 1 ns timer.
+  double min_stream_rate_hz = 0.1;
   double max_stream_rate_hz = 1000.0;
 };
 
@@ -64,6 +73,11 @@ struct PeerInfo {
 /// read: any peer that can connect (the socket mode is the gate).
 /// write: the daemon's uid, root, or a member of ServerOptions::group.
 enum class Access { read, write };
+
+/// normal: served in turn with the client's other requests.
+/// first: each loop turn, a client whose next request calls this method is
+/// served before any other client's queued requests (estop).
+enum class Precedence { normal, first };
 
 /// A method handler. params is always an object ({} when absent). Throw
 /// RpcError to answer with an error; a nlohmann::json exception (e.g.
@@ -88,6 +102,7 @@ struct ServerStats {
   std::uint64_t errors = 0;        ///< error replies sent
   std::uint64_t idle_disconnects = 0;
   std::uint64_t slow_disconnects = 0;  ///< output queue overflow
+  std::uint64_t evictions = 0;         ///< read-only clients closed to let a writer in
   std::uint64_t notifications_sent = 0;
   std::uint64_t notifications_dropped = 0;
   std::size_t clients = 0;      ///< connected now
@@ -105,7 +120,8 @@ class ControlServer {
   /// Adds a method. Call before start(). Names "stream" and "stream.stop"
   /// are built in (see set_stream_source). Throws std::logic_error on a
   /// duplicate name or after start().
-  void register_method(const std::string& name, Handler handler, Access access);
+  void register_method(const std::string& name, Handler handler, Access access,
+                       Precedence precedence = Precedence::normal);
 
   /// Enables `stream` / `stream.stop` (read access). Call before start().
   void set_stream_source(StreamSource source);

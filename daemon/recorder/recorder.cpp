@@ -69,8 +69,10 @@ std::string sanitize(std::string_view name) {
 
 // ---------------------------------------------------------------- FileSink
 
+bool SinkWriteError::no_space() const noexcept { return error_number_ == ENOSPC || error_number_ == EDQUOT; }
+
 FileSink::FileSink(const std::filesystem::path& path) : path_(path) {
-  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0640);
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_APPEND | O_CLOEXEC, 0640);
   if (fd_ < 0) {
     const int error = errno;
     const std::string message = "cannot create " + path.string() + ": " + errno_text(error);
@@ -84,13 +86,23 @@ FileSink::~FileSink() {
 }
 
 void FileSink::write(std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
+  std::size_t written = 0;
+  while (written < bytes.size()) {
+    // A full disk takes part of a write (the short count) and refuses the
+    // next with ENOSPC: the caller gets how far it got.
+    const ssize_t n = ::write(fd_, bytes.data() + written, bytes.size() - written);
     if (n < 0) {
-      if (errno == EINTR) continue;
-      throw RecorderError("write " + path_.string() + ": " + errno_text(errno));
+      const int error = errno;
+      if (error == EINTR) continue;
+      throw SinkWriteError("write " + path_.string() + ": " + errno_text(error), error, written);
     }
-    bytes.remove_prefix(static_cast<std::size_t>(n));
+    written += static_cast<std::size_t>(n);
+  }
+}
+
+void FileSink::truncate(std::uint64_t size) {
+  if (::ftruncate(fd_, static_cast<off_t>(size)) != 0) {
+    throw RecorderError("truncate " + path_.string() + ": " + errno_text(errno));
   }
 }
 
@@ -150,36 +162,59 @@ std::vector<std::string> column_names(const RecordingHeader& header) {
 
 // ---------------------------------------------------------------- Recording
 
+namespace {
+
+/// One whole line (a row, a trailer line) or header block in the buffer: the
+/// unit a torn write is cut back to.
+struct Piece {
+  enum class Kind : std::uint8_t { row, header, other };
+  std::size_t end = 0;      ///< offset in the buffer just past it
+  std::uint64_t cycle = 0;  ///< rows: the sample's cycle
+  Kind kind = Kind::other;
+};
+
+enum class Writing : std::uint8_t {
+  ok,
+  disk_full,  ///< no space: count, keep draining, retry every flush interval
+  failed,     ///< any other error: nothing more is written
+};
+
+}  // namespace
+
 struct Recorder::Recording {
   std::filesystem::path path;
   std::unique_ptr<Sink> sink;
   std::string buffer;
-  std::size_t buffered_samples = 0;
+  std::vector<Piece> pieces;  ///< what the buffer holds, in order
   RecordingHeader header;
   std::deque<std::pair<RecordingHeader, std::uint64_t>> next_sections;
-  std::uint64_t sections = 0;
-  std::uint64_t samples_written = 0;  // counted when they reach the sink
+  std::uint64_t sections = 0;  ///< header blocks in the file or the buffer
+  std::uint64_t samples_received = 0;
+  std::uint64_t samples_written = 0;  // whole rows in the file
   std::uint64_t dropped_write = 0;
   std::uint64_t cycle_gaps = 0;
-  std::uint64_t bytes_written = 0;
+  std::uint64_t bytes_written = 0;  // the file's size
   std::uint64_t ring_baseline = 0;
   std::uint64_t ring_drops = 0;
   bool have_last_cycle = false;
   std::uint64_t last_cycle = 0;
-  bool failed = false;
+  Writing writing = Writing::ok;
   std::string error;
+  std::uint64_t resumed = 0;
+  bool complete = false;
+  // The rows not written since the last one that was (disk full).
+  std::uint64_t outage_samples = 0;
+  std::uint64_t outage_first_cycle = 0;
+  std::uint64_t outage_last_cycle = 0;
   std::chrono::steady_clock::time_point last_write = std::chrono::steady_clock::now();
 
-  void append_header(std::uint64_t first_cycle) {
+  /// A header block: `opening` (its first line or lines), the key: value
+  /// lines, the column line.
+  void append_header(const std::string& opening) {
     ++sections;
     const auto [iso, seconds] = realtime_now();
     std::string& b = buffer;
-    if (sections == 1) {
-      b += "# hapticd recording\n";
-    } else {
-      b += "# section " + std::to_string(sections) + ": scene changed at cycle " +
-           std::to_string(first_cycle) + "\n";
-    }
+    b += opening;
     b += "# hapticd_version: " HAPTICD_VERSION "\n";
     b += "# section: " + std::to_string(sections) + "\n";
     b += "# start_utc: " + iso + "\n";
@@ -208,14 +243,37 @@ struct Recorder::Recording {
       b += names[i];
     }
     b += '\n';
+    pieces.push_back({buffer.size(), 0, Piece::Kind::header});
+  }
+
+  /// The scene changed: a new section from the sample at first_cycle on. With
+  /// nothing being written, the section that resumes writing takes the header.
+  void start_section(std::uint64_t first_cycle) {
+    if (writing != Writing::ok) return;
+    append_header("# section " + std::to_string(sections + 1) + ": scene changed at cycle " +
+                  std::to_string(first_cycle) + "\n");
+  }
+
+  void lose(std::uint64_t cycle) {
+    ++dropped_write;
+    if (outage_samples++ == 0) outage_first_cycle = cycle;
+    outage_last_cycle = cycle;
+  }
+
+  /// "# gap: ..." for the rows not written since the last one that was.
+  std::string gap_line(std::string_view where) const {
+    return "# gap: " + std::to_string(outage_samples) + " samples not written " + std::string(where) +
+           " (cycles " + std::to_string(outage_first_cycle) + " to " + std::to_string(outage_last_cycle) +
+           "): " + error + "\n";
   }
 
   void append_sample(const TelemetrySample& s) {
+    ++samples_received;
     if (have_last_cycle && s.cycle > last_cycle + 1) cycle_gaps += s.cycle - last_cycle - 1;
     have_last_cycle = true;
     last_cycle = s.cycle;
-    if (failed) {
-      ++dropped_write;
+    if (writing != Writing::ok) {
+      lose(s.cycle);
       return;
     }
     std::string& b = buffer;
@@ -243,25 +301,73 @@ struct Recorder::Recording {
     b += ',';
     append_u64(b, s.flags);
     b += '\n';
-    ++buffered_samples;
+    pieces.push_back({buffer.size(), s.cycle, Piece::Kind::row});
   }
 
+  /// Writes the buffer. What reached the file is kept up to its last whole
+  /// piece (a torn one is cut off); what did not is counted as dropped.
   void write_out() {
     last_write = std::chrono::steady_clock::now();
     if (buffer.empty()) return;
-    if (!failed) {
-      try {
-        sink->write(buffer);
-        bytes_written += buffer.size();
-        samples_written += buffered_samples;
-      } catch (const std::exception& e) {
-        failed = true;
-        error = e.what();
-        dropped_write += buffered_samples;
+    std::size_t reached = buffer.size();
+    try {
+      sink->write(buffer);
+    } catch (const SinkWriteError& e) {
+      reached = std::min(e.bytes_written(), buffer.size());
+      writing = e.no_space() ? Writing::disk_full : Writing::failed;
+      error = e.what();
+    } catch (const std::exception& e) {
+      reached = 0;
+      writing = Writing::failed;
+      error = e.what();
+    }
+    keep(reached);
+    buffer.clear();
+    pieces.clear();
+  }
+
+  /// Accounts for a write that reached `reached` bytes into the buffer.
+  void keep(std::size_t reached) {
+    std::size_t whole = 0;
+    for (const Piece& piece : pieces) {
+      if (piece.end <= reached) {
+        whole = piece.end;
+        if (piece.kind == Piece::Kind::row) {
+          ++samples_written;
+          outage_samples = 0;
+        }
+      } else if (piece.kind == Piece::Kind::row) {
+        lose(piece.cycle);
+      } else if (piece.kind == Piece::Kind::header) {
+        --sections;
       }
     }
-    buffer.clear();
-    buffered_samples = 0;
+    if (whole < reached) {
+      try {
+        sink->truncate(bytes_written + whole);
+      } catch (const std::exception& e) {
+        // The torn line stays: nothing more may follow it.
+        writing = Writing::failed;
+        error += "; the file ends in a partial line: " + std::string(e.what());
+        whole = reached;
+      }
+    }
+    bytes_written += whole;
+  }
+
+  /// After a full disk: a new section whose '# gap:' line says what is missing.
+  /// Written at once; if the disk is still full it is cut back and counted nowhere.
+  void try_resume() {
+    writing = Writing::ok;
+    const std::string opening =
+        sections == 0 ? "# hapticd recording\n"
+                      : "# section " + std::to_string(sections + 1) + ": resumed after the disk was full\n";
+    append_header(opening + gap_line("while the disk was full"));
+    write_out();
+    if (writing == Writing::ok) {
+      ++resumed;
+      outage_samples = 0;
+    }
   }
 
   static constexpr std::size_t max_telemetry_channels_ = daemon::max_telemetry_channels;
@@ -353,7 +459,7 @@ std::filesystem::path Recorder::start(const std::string& name, RecordingHeader h
 
   rec->buffer.reserve(options_.buffer_bytes + 65536);
   rec->header = std::move(header);
-  rec->append_header(0);
+  rec->append_header("# hapticd recording\n");
   rec->ring_baseline = ring_drops_now();
   std::filesystem::path path = rec->path;
   {
@@ -421,11 +527,15 @@ void Recorder::publish_status() {
   status_.recording = true;
   status_.path = rec.path;
   status_.sections = rec.sections;
+  status_.samples_received = rec.samples_received;
   status_.samples_written = rec.samples_written;
   status_.dropped_write = rec.dropped_write;
   status_.dropped_ring = rec.ring_drops;
   status_.cycle_gaps = rec.cycle_gaps;
   status_.bytes_written = rec.bytes_written;
+  status_.disk_full = rec.writing == Writing::disk_full;
+  status_.resumed = rec.resumed;
+  status_.complete = rec.complete;
   status_.error = rec.error;
 }
 
@@ -445,7 +555,7 @@ void Recorder::record(std::span<const TelemetrySample> batch) {
       rec.header = std::move(rec.next_sections.front().first);
       const std::uint64_t first_cycle = rec.next_sections.front().second;
       rec.next_sections.pop_front();
-      rec.append_header(std::max(first_cycle, sample.cycle));
+      rec.start_section(std::max(first_cycle, sample.cycle));
     }
     rec.append_sample(sample);
   }
@@ -456,21 +566,27 @@ void Recorder::finish() {
   Recording& rec = *recording_;
   rec.ring_drops = ring_drops_now() - rec.ring_baseline;
   const auto [iso, seconds] = realtime_now();
-  rec.write_out();  // the samples first, so samples_written is final
-  std::string tail = "# stop_utc: " + iso + "\n# stop_clock_realtime_s: " + seconds + "\n";
-  tail += "# samples_written: " + std::to_string(rec.samples_written) + "\n";
-  tail += "# cycle_gaps: " + std::to_string(rec.cycle_gaps) + "\n";
-  tail += "# dropped " + std::to_string(rec.ring_drops + rec.dropped_write) +
-          " samples (ring full: " + std::to_string(rec.ring_drops) +
-          ", write failed: " + std::to_string(rec.dropped_write) + ")\n";
-  rec.buffer = tail;
-  rec.buffered_samples = 0;
-  rec.write_out();
-  if (!rec.failed) {
+  rec.write_out();  // the samples first, so the counts are final
+  if (rec.writing != Writing::failed) {
+    // Still full: the trailer is tried anyway (the disk may have room again),
+    // with the gap at the end said first.
+    std::string tail = rec.writing == Writing::disk_full ? rec.gap_line("at the end") : std::string();
+    rec.writing = Writing::ok;
+    tail += "# stop_utc: " + iso + "\n# stop_clock_realtime_s: " + seconds + "\n";
+    tail += "# samples_written: " + std::to_string(rec.samples_written) + "\n";
+    tail += "# cycle_gaps: " + std::to_string(rec.cycle_gaps) + "\n";
+    tail += "# dropped " + std::to_string(rec.ring_drops + rec.dropped_write) +
+            " samples (ring full: " + std::to_string(rec.ring_drops) +
+            ", write failed: " + std::to_string(rec.dropped_write) + ")\n";
+    rec.buffer = std::move(tail);
+    rec.pieces = {{rec.buffer.size(), 0, Piece::Kind::other}};  // all of it or none
+    rec.write_out();
+  }
+  if (rec.writing == Writing::ok) {
     try {
       rec.sink->sync();
+      rec.complete = true;
     } catch (const std::exception& e) {
-      rec.failed = true;
       rec.error = e.what();
     }
   }
@@ -478,7 +594,7 @@ void Recorder::finish() {
     rec.sink->close();
   } catch (const std::exception& e) {
     if (rec.error.empty()) rec.error = e.what();
-    rec.failed = true;
+    rec.complete = false;
   }
   publish_status();
   recording_.reset();
@@ -513,8 +629,13 @@ void Recorder::run() {
     } while (--rounds > 0 && n == batch.size());
 
     if (recording_) {
-      if (std::chrono::steady_clock::now() - recording_->last_write >= flush_interval)
-        recording_->write_out();
+      if (std::chrono::steady_clock::now() - recording_->last_write >= flush_interval) {
+        if (recording_->writing == Writing::disk_full) {
+          recording_->try_resume();
+        } else {
+          recording_->write_out();
+        }
+      }
       recording_->ring_drops = ring_drops_now() - recording_->ring_baseline;
       if (stop_now) {
         finish();

@@ -14,12 +14,22 @@
 ///   0.001,1,0.25,...                  <- one line per sample
 ///   # section 2: scene changed at cycle N   <- scene switch: a new header
 ///   ...                                        block and column header
-///   # dropped N samples (...)         <- always, on stop
+///   # section 3: resumed after the disk was full   <- after a full disk: a
+///   # gap: K samples not written (...)                new block, the gap
+///   # dropped N samples (...)         <- on stop, if the disk takes it
 ///
 /// The recorder only pops. When the disk stalls, its thread blocks in write(),
 /// the ring fills and the RT side counts failed pushes; the daemon hands that
 /// counter to the recorder (set_ring_drop_counter) and the recorder reports
 /// the part that fell inside the recording. Drops are never silent.
+///
+/// The counts match the file: a sample is written when its whole row is in
+/// the file. A write that stops part-way (disk full) is cut back to the last
+/// whole line (Sink::truncate), the rest counted as dropped. While the disk
+/// is full the recorder keeps draining at its usual pace (the RT loop never
+/// waits for it), counts what it cannot write, and retries every flush
+/// interval; when a write succeeds the recording resumes with a new section
+/// whose '# gap:' line says what is missing.
 
 #include <atomic>
 #include <condition_variable>
@@ -57,17 +67,38 @@ class RecorderError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A write that did not complete: how far it got and why (errno).
+class SinkWriteError : public RecorderError {
+ public:
+  SinkWriteError(const std::string& message, int error_number, std::size_t bytes_written)
+      : RecorderError(message), error_number_(error_number), bytes_written_(bytes_written) {}
+  int error_number() const noexcept { return error_number_; }
+  /// Bytes of this write that reached the file before the error.
+  std::size_t bytes_written() const noexcept { return bytes_written_; }
+  /// ENOSPC or EDQUOT: out of space (or quota), which may come back.
+  bool no_space() const noexcept;
+
+ private:
+  int error_number_;
+  std::size_t bytes_written_;
+};
+
 /// Where the CSV bytes go. FileSink in production; tests inject slow or
 /// failing sinks. Methods throw RecorderError on failure.
 class Sink {
  public:
   virtual ~Sink() = default;
-  virtual void write(std::string_view bytes) = 0;  ///< all of it, or throw
-  virtual void sync() = 0;                         ///< durable on return (fsync)
+  /// All of it, or throw: SinkWriteError saying how many bytes got in (any
+  /// other RecorderError is taken as none).
+  virtual void write(std::string_view bytes) = 0;
+  /// Cuts the file back to its first `size` bytes; writes continue there.
+  virtual void truncate(std::uint64_t size) = 0;
+  virtual void sync() = 0;  ///< durable on return (fsync)
   virtual void close() = 0;
 };
 
-/// A file opened with O_CREAT|O_EXCL (never overwrites), mode 0640.
+/// A file opened with O_CREAT|O_EXCL (never overwrites), O_APPEND (so a
+/// write after truncate() lands at the new end), mode 0640.
 class FileSink final : public Sink {
  public:
   /// Throws RecorderError; errno EEXIST is reported as FileSink::Exists.
@@ -76,6 +107,7 @@ class FileSink final : public Sink {
   FileSink(const FileSink&) = delete;
   FileSink& operator=(const FileSink&) = delete;
   void write(std::string_view bytes) override;
+  void truncate(std::uint64_t size) override;
   void sync() override;
   void close() override;
 
@@ -122,18 +154,28 @@ struct RecorderOptions {
   SinkFactory sink_factory;            ///< default: FileSink
 };
 
+/// Of the current or last recording, except the two totals.
 struct RecorderStatus {
   bool recording = false;
   std::filesystem::path path;
-  std::uint64_t sections = 0;         ///< header blocks in the current/last recording
-  std::uint64_t samples_written = 0;  ///< lines written in the current/last recording
-  std::uint64_t dropped_ring = 0;     ///< RT push failures during the current/last recording
-  std::uint64_t dropped_write = 0;    ///< drained but not written (the sink failed)
-  std::uint64_t cycle_gaps = 0;       ///< cycles missing between consecutive written samples
-  std::uint64_t bytes_written = 0;
+  std::uint64_t sections = 0;          ///< header blocks in the file
+  std::uint64_t samples_received = 0;  ///< samples the recording took from the ring
+  std::uint64_t samples_written = 0;   ///< whole rows in the file
+  std::uint64_t dropped_ring = 0;      ///< RT push failures during the recording
+  /// Received but not in the file (disk full, write error): once stopped,
+  /// exactly samples_received - samples_written.
+  std::uint64_t dropped_write = 0;
+  std::uint64_t cycle_gaps = 0;     ///< cycles missing between consecutive received samples (ring losses)
+  std::uint64_t bytes_written = 0;  ///< the file's size: whole lines only
+  /// The last write found the disk (or quota) full: rows are counted as
+  /// dropped and writing is retried every flush interval.
+  bool disk_full = false;
+  std::uint64_t resumed =
+      0;                  ///< times writing resumed after a full disk (one section and '# gap:' line each)
+  bool complete = false;  ///< stopped with the trailer in the file and fsynced
+  std::string error;      ///< the last write, truncate, fsync or close error ("" if none)
   std::uint64_t samples_drained = 0;     ///< since the recorder started, recording or not
   std::uint64_t dropped_ring_total = 0;  ///< RT push failures since the daemon started
-  std::string error;                     ///< the sink's error, if it failed
 };
 
 class Recorder {
@@ -163,8 +205,10 @@ class Recorder {
   void set_scene(RecordingHeader header, std::uint64_t first_cycle);
 
   /// Stops the recording: drains what the ring holds, writes the buffer and
-  /// the final '# dropped N samples' line, fsyncs and closes. Returns the
-  /// final status. Throws RecorderError if no recording is active.
+  /// the trailer ending in '# dropped N samples', fsyncs and closes. Returns
+  /// the final status (complete = false if the trailer or the fsync failed,
+  /// e.g. the disk is still full: the file then ends at its last whole row).
+  /// Throws RecorderError if no recording is active.
   RecorderStatus stop();
 
   /// Registers a live consumer; returns an id for remove_stream.

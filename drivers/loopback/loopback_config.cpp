@@ -1,209 +1,156 @@
 #include "drivers/loopback/loopback_config.hpp"
 
-#include <charconv>
-#include <cmath>
-#include <sstream>
 #include <stdexcept>
 
-#include "drivers/loopback/key_value.hpp"
-#include "world/units.hpp"
+#include "drivers/loopback/loopback_device.hpp"
+#include "drivers/simulation/key_value.hpp"
+#include "world/scene_catalog.hpp"
 
 namespace hapticd::drivers::loopback {
 
 namespace {
 
-constexpr double linear_default_counts = 1.0 / 3.14e-6;  // LHifAM: 3.14 um per count
+using P = ParameterSpec;
 
-[[noreturn]] void fail(const std::string& message) { throw std::invalid_argument("loopback: " + message); }
-
-std::string number_text(double value) {
-  std::ostringstream out;
-  out.precision(12);
-  out << value;
-  return out.str();
-}
-
-double parse_number(std::string_view key, std::string_view value) {
-  const auto parsed = world::units::parse_finite(value);
-  if (!parsed) fail(std::string(key) + "=" + std::string(value) + " is not a finite number");
-  return *parsed;
+std::vector<ParameterSpec> make_parameters() {
+  // Ranges: world::parameter_range, as for the scenes (a value outside is a
+  // typo, not a device); PlantConfig::validate() checks the same.
+  namespace r = world::parameter_range;
+  const LoopbackConfig rotary = LoopbackConfig::defaults(Motion::rotary);
+  const LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
+  const world::TwoMassPlant tm{};
+  auto note = [](double v, const char* unit) {
+    return "rotary; " + to_text(ParameterValue(v)) + " " + unit + " when motion = linear";
+  };
+  return {
+      P::choice("motion", {"rotary", "linear"},
+                "rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below")
+          .defaults_to("rotary"),
+      P::choice("plant", {"rigid", "two-mass", "two_mass"},
+                "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)")
+          .defaults_to("rigid"),
+      P::number("mass", "kg m^2 | kg", "rigid plant: moving inertia (rotary) or mass (linear)")
+          .defaults_to(rotary.mass, note(linear.mass, "kg"))
+          .at_least(r::min_mass)
+          .at_most(r::max_mass),
+      P::number("damping", "N m s/rad | N s/m", "rigid plant: viscous damping to ground")
+          .defaults_to(rotary.damping, note(linear.damping, "N s/m"))
+          .at_least(0.0)
+          .at_most(r::max_damping),
+      P::number(
+          "coulomb", "N m | N",
+          "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables")
+          .defaults_to(0.0)
+          .at_least(0.0)
+          .at_most(r::max_force),
+      P::number("motor_mass", "kg", "two-mass: motor-side mass m_m (Table I)")
+          .defaults_to(tm.motor_mass)
+          .at_least(r::min_mass)
+          .at_most(r::max_mass),
+      P::number("body_mass", "kg", "two-mass: body (handle) mass m_d (Table I)")
+          .defaults_to(tm.body_mass)
+          .at_least(r::min_mass)
+          .at_most(r::max_mass),
+      P::number("motor_damping", "N s/m", "two-mass: motor damping b_m (Table I)")
+          .defaults_to(tm.motor_damping)
+          .at_least(0.0)
+          .at_most(r::max_damping),
+      P::number("body_damping", "N s/m", "two-mass: body damping b_d (Table I)")
+          .defaults_to(tm.body_damping)
+          .at_least(0.0)
+          .at_most(r::max_damping),
+      P::number("cable_stiffness", "N/m", "two-mass: cable stiffness k_c (Table I)")
+          .defaults_to(tm.cable_stiffness)
+          .above(0.0)
+          .at_most(r::max_stiffness),
+      P::number("cable_damping", "N s/m", "two-mass: cable damping b_c (Table I)")
+          .defaults_to(tm.cable_damping)
+          .at_least(0.0)
+          .at_most(r::max_damping),
+      P::choice(
+          "sensor", {"motor", "body", "hand", "user"},
+          "two-mass: position read() returns: motor (collocated) or body (non-collocated; also hand, user)")
+          .defaults_to("motor"),
+      P::number("counts", "1/rev | 1/m", "encoder counts per revolution (rotary) or per metre (linear)")
+          .defaults_to(rotary.counts, note(linear.counts, "1/m"))
+          .at_least(1.0)
+          .at_most(simulation::max_counts),
+      P::number("max_force", "N m | N", "actuator saturation |force|")
+          .defaults_to(rotary.max_force, note(linear.max_force, "N"))
+          .above(0.0)
+          .at_most(r::max_force),
+      P::integer("delay", "periods",
+                 "extra output delay: a force written in period n is applied in period n+delay")
+          .defaults_to(0.0)
+          .at_least(0.0)
+          .at_most(static_cast<double>(max_delay_periods)),
+      P::table(
+          "hand",
+          "the scripted hand, e.g. [device.loopback.hand] mode = \"hold\", trajectory = \"step\", "
+          "amplitude = 0.785, at = 0.5 (or hand = \"mode=hold ...\"); hapticctl hand changes it at run time"),
+  };
 }
 
 }  // namespace
 
-std::string_view to_string(PlantKind kind) noexcept {
-  return kind == PlantKind::rigid ? "rigid" : "two-mass";
-}
-std::string_view to_string(Motion motion) noexcept { return motion == Motion::rotary ? "rotary" : "linear"; }
-
-LoopbackConfig LoopbackConfig::defaults(Motion motion) {
-  LoopbackConfig config;
-  config.motion = motion;
-  if (motion == Motion::linear) {
-    config.mass = 0.1;
-    config.counts = linear_default_counts;
-    config.max_force = 10.0;
-  }
-  return config;
+const std::vector<ParameterSpec>& loopback_parameters() {
+  static const std::vector<ParameterSpec> parameters = make_parameters();
+  return parameters;
 }
 
-double LoopbackConfig::resolution() const noexcept {
-  return motion == Motion::rotary ? 2.0 * world::units::pi / counts : 1.0 / counts;
-}
-
-double LoopbackConfig::total_mass() const noexcept {
-  return plant == PlantKind::rigid ? mass : two_mass.total_mass();
-}
-
-double LoopbackConfig::total_damping() const noexcept {
-  return plant == PlantKind::rigid ? damping : two_mass.total_damping();
-}
-
-void LoopbackConfig::validate() const {
-  auto positive = [](std::string_view key, double value) {
-    if (!(value > 0.0) || !std::isfinite(value))
-      fail(std::string(key) + " must be > 0 (got " + number_text(value) + ")");
-  };
-  auto non_negative = [](std::string_view key, double value) {
-    if (!(value >= 0.0) || !std::isfinite(value))
-      fail(std::string(key) + " must be >= 0 (got " + number_text(value) + ")");
-  };
-  if (plant == PlantKind::rigid) {
-    positive("mass", mass);
-    non_negative("damping", damping);
-  } else {
-    positive("motor_mass", two_mass.motor_mass);
-    positive("body_mass", two_mass.body_mass);
-    non_negative("motor_damping", two_mass.motor_damping);
-    non_negative("body_damping", two_mass.body_damping);
-    positive("cable_stiffness", two_mass.cable_stiffness);
-    non_negative("cable_damping", two_mass.cable_damping);
-  }
-  non_negative("coulomb", coulomb);
-  positive("counts", counts);
-  positive("max_force", max_force);
-  positive("period", period_s);
-  if (delay < 0 || delay > max_delay_periods) {
-    fail("delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " +
-         std::to_string(delay) + ")");
-  }
-}
-
-std::vector<DriverParameter> loopback_parameters() {
-  const LoopbackConfig rotary = LoopbackConfig::defaults(Motion::rotary);
-  const LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
-  const world::TwoMassPlant tm{};
-  return {
-      {"motion", "string", "rotary", "",
-       "rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below"},
-      {"plant", "string", "rigid", "",
-       "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)"},
-      {"mass", "number", number_text(rotary.mass), "kg m^2 | kg",
-       "rigid plant: moving inertia (rotary default " + number_text(rotary.mass) +
-           " kg m^2) or mass (linear default " + number_text(linear.mass) + " kg)"},
-      {"damping", "number", "0", "N m s/rad | N s/m", "rigid plant: viscous damping to ground"},
-      {"coulomb", "number", "0", "N m | N",
-       "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables"},
-      {"motor_mass", "number", number_text(tm.motor_mass), "kg", "two-mass: motor-side mass m_m (Table I)"},
-      {"body_mass", "number", number_text(tm.body_mass), "kg", "two-mass: body (handle) mass m_d (Table I)"},
-      {"motor_damping", "number", number_text(tm.motor_damping), "N s/m",
-       "two-mass: motor damping b_m (Table I)"},
-      {"body_damping", "number", number_text(tm.body_damping), "N s/m",
-       "two-mass: body damping b_d (Table I)"},
-      {"cable_stiffness", "number", number_text(tm.cable_stiffness), "N/m",
-       "two-mass: cable stiffness k_c (Table I)"},
-      {"cable_damping", "number", number_text(tm.cable_damping), "N s/m",
-       "two-mass: cable damping b_c (Table I)"},
-      {"sensor", "string", "motor", "",
-       "two-mass: position read() returns: motor (collocated) or body (non-collocated)"},
-      {"counts", "number", number_text(rotary.counts), "1/rev | 1/m",
-       "encoder counts per revolution (rotary, default 4096*4) or per metre (linear, default " +
-           number_text(linear.counts) + " = 1/3.14 um)"},
-      {"max_force", "number", number_text(rotary.max_force), "N m | N",
-       "actuator saturation |force| (rotary default 0.8 N m, linear default " +
-           number_text(linear.max_force) + " N)"},
-      {"delay", "integer", "0", "periods",
-       "extra output delay: a force written in period n is applied in period n+delay (0.." +
-           std::to_string(max_delay_periods) + ")"},
-      {"period", "number", "0.001", "s", "simulation period T (accepts 1ms, 250us); time = writes * T"},
-  };
-}
-
-LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, std::string>>& pairs) {
-  Motion motion = Motion::rotary;
-  for (const auto& [key, value] : pairs) {
-    if (key != "motion") continue;
-    if (value == "rotary") {
-      motion = Motion::rotary;
-    } else if (value == "linear") {
-      motion = Motion::linear;
-    } else {
-      fail("motion=" + value + " is not one of rotary, linear");
-    }
-  }
+LoopbackConfig loopback_config_from(const DriverParameters& p) {
+  const Motion motion = p.text("motion") == "linear" ? Motion::linear : Motion::rotary;
   LoopbackConfig config = LoopbackConfig::defaults(motion);
-  for (const auto& [key, value] : pairs) {
-    if (key == "motion") continue;
-    if (key == "plant") {
-      if (value == "rigid") {
-        config.plant = PlantKind::rigid;
-      } else if (value == "two-mass" || value == "two_mass") {
-        config.plant = PlantKind::two_mass;
-      } else {
-        fail("plant=" + value + " is not one of rigid, two-mass");
-      }
-    } else if (key == "mass") {
-      config.mass = parse_number(key, value);
-    } else if (key == "damping") {
-      config.damping = parse_number(key, value);
-    } else if (key == "coulomb") {
-      config.coulomb = parse_number(key, value);
-    } else if (key == "motor_mass") {
-      config.two_mass.motor_mass = parse_number(key, value);
-    } else if (key == "body_mass") {
-      config.two_mass.body_mass = parse_number(key, value);
-    } else if (key == "motor_damping") {
-      config.two_mass.motor_damping = parse_number(key, value);
-    } else if (key == "body_damping") {
-      config.two_mass.body_damping = parse_number(key, value);
-    } else if (key == "cable_stiffness") {
-      config.two_mass.cable_stiffness = parse_number(key, value);
-    } else if (key == "cable_damping") {
-      config.two_mass.cable_damping = parse_number(key, value);
-    } else if (key == "sensor") {
-      const auto sensor = world::parse_sensor(value);
-      if (!sensor) fail("sensor=" + value + " is not one of motor, body");
-      config.sensor = *sensor;
-    } else if (key == "counts") {
-      config.counts = parse_number(key, value);
-    } else if (key == "max_force") {
-      config.max_force = parse_number(key, value);
-    } else if (key == "delay") {
-      int delay = 0;
-      const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), delay);
-      if (ec != std::errc{} || end != value.data() + value.size()) {
-        fail("delay=" + value + " is not an integer number of periods");
-      }
-      config.delay = delay;
-    } else if (key == "period") {
-      const auto period = world::units::parse_duration_s(value);
-      if (!period) fail("period=" + value + " is not a duration (e.g. 0.001, 1ms, 250us)");
-      config.period_s = *period;
-    } else {
-      std::string accepted;
-      for (const auto& parameter : loopback_parameters()) {
-        if (!accepted.empty()) accepted += ", ";
-        accepted += parameter.name;
-      }
-      fail("unknown key '" + key + "'; accepted: " + accepted);
-    }
-  }
-  config.validate();
+  auto set = [&p](const char* key, double& field) {
+    if (p.given(key)) field = p.number(key);
+  };
+  config.plant = p.text("plant") == "rigid" ? PlantKind::rigid : PlantKind::two_mass;
+  set("mass", config.mass);
+  set("damping", config.damping);
+  set("coulomb", config.coulomb);
+  set("motor_mass", config.two_mass.motor_mass);
+  set("body_mass", config.two_mass.body_mass);
+  set("motor_damping", config.two_mass.motor_damping);
+  set("body_damping", config.two_mass.body_damping);
+  set("cable_stiffness", config.two_mass.cable_stiffness);
+  set("cable_damping", config.two_mass.cable_damping);
+  config.sensor = world::parse_sensor(p.text("sensor")).value_or(world::Sensor::motor);
+  set("counts", config.counts);
+  set("max_force", config.max_force);
+  config.delay = static_cast<int>(p.integer("delay"));
+  config.validate();  // ParameterError naming the key
   return config;
+}
+
+simulation::HandScript hand_script_from(const DriverParameters& p) {
+  const auto entries = p.table("hand");
+  std::string text;
+  for (const auto& [key, value] : entries) text += (key.empty() ? value : key + "=" + value) + " ";
+  if (text.empty()) return {};
+  try {
+    return simulation::parse_hand_script(text);
+  } catch (const ParameterError& e) {
+    // Blame the [device.loopback.hand] key at fault if it was written as
+    // one, else the hand as a whole (a one-line `hand = "..."`).
+    std::string blamed = "hand";
+    for (const auto& entry : entries) {
+      if (!e.key().empty() && entry.first == e.key()) blamed = "hand." + entry.first;
+    }
+    throw ParameterError(blamed, std::string("device.loopback.") + e.what());
+  }
+}
+
+DriverDescription loopback_driver() {
+  return {"loopback", "simulated plant (rigid or two-mass), scripted hand, fault injection: tests and demos",
+          true, loopback_parameters(), [](const DriverParameters& p) -> std::unique_ptr<Device> {
+            return std::make_unique<LoopbackDevice>(loopback_config_from(p), hand_script_from(p));
+          }};
 }
 
 LoopbackConfig parse_loopback_config(std::string_view text) {
-  return parse_loopback_config(detail::split_key_values(text, "loopback"));
+  std::map<std::string, ParameterValue, std::less<>> given;
+  for (auto& [key, value] : simulation::detail::split_key_values(text, "loopback")) given[key] = value;
+  return loopback_config_from(DriverParameters("loopback", loopback_parameters(), given));
 }
 
 }  // namespace hapticd::drivers::loopback

@@ -1,70 +1,43 @@
 #pragma once
 /// \file
-/// Configuration of the loopback (simulated) device. See README.md in this
-/// folder for what is simulated and how. SI units throughout: for
-/// motion = rotary, "mass" is an inertia in kg m^2, forces are torques in N m
-/// and positions are angles in rad.
+/// The loopback driver's parameters ([device.loopback]) and its entry in the
+/// driver registry. See README.md in this folder for what is simulated and
+/// how. SI units throughout: for motion = rotary, "mass" is an inertia in
+/// kg m^2, forces are torques in N m and positions are angles in rad.
 
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
-#include "drivers/device.hpp"
-#include "world/plant.hpp"
+#include "drivers/registry.hpp"
+#include "drivers/simulation/hand_script.hpp"
+#include "drivers/simulation/plant_config.hpp"
 
 namespace hapticd::drivers::loopback {
 
-enum class PlantKind { rigid, two_mass };
+using simulation::max_delay_periods;
+using simulation::PlantKind;
+/// The loopback driver simulates exactly the shared plant simulator's plant.
+using LoopbackConfig = simulation::PlantConfig;
 
-std::string_view to_string(PlantKind kind) noexcept;
-std::string_view to_string(Motion motion) noexcept;
+/// Every key the loopback driver accepts, typed, with its default, range,
+/// unit and help, in the order they are documented.
+const std::vector<ParameterSpec>& loopback_parameters();
 
-/// Longest extra output delay the device accepts, in periods (fixed-size delay line).
-inline constexpr int max_delay_periods = 64;
+/// The registry entry: description and factory.
+DriverDescription loopback_driver();
 
-struct LoopbackConfig {
-  Motion motion = Motion::rotary;
-  PlantKind plant = PlantKind::rigid;
-  /// Rigid plant: moving mass (kg) or inertia (kg m^2). Rotary default 0.01
-  /// kg m^2 (a ~1 kg, 0.15 m radius wheel); linear default 0.1 kg (Hulin's PHANToM).
-  double mass = 0.01;
-  double damping = 0.0;  ///< rigid plant: viscous damping to ground, N s/m or N m s/rad
-  double coulomb = 0.0;  ///< Coulomb friction level, N or N m (rigid: on the mass; two-mass: on the body)
-  world::TwoMassPlant two_mass{};               ///< two-mass plant parameters (Diaz & Gil Table I defaults)
-  world::Sensor sensor = world::Sensor::motor;  ///< two-mass: which position read() returns
-  /// Encoder counts per revolution (rotary, default 4096*4) or per metre
-  /// (linear, default 1/3.14e-6: the LHifAM encoder).
-  double counts = 16384.0;
-  /// Actuator saturation: largest |force| the device applies (rotary default
-  /// 0.8 N m: Freudenberg's 800 N mm duty-cycle limit; linear default 10 N).
-  double max_force = 0.8;
-  int delay = 0;           ///< extra output delay, whole periods, 0..max_delay_periods
-  double period_s = 1e-3;  ///< simulation period T, s
+/// The plant configuration from checked parameters: "motion" selects the
+/// defaults (mass, counts, max_force differ), the keys written override
+/// them. Throws ParameterError naming the key.
+LoopbackConfig loopback_config_from(const DriverParameters& parameters);
+/// The hand script from the `hand` table (or its one-line text); throws
+/// ParameterError naming the key ("hand.amplitude").
+simulation::HandScript hand_script_from(const DriverParameters& parameters);
 
-  /// The defaults for one kind of motion (mass, counts, max_force differ).
-  static LoopbackConfig defaults(Motion motion);
-  /// Position per encoder count: 2 pi / counts (rotary) or 1 / counts (linear).
-  double resolution() const noexcept;
-  /// Total moving mass (rigid: mass; two-mass: m_m + m_d).
-  double total_mass() const noexcept;
-  /// Total viscous damping to ground (rigid: damping; two-mass: b_m + b_d).
-  double total_damping() const noexcept;
-  /// Throws std::invalid_argument with one line naming the bad key.
-  void validate() const;
-};
-
-/// Every key the loopback driver accepts, with its default, unit and help
-/// (JACK2 style), in the order they are documented.
-std::vector<DriverParameter> loopback_parameters();
-
-/// Builds a configuration from key=value pairs (keys as in
-/// loopback_parameters()). "motion" is applied first and selects the
-/// defaults; the other keys override them. Throws std::invalid_argument with
-/// one line naming the bad key and what is accepted; the result is validated.
-LoopbackConfig parse_loopback_config(const std::vector<std::pair<std::string, std::string>>& pairs);
-
-/// Same, from "key=value key=value ..." text (space separated).
+/// From "key=value key=value ..." text (space separated), through the same
+/// typed parameters; for tests and tools. Throws ParameterError.
 LoopbackConfig parse_loopback_config(std::string_view text);
 
 }  // namespace hapticd::drivers::loopback

@@ -1,511 +1,187 @@
 #include "drivers/loopback/loopback_device.hpp"
 
-#include <algorithm>
 #include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <string>
 
-#include "world/integrator.hpp"
-#include "world/units.hpp"
+#include "rpc/jsonrpc.hpp"
 
 namespace hapticd::drivers::loopback {
 
-namespace detail {
-
-enum class HandKind { free, force, constraint, impedance };
-
-/// Immutable once published; freed only by the non-RT side.
-struct PreparedHand {
-  HandScript script;
-  std::uint64_t id = 0;  ///< distinct per set_hand(): the RT side detects a new script by id
-  HandKind kind = HandKind::free;
-  StepModel impedance{};  ///< plant with the hand's spring-damper folded in (kind impedance)
-  double stiffness = 0.0;
-  double damping = 0.0;
-};
-
-}  // namespace detail
-
 namespace {
 
-using detail::HandKind;
-using detail::PreparedHand;
-using detail::StepModel;
+using nlohmann::json;
+using rpc::RpcError;
+namespace code = rpc::code;
 
-constexpr std::array<std::string_view, 5> fault_name_list{"read-error", "stall", "nan", "encoder-jump",
-                                                          "fault"};
-
-/// Hold ideal=false default: critically damped at this natural frequency on the total mass.
-constexpr double default_hold_frequency_hz = 30.0;
-
-StepModel to_step_model(const world::DiscreteStateSpace& d) {
-  StepModel m;
-  m.n = static_cast<int>(d.ad.rows());
-  for (int i = 0; i < m.n; ++i) {
-    for (int j = 0; j < m.n; ++j) m.ad[i][j] = d.ad(i, j);
-    for (int j = 0; j < static_cast<int>(d.bd.cols()); ++j) m.bd[i][j] = d.bd(i, j);
-  }
-  return m;
+constexpr bool valid_from(DeviceState state, bool needs_enabled) noexcept {
+  return needs_enabled ? state == DeviceState::enabled : state != DeviceState::closed;
 }
-
-/// Decrements a period counter that is > 0 (N periods left); -1 and 0 stay.
-void count_down(std::atomic<std::int64_t>& counter) noexcept {
-  std::int64_t value = counter.load(std::memory_order_relaxed);
-  while (value > 0 && !counter.compare_exchange_weak(value, value - 1, std::memory_order_relaxed)) {
-  }
-}
-
-bool active(const std::atomic<std::int64_t>& counter) noexcept {
-  return counter.load(std::memory_order_relaxed) != 0;
-}
-
-double sign(double v) noexcept { return v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0); }
 
 }  // namespace
 
-std::string_view to_string(Fault fault) noexcept { return fault_name_list[static_cast<std::size_t>(fault)]; }
+LoopbackDevice::LoopbackDevice(const LoopbackConfig& config, const HandScript& hand)
+    : simulator_(std::make_unique<simulation::PlantSimulator>(config, hand)) {}
 
-std::optional<Fault> parse_fault(std::string_view name) noexcept {
-  for (std::size_t i = 0; i < fault_name_list.size(); ++i) {
-    if (fault_name_list[i] == name) return static_cast<Fault>(i);
-  }
-  if (name == "read_error") return Fault::read_error;
-  if (name == "encoder_jump") return Fault::encoder_jump;
-  return std::nullopt;
-}
-
-std::string_view fault_names() noexcept { return "read-error, stall, nan, encoder-jump, fault"; }
-
-LoopbackDevice::LoopbackDevice(const LoopbackConfig& config, const HandScript& hand) : config_(config) {
-  config_.validate();
-  if (config_.plant == PlantKind::rigid) {
-    model_ = world::RigidPlant{config_.mass, config_.damping}.model();
-    pos_motor_ = pos_body_ = 0;
-    vel_motor_ = vel_body_ = 1;
-  } else {
-    model_ = config_.two_mass.model();
-    pos_motor_ = 0;
-    pos_body_ = 1;
-    vel_motor_ = 2;
-    vel_body_ = 3;
-  }
-  plain_ = to_step_model(world::discretize_zoh(model_.dynamics, config_.period_s));
-  resolution_ = config_.resolution();
-  set_hand(hand);
-  publish_snapshot();
-}
-
-LoopbackDevice::~LoopbackDevice() = default;
-
-std::unique_ptr<PreparedHand> LoopbackDevice::prepare(const HandScript& script) const {
-  auto prepared = std::make_unique<PreparedHand>();
-  prepared->script = script;
-  switch (script.mode) {
-    case HandMode::free:
-      prepared->kind = HandKind::free;
-      return prepared;
-    case HandMode::force:
-      prepared->kind = HandKind::force;
-      return prepared;
-    case HandMode::hold:
-      if (script.ideal) {
-        prepared->kind = HandKind::constraint;
-        return prepared;
-      }
-      break;
-    case HandMode::impedance:
-      break;
-  }
-  prepared->kind = HandKind::impedance;
-  const double m = config_.total_mass();
-  const double w = 2.0 * world::units::pi * default_hold_frequency_hz;
-  if (script.mode == HandMode::hold) {
-    prepared->stiffness = script.stiffness.value_or(m * w * w);
-    prepared->damping = script.damping.value_or(2.0 * std::sqrt(prepared->stiffness * m));
-  } else {
-    if (!script.stiffness) throw std::invalid_argument("hand script: mode=impedance needs stiffness");
-    prepared->stiffness = *script.stiffness;
-    prepared->damping = script.damping.value_or(0.0);
-  }
-  // x' = A x + B_m F_m + B_h (F_ext + k (r - x_b) + b (r' - v_b))
-  const Eigen::Index n = model_.dynamics.a.rows();
-  const Eigen::VectorXd bm = model_.dynamics.b.col(world::motor_force_input);
-  const Eigen::VectorXd bh = model_.dynamics.b.col(world::hand_force_input);
-  Eigen::RowVectorXd c = Eigen::RowVectorXd::Zero(n);
-  c(pos_body_) += prepared->stiffness;
-  c(vel_body_) += prepared->damping;
-  world::ContinuousStateSpace sys;
-  sys.a = model_.dynamics.a - bh * c;
-  sys.b = Eigen::MatrixXd::Zero(n, 4);
-  sys.b.col(0) = bm;
-  sys.b.col(1) = bh;
-  sys.b.col(2) = prepared->stiffness * bh;
-  sys.b.col(3) = prepared->damping * bh;
-  prepared->impedance = to_step_model(world::discretize_zoh(sys, config_.period_s));
-  return prepared;
-}
-
-void LoopbackDevice::set_hand(const HandScript& script) {
-  auto prepared = prepare(script);
-  std::lock_guard lock(hand_mutex_);  // non-RT writers only; the RT side never takes it
-  prepared->id = ++hand_generation_;
-  const PreparedHand* raw = prepared.get();
-  hands_.push_back(std::move(prepared));
-  current_hand_.store(raw, std::memory_order_seq_cst);
-  reclaim_locked();
-}
-
-void LoopbackDevice::set_hand(std::string_view text) { set_hand(parse_hand_script(text)); }
-
-HandScript LoopbackDevice::hand() const {
-  std::lock_guard lock(hand_mutex_);
-  return current_hand_.load(std::memory_order_acquire)->script;
-}
-
-void LoopbackDevice::reclaim_locked() {
-  // Hazard-pointer reclamation: the RT side publishes the pointer it uses in
-  // hazard_ and re-checks current_hand_; anything that is neither current nor
-  // the hazard cannot be picked up any more and is freed here, off the RT path.
-  const PreparedHand* current = current_hand_.load(std::memory_order_seq_cst);
-  const PreparedHand* in_use = hazard_.load(std::memory_order_seq_cst);
-  std::erase_if(hands_, [&](const std::unique_ptr<PreparedHand>& h) {
-    return h.get() != current && h.get() != in_use;
-  });
-}
-
-const PreparedHand* LoopbackDevice::acquire_hand() noexcept {
-  const PreparedHand* p = current_hand_.load(std::memory_order_seq_cst);
-  for (;;) {
-    hazard_.store(p, std::memory_order_seq_cst);
-    const PreparedHand* q = current_hand_.load(std::memory_order_seq_cst);
-    if (q == p) return p;
-    p = q;  // a new script was published between the two loads: protect that one
+void LoopbackDevice::require(bool condition, const char* what) const {
+  if (!condition) {
+    throw std::logic_error(std::string("loopback: ") + what + " while " +
+                           std::string(to_string(state_.load(std::memory_order_acquire))));
   }
 }
 
-void LoopbackDevice::release_hand() noexcept { hazard_.store(nullptr, std::memory_order_release); }
-
-double LoopbackDevice::friction_mass_load(const std::array<double, 4>& x, double motor_force,
-                                          double body_force, double stiffness, double damping,
-                                          double reference, double reference_rate) const noexcept {
-  // Every force on the friction mass except friction, with that mass at rest
-  // (viscous damping to ground is then zero).
-  double load = body_force + stiffness * (reference - x[pos_body_]) + damping * reference_rate;
-  if (config_.plant == PlantKind::rigid) {
-    load += motor_force;
-  } else {
-    const world::TwoMassPlant& p = config_.two_mass;
-    load += p.cable_stiffness * (x[pos_motor_] - x[pos_body_]) + p.cable_damping * x[vel_motor_];
+void LoopbackDevice::configure(const LoopContext& loop) {
+  require(state_.load(std::memory_order_acquire) == DeviceState::closed, "configure()");
+  if (!(loop.period_s > 0.0) || !std::isfinite(loop.period_s)) {
+    throw DeviceError("loopback: the loop period must be > 0 s", "period");
   }
-  return load;
+  if (loop.period_s != simulator_->config().period_s) {
+    // The plant is discretized for one period: rebuild it for the loop's.
+    LoopbackConfig config = simulator_->config();
+    config.period_s = loop.period_s;
+    simulator_ = std::make_unique<simulation::PlantSimulator>(config, simulator_->hand());
+  }
+  state_.store(DeviceState::configured, std::memory_order_release);
 }
 
-void LoopbackDevice::step(double u) noexcept {
-  const PreparedHand* hand = acquire_hand();
-  if (hand->id != active_hand_id_) {
-    active_hand_id_ = hand->id;
-    hand_start_period_ = period_;
-  }
-  const double period = config_.period_s;
-  const double t = static_cast<double>(period_ - hand_start_period_) * period;
-  const double t_next = static_cast<double>(period_ + 1 - hand_start_period_) * period;
-  const HandScript& script = hand->script;
-  released_ = script.released(t);
-  const HandKind kind = released_ ? HandKind::free : hand->kind;
-  const double fc = config_.coulomb;
-  const std::array<double, 4> x0 = x_;
-  const int n = plain_.n;
-  const int pb = pos_body_;
-  const int vb = vel_body_;
-
-  auto advance = [&](const StepModel& m, double body_force, double r, double rd) noexcept {
-    std::array<double, 4> next{};
-    for (int i = 0; i < n; ++i) {
-      double acc = m.bd[i][0] * u + m.bd[i][1] * body_force + m.bd[i][2] * r + m.bd[i][3] * rd;
-      for (int j = 0; j < n; ++j) acc += m.ad[i][j] * x0[j];
-      next[i] = acc;
-    }
-    x_ = next;
-  };
-
-  if (kind == HandKind::constraint) {
-    // The hand moves the body exactly along the trajectory: solve for the
-    // (piecewise-constant) hand force that lands the body on r(t_next), step
-    // the whole plant with it, then pin position and velocity.
-    const Trajectory::Sample ref = script.trajectory.at_time(t_next);
-    const double f = fc > 0.0 ? -fc * sign(ref.position - x0[pb]) : 0.0;
-    double free_position = plain_.bd[pb][0] * u + plain_.bd[pb][1] * f;
-    for (int j = 0; j < n; ++j) free_position += plain_.ad[pb][j] * x0[j];
-    const double fh = (ref.position - free_position) / plain_.bd[pb][1];
-    advance(plain_, fh + f, 0.0, 0.0);
-    x_[pb] = ref.position;
-    x_[vb] = ref.velocity;
-    hand_force_ = fh;
-    friction_ = f;
-    stuck_ = false;
-    release_hand();
-    return;
-  }
-
-  const bool impedance = kind == HandKind::impedance;
-  const StepModel& m = impedance ? hand->impedance : plain_;
-  const double k = impedance ? hand->stiffness : 0.0;
-  const double b = impedance ? hand->damping : 0.0;
-  const double external = kind == HandKind::force ? script.force_at_time(t) : 0.0;
-  Trajectory::Sample ref{};
-  if (impedance) ref = script.trajectory.at_time(t);
-  hand_force_ = external + k * (ref.position - x0[pb]) + b * (ref.velocity - x0[vb]);
-
-  double f = 0.0;
-  bool holds = false;
-  const double v0 = x0[vb];
-  if (fc > 0.0) {
-    if (v0 == 0.0) {
-      const double load = friction_mass_load(x0, u, external, k, b, ref.position, ref.velocity);
-      if (std::abs(load) <= fc) {
-        f = -load;  // stiction balances the load
-        holds = true;
-      } else {
-        f = -fc * sign(load);  // breakaway: kinetic friction against the load
-      }
-    } else {
-      f = -fc * sign(v0);
-    }
-  }
-  advance(m, external + f, ref.position, ref.velocity);
-  stuck_ = false;
-  if (holds) {
-    x_[pb] = x0[pb];
-    x_[vb] = 0.0;
-    stuck_ = true;
-  } else if (fc > 0.0 && v0 != 0.0) {
-    const double v1 = x_[vb];
-    if (v1 == 0.0 || sign(v1) != sign(v0)) {
-      const double load = friction_mass_load(x_, u, external, k, b, ref.position, ref.velocity);
-      if (std::abs(load) <= fc) {
-        // Stops within the step: position where the (linearly decaying)
-        // velocity reaches zero; exact for a rigid mass without viscous damping.
-        const double stop_time = v0 / (v0 - v1) * period;
-        x_[pb] = x0[pb] + 0.5 * v0 * stop_time;
-        x_[vb] = 0.0;
-        stuck_ = true;
-      }
-    }
-  }
-  friction_ = f;
-  release_hand();
+void LoopbackDevice::enable() {
+  const DeviceState s = state_.load(std::memory_order_acquire);
+  require(s == DeviceState::configured || s == DeviceState::enabled, "enable()");
+  simulator_->reset_actuator();  // the amplifier comes on with zero output, nothing stale
+  state_.store(DeviceState::enabled, std::memory_order_release);
 }
 
-void LoopbackDevice::start() {
-  delay_line_.fill(0.0);
-  delay_head_ = 0;
-  commanded_ = applied_ = 0.0;
-  running_.store(true, std::memory_order_release);
-  publish_snapshot();
+std::string LoopbackDevice::clear_fault() {
+  require(state_.load(std::memory_order_acquire) != DeviceState::closed, "clear_fault()");
+  std::string cleared = simulator_->active_faults();
+  simulator_->clear_faults();
+  return cleared;
 }
 
-void LoopbackDevice::stop() noexcept {
-  // Disabled: every later write() is refused and the plant no longer advances;
-  // start() empties the delay line so nothing stale is applied afterwards.
-  running_.store(false, std::memory_order_release);
+void LoopbackDevice::disable() noexcept {
+  DeviceState expected = DeviceState::enabled;
+  if (state_.compare_exchange_strong(expected, DeviceState::configured, std::memory_order_acq_rel)) {
+    simulator_->reset_actuator();  // the amplifier is off: nothing is applied any more
+  }
+}
+
+void LoopbackDevice::close() noexcept {
+  disable();
+  state_.store(DeviceState::closed, std::memory_order_release);
 }
 
 IoResult LoopbackDevice::read(Reading& out) noexcept {
-  if (!running_.load(std::memory_order_acquire)) {
-    read_errors_.fetch_add(1, std::memory_order_relaxed);
+  if (!valid_from(state_.load(std::memory_order_acquire), false)) {
+    refused_reads_.fetch_add(1, std::memory_order_relaxed);
     return IoResult::error;
   }
-  if (active(fault_left_)) {
-    faults_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::fault;
-  }
-  if (active(stall_left_)) {
-    out.position = last_reading_;  // the device answers nothing new
-    return IoResult::ok;
-  }
-  if (active(read_error_left_)) {
-    read_errors_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  if (active(nan_left_)) {
-    out.position = std::numeric_limits<double>::quiet_NaN();
-    return IoResult::ok;
-  }
-  const int index = config_.sensor == world::Sensor::motor ? pos_motor_ : pos_body_;
-  const double counts = std::floor(x_[index] / resolution_) +
-                        static_cast<double>(encoder_offset_.load(std::memory_order_relaxed));
-  out.position = counts * resolution_;
-  last_reading_ = out.position;
-  return IoResult::ok;
+  return simulator_->sense(out.position);
 }
 
 IoResult LoopbackDevice::write(double force) noexcept {
-  if (!running_.load(std::memory_order_acquire)) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
+  // Disabled: the amplifier is off, the command is refused and the plant
+  // does not advance (enable() empties the delay line).
+  if (!valid_from(state_.load(std::memory_order_acquire), true)) {
+    refused_writes_.fetch_add(1, std::memory_order_relaxed);
     return IoResult::error;
   }
-  auto end_period = [this]() noexcept {
-    count_down(read_error_left_);
-    count_down(stall_left_);
-    count_down(nan_left_);
-    count_down(fault_left_);
-  };
-  if (active(stall_left_)) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
-    end_period();
-    return IoResult::error;
-  }
-  IoResult result = IoResult::ok;
-  double command = force;
-  if (!std::isfinite(command)) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
-    command = 0.0;
-    result = IoResult::error;
-  }
-  const bool faulted = active(fault_left_);
-  if (faulted) {
-    faults_.fetch_add(1, std::memory_order_relaxed);
-    command = 0.0;
-    result = IoResult::fault;
-  }
-  command = std::clamp(command, -config_.max_force, config_.max_force);
-  commanded_ = command;
-  constexpr std::size_t length = max_delay_periods + 1;
-  delay_line_[delay_head_] = command;
-  const std::size_t delay = static_cast<std::size_t>(config_.delay);
-  applied_ = faulted ? 0.0 : delay_line_[(delay_head_ + length - delay) % length];
-  delay_head_ = (delay_head_ + 1) % length;
-  step(applied_);
-  ++period_;
-  end_period();
-  publish_snapshot();
-  return result;
-}
-
-void LoopbackDevice::publish_snapshot() noexcept {
-  const int sensed = config_.sensor == world::Sensor::motor ? pos_motor_ : pos_body_;
-  const std::array<double, 10> values{static_cast<double>(period_) * config_.period_s,
-                                      x_[pos_motor_],
-                                      x_[pos_body_],
-                                      x_[vel_motor_],
-                                      x_[vel_body_],
-                                      x_[sensed],
-                                      commanded_,
-                                      applied_,
-                                      hand_force_,
-                                      friction_};
-  snapshot_version_.write_begin();
-  rt::seq_store(cells_.period, period_);
-  for (std::size_t i = 0; i < values.size(); ++i) rt::seq_store(cells_.values[i], values[i]);
-  rt::seq_store(cells_.stuck, stuck_);
-  rt::seq_store(cells_.released, released_);
-  snapshot_version_.write_end();
-}
-
-PlantSnapshot LoopbackDevice::snapshot() const noexcept {
-  PlantSnapshot s;
-  std::array<double, 10> v{};
-  // Consistent unless the plant's writer stopped mid-update for a second,
-  // which a running loop never does.
-  snapshot_version_.read([&] {
-    s.period = rt::seq_load(cells_.period);
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = rt::seq_load(cells_.values[i]);
-    s.stuck = rt::seq_load(cells_.stuck);
-    s.hand_released = rt::seq_load(cells_.released);
-  });
-  s.time_s = v[0];
-  s.motor_position = v[1];
-  s.body_position = v[2];
-  s.motor_velocity = v[3];
-  s.body_velocity = v[4];
-  s.sensed_position = v[5];
-  s.commanded_force = v[6];
-  s.applied_force = v[7];
-  s.hand_force = v[8];
-  s.friction_force = v[9];
-  return s;
+  return simulator_->step(force);
 }
 
 void LoopbackDevice::set_initial_state(double position, double velocity) {
-  if (running_.load(std::memory_order_acquire)) {
-    throw std::logic_error("loopback: set_initial_state() only while stopped");
+  if (state_.load(std::memory_order_acquire) == DeviceState::enabled) {
+    throw std::logic_error("loopback: set_initial_state() only while disabled");
   }
-  x_.fill(0.0);
-  x_[pos_motor_] = x_[pos_body_] = position;
-  x_[vel_motor_] = x_[vel_body_] = velocity;
-  stuck_ = false;
-  publish_snapshot();
+  simulator_->set_initial_state(position, velocity);
 }
 
-void LoopbackDevice::inject_fault(Fault fault, std::int64_t amount) noexcept {
-  const std::int64_t periods = amount < 0 ? -1 : amount;
-  switch (fault) {
-    case Fault::read_error:
-      read_error_left_.store(periods, std::memory_order_relaxed);
-      break;
-    case Fault::stall:
-      stall_left_.store(periods, std::memory_order_relaxed);
-      break;
-    case Fault::nan:
-      nan_left_.store(periods, std::memory_order_relaxed);
-      break;
-    case Fault::fault:
-      fault_left_.store(periods, std::memory_order_relaxed);
-      break;
-    case Fault::encoder_jump:
-      encoder_offset_.fetch_add(amount, std::memory_order_relaxed);
-      break;
-  }
-}
-
-void LoopbackDevice::clear_faults() noexcept {
-  read_error_left_.store(0, std::memory_order_relaxed);
-  stall_left_.store(0, std::memory_order_relaxed);
-  nan_left_.store(0, std::memory_order_relaxed);
-  fault_left_.store(0, std::memory_order_relaxed);
-  encoder_offset_.store(0, std::memory_order_relaxed);
-}
-
-DeviceInfo LoopbackDevice::info() const {
-  DeviceInfo info;
-  info.driver = "loopback";
-  info.motion = config_.motion;
-  info.effective_mass = config_.total_mass();
-  info.viscous_damping = config_.total_damping();
-  info.position_resolution = resolution_;
-  info.inherent_delay_samples = config_.delay;
-  return info;
+DeviceModel LoopbackDevice::model() const {
+  const LoopbackConfig& c = simulator_->config();
+  DeviceModel m;
+  m.motion = c.motion;
+  m.effective_mass = c.total_mass();
+  m.viscous_damping = c.total_damping();
+  m.position_resolution = c.resolution();
+  m.delay_periods = c.delay;
+  if (c.plant == PlantKind::two_mass) m.plant = simulator_->plant_model();
+  m.sensor = c.sensor;
+  m.source = "config";
+  m.description = std::string(to_string(c.motion)) + ", " + std::string(to_string(c.plant));
+  return m;
 }
 
 DeviceStatus LoopbackDevice::status() const {
+  const auto counters = simulator_->counters();
   DeviceStatus s;
-  s.running = running_.load(std::memory_order_acquire);
-  s.read_errors = read_errors_.load(std::memory_order_relaxed);
-  s.write_errors = write_errors_.load(std::memory_order_relaxed);
-  s.faults = faults_.load(std::memory_order_relaxed);
-  auto describe = [&s](std::string_view name, std::int64_t left) {
-    if (left == 0) return;
-    if (!s.last_error.empty()) s.last_error += "; ";
-    s.last_error +=
-        "injected " + std::string(name) +
-        (left < 0 ? std::string(" (until cleared)") : " (" + std::to_string(left) + " periods left)");
-  };
-  describe("fault", fault_left_.load(std::memory_order_relaxed));
-  describe("stall", stall_left_.load(std::memory_order_relaxed));
-  describe("read-error", read_error_left_.load(std::memory_order_relaxed));
-  describe("nan", nan_left_.load(std::memory_order_relaxed));
-  const std::int64_t offset = encoder_offset_.load(std::memory_order_relaxed);
-  if (offset != 0) {
-    if (!s.last_error.empty()) s.last_error += "; ";
-    s.last_error += "injected encoder-jump (offset " + std::to_string(offset) + " counts)";
-  }
+  s.state = state_.load(std::memory_order_acquire);
+  if (s.state != DeviceState::closed && simulator_->faulted()) s.state = DeviceState::fault;
+  s.read_errors = counters.read_errors + refused_reads_.load(std::memory_order_relaxed);
+  s.write_errors = counters.write_errors + refused_writes_.load(std::memory_order_relaxed);
+  s.faults = counters.faults;
+  s.last_error = simulator_->active_faults();
+  if (simulator_->faulted()) s.fault_reason = "injected fault: the simulated amplifier is off";
   return s;
 }
 
-std::optional<world::TwoMassPlant> LoopbackDevice::two_mass() const {
-  if (config_.plant == PlantKind::two_mass) return config_.two_mass;
-  return std::nullopt;
+std::vector<DeviceMethod> LoopbackDevice::methods() {
+  DeviceMethod hand{
+      "hand.set", true, "script the simulated hand (docs/protocol.md)", [this](const json& params) {
+        std::string text;
+        if (params.contains("text")) {
+          if (!params["text"].is_string()) throw RpcError(code::invalid_params, "text must be a string");
+          text = params["text"].get<std::string>();
+        } else {
+          for (const auto& [k, v] : params.items()) {
+            if (v.is_structured())
+              throw RpcError(code::invalid_params, "hand.set: " + k + " must be a scalar");
+            const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+            // The script is key=value text: a space or '=' inside a
+            // value would smuggle in another key.
+            if (value.find_first_of(" \t\n=") != std::string::npos) {
+              throw RpcError(code::invalid_params,
+                             "hand.set: " + k + " = '" + value + "' may not contain spaces or '='");
+            }
+            text += k + "=" + value + " ";
+          }
+        }
+        try {
+          simulator_->set_hand(text);
+        } catch (const std::invalid_argument& e) {
+          throw RpcError(code::invalid_params, e.what());
+        }
+        return json{{"hand", simulator_->hand().to_text()}};
+      }};
+  DeviceMethod fault{
+      "fault.inject", true, "make the simulated device fail (docs/protocol.md)", [this](const json& params) {
+        const std::string kind = params.value("kind", std::string());
+        const auto which = simulation::parse_fault(kind);
+        if (!which) {
+          throw RpcError(code::invalid_params, "fault.inject: unknown kind '" + kind +
+                                                   "'; accepted: " + std::string(simulation::fault_names()));
+        }
+        for (const auto& [key, value] : params.items()) {
+          if (key != "kind" && key != "amount") {
+            throw RpcError(code::invalid_params,
+                           "fault.inject: unknown member '" + key + "'; accepted: kind, amount");
+          }
+        }
+        std::int64_t amount = -1;
+        if (*which == Fault::encoder_jump && !params.contains("amount")) {
+          throw RpcError(code::invalid_params,
+                         "fault.inject: encoder-jump needs amount (the jump in encoder "
+                         "counts, e.g. amount=1000 or amount=-1000)");
+        }
+        if (params.contains("amount")) {
+          if (!params["amount"].is_number_integer()) {
+            throw RpcError(code::invalid_params,
+                           "amount must be a whole number (periods, or counts for encoder-jump)");
+          }
+          amount = params["amount"].get<std::int64_t>();
+        }
+        simulator_->inject_fault(*which, amount);
+        return json{{"injected", kind}, {"amount", amount}};
+      }};
+  return {std::move(hand), std::move(fault)};
 }
 
 }  // namespace hapticd::drivers::loopback

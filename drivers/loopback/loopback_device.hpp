@@ -1,169 +1,75 @@
 #pragma once
 /// \file
-/// The loopback device: a simulated plant behind the Device interface.
-/// Each write() advances the plant by exactly one period with the exact
-/// zero-order-hold discretization computed at construction; simulated time
-/// is (number of write() calls) * period, independent of the wall clock.
-/// read() returns the sensed position quantized to encoder counts.
+/// The loopback device: the shared plant simulator behind the Device
+/// interface, for tests and demos. write() advances the plant by exactly one
+/// period (simulated time = writes * T, independent of the wall clock);
+/// read() returns the encoder's position. The scripted hand and fault
+/// injection are control-plane methods of this driver (hand.set,
+/// fault.inject), not special cases of the daemon. See README.md.
 ///
-/// Sign convention: a positive motor force (write()) and a positive hand
-/// force both increase the position. See README.md for the whole model.
-///
-/// Threads: read()/write() belong to one RT thread (noexcept, no allocation,
-/// no locks, no std::function). set_hand(), inject_fault(), clear_faults(),
-/// snapshot(), status() may be called from any other thread at any time;
-/// start(), stop(), set_initial_state() only when the RT thread is not
-/// inside read()/write().
+/// Threads: read()/write() belong to one RT thread. The lifecycle runs off
+/// the RT path; clear_fault(), methods(), status() and the simulator's
+/// thread-safe calls (set_hand, inject_fault, snapshot) may run at any time.
 
-#include <array>
 #include <atomic>
-#include <cstdint>
 #include <memory>
-#include <mutex>
 #include <optional>
-#include <string_view>
+#include <string>
 #include <vector>
 
 #include "drivers/device.hpp"
-#include "drivers/loopback/hand_script.hpp"
 #include "drivers/loopback/loopback_config.hpp"
-#include "rt/seqlock.hpp"
-#include "world/plant.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 
 namespace hapticd::drivers::loopback {
 
-/// Faults the device can be told to simulate.
-enum class Fault {
-  read_error,    ///< read() returns IoResult::error (no valid value)
-  stall,         ///< the device stops: time and plant freeze, read() returns the stale value, write() errors
-  nan,           ///< read() returns IoResult::ok with a NaN position
-  encoder_jump,  ///< the encoder count jumps by N counts once (the offset stays until clear_faults())
-  fault,         ///< read() and write() return IoResult::fault; the amplifier is off (motor force 0)
-};
-std::string_view to_string(Fault fault) noexcept;  ///< "read-error", "stall", "nan", "encoder-jump", "fault"
-std::optional<Fault> parse_fault(std::string_view name) noexcept;
-std::string_view fault_names() noexcept;  ///< for error messages
-
-/// A consistent copy of the simulated state, taken at a period boundary.
-struct PlantSnapshot {
-  std::uint64_t period = 0;     ///< number of write() calls that advanced the plant
-  double time_s = 0.0;          ///< period * T
-  double motor_position = 0.0;  ///< m or rad (rigid: the mass)
-  double body_position = 0.0;   ///< m or rad (rigid: the mass)
-  double motor_velocity = 0.0;
-  double body_velocity = 0.0;
-  double sensed_position = 0.0;  ///< true (unquantized) position at the configured sensor
-  double commanded_force = 0.0;  ///< last write() argument after saturation
-  double applied_force = 0.0;    ///< motor force applied over the last step (after the delay line)
-  double hand_force = 0.0;       ///< hand force over the last step (ideal hold: the reaction it took)
-  double friction_force = 0.0;   ///< Coulomb friction over the last step (on the mass / the body)
-  bool stuck = false;            ///< the friction mass is at rest in stiction
-  bool hand_released = false;    ///< release_at has passed (the hand acts as mode=free)
-};
-
-namespace detail {
-/// x[n+1] = ad x[n] + bd [motor force, body force, reference, reference rate],
-/// n = 2 (rigid) or 4 (two-mass); fixed storage for the RT path.
-struct StepModel {
-  int n = 0;
-  std::array<std::array<double, 4>, 4> ad{};
-  std::array<std::array<double, 4>, 4> bd{};
-};
-struct PreparedHand;
-}  // namespace detail
+using simulation::Fault;
+using simulation::HandScript;
+using simulation::PlantSnapshot;
 
 class LoopbackDevice final : public Device {
  public:
-  /// Validates the config (throws std::invalid_argument) and discretizes the plant.
+  /// Validates the config (throws std::invalid_argument) and builds the
+  /// simulator for config.period_s (configure() rebuilds it if the loop's
+  /// period differs).
   explicit LoopbackDevice(const LoopbackConfig& config, const HandScript& hand = {});
-  ~LoopbackDevice() override;
-  LoopbackDevice(const LoopbackDevice&) = delete;
-  LoopbackDevice& operator=(const LoopbackDevice&) = delete;
 
-  DeviceInfo info() const override;
-  void start() override;
-  void stop() noexcept override;
+  void configure(const LoopContext& loop) override;
+  void enable() override;
+  std::string clear_fault() override;
+  void disable() noexcept override;
+  void close() noexcept override;
   IoResult read(Reading& out) noexcept override;
   IoResult write(double force) noexcept override;
+  DeviceModel model() const override;
   DeviceStatus status() const override;
+  /// hand.set and fault.inject (docs/protocol.md).
+  std::vector<DeviceMethod> methods() override;
 
-  const LoopbackConfig& config() const noexcept { return config_; }
-  /// The continuous model that is simulated (inputs [motor force, hand force]).
-  const world::LinearPlant& plant_model() const noexcept { return model_; }
-  /// The two-mass parameters when plant = two-mass (info().effective_mass is
-  /// the total mass m_m + m_d; analysis wants the full model).
-  std::optional<world::TwoMassPlant> two_mass() const;
+  simulation::PlantSimulator& simulator() noexcept { return *simulator_; }
+  const simulation::PlantSimulator& simulator() const noexcept { return *simulator_; }
 
-  /// Replaces the hand script (non-RT; allocates, computes the impedance
-  /// discretization, publishes it lock-free). Times in the script count from
-  /// the first write() that sees it. Throws std::invalid_argument.
-  void set_hand(const HandScript& script);
-  void set_hand(std::string_view text);
-  HandScript hand() const;
-
-  /// Injects a fault (non-RT, lock-free for the RT side). For read_error,
-  /// stall, nan and fault, `amount` is a number of periods (write() calls),
-  /// -1 = until cleared; for encoder_jump it is the jump in counts (+/-).
-  void inject_fault(Fault fault, std::int64_t amount = -1) noexcept;
-  void clear_faults() noexcept;
-
-  /// Consistent copy of the simulated state (seqlock; never blocks the RT side).
-  PlantSnapshot snapshot() const noexcept;
-
-  /// Sets the state (all positions to `position`, cable relaxed, velocities
-  /// to `velocity`); only while stopped. Throws std::logic_error when running.
+  // The simulator's own calls, for tests and tools.
+  const LoopbackConfig& config() const noexcept { return simulator_->config(); }
+  const world::LinearPlant& plant_model() const noexcept { return simulator_->plant_model(); }
+  std::optional<world::TwoMassPlant> two_mass() const { return simulator_->two_mass(); }
+  void set_hand(const HandScript& script) { simulator_->set_hand(script); }
+  void set_hand(std::string_view text) { simulator_->set_hand(text); }
+  HandScript hand() const { return simulator_->hand(); }
+  void inject_fault(Fault fault, std::int64_t amount = -1) noexcept {
+    simulator_->inject_fault(fault, amount);
+  }
+  void clear_faults() noexcept { simulator_->clear_faults(); }
+  PlantSnapshot snapshot() const noexcept { return simulator_->snapshot(); }
+  /// Only while disabled (the RT thread is not stepping the plant).
   void set_initial_state(double position, double velocity);
 
  private:
-  const detail::PreparedHand* acquire_hand() noexcept;
-  void release_hand() noexcept;
-  void step(double motor_force) noexcept;
-  double friction_mass_load(const std::array<double, 4>& x, double motor_force, double body_force,
-                            double stiffness, double damping, double reference,
-                            double reference_rate) const noexcept;
-  void publish_snapshot() noexcept;
-  std::unique_ptr<detail::PreparedHand> prepare(const HandScript& script) const;
-  void reclaim_locked();
+  void require(bool condition, const char* what) const;
 
-  LoopbackConfig config_;
-  world::LinearPlant model_;
-  detail::StepModel plain_;
-  int pos_motor_ = 0, pos_body_ = 0, vel_motor_ = 1, vel_body_ = 1;
-  double resolution_ = 0.0;
-
-  // RT-owned state.
-  std::array<double, 4> x_{};
-  std::array<double, max_delay_periods + 1> delay_line_{};
-  std::size_t delay_head_ = 0;
-  std::uint64_t period_ = 0;
-  std::uint64_t active_hand_id_ = 0;
-  std::uint64_t hand_start_period_ = 0;
-  double last_reading_ = 0.0;
-  double commanded_ = 0.0, applied_ = 0.0, hand_force_ = 0.0, friction_ = 0.0;
-  bool stuck_ = false;
-  bool released_ = false;
-
-  // Shared with non-RT threads.
-  std::atomic<bool> running_{false};
-  std::atomic<const detail::PreparedHand*> current_hand_{nullptr};
-  std::atomic<const detail::PreparedHand*> hazard_{nullptr};
-  std::atomic<std::int64_t> read_error_left_{0}, stall_left_{0}, nan_left_{0}, fault_left_{0};
-  std::atomic<std::int64_t> encoder_offset_{0};
-  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0};
-
-  // Snapshot seqlock (written by whoever advances the plant).
-  struct SnapshotCells {
-    std::atomic<std::uint64_t> period{0};
-    std::array<std::atomic<double>, 10> values{};
-    std::atomic<bool> stuck{false}, released{false};
-  };
-  rt::SeqlockVersion snapshot_version_;
-  SnapshotCells cells_;
-
-  // Non-RT ownership of hand scripts.
-  mutable std::mutex hand_mutex_;
-  std::uint64_t hand_generation_ = 0;
-  std::vector<std::unique_ptr<detail::PreparedHand>> hands_;  ///< current and retired, freed off the RT path
+  std::unique_ptr<simulation::PlantSimulator> simulator_;
+  std::atomic<DeviceState> state_{DeviceState::closed};
+  std::atomic<std::uint64_t> refused_reads_{0}, refused_writes_{0};
 };
 
 }  // namespace hapticd::drivers::loopback

@@ -9,6 +9,7 @@
 
 #include "analysis/critical_stiffness.hpp"
 #include "analysis/wall_stability.hpp"
+#include "world/spring_scene.hpp"
 
 namespace hapticd::analysis {
 namespace {
@@ -57,7 +58,7 @@ TEST(ClosedLoop, WallPolesAreTheRootsOfHulinEq1) {
         poles.erase(it);
       }
       for (const auto& z : poles) EXPECT_LT(std::abs(z), 1e-9) << "extra pole not at 0, d=" << d;
-      EXPECT_EQ(v.stable, wall_stable(normalized_stiffness(k, m, t), normalized_damping(b, m, t), d));
+      EXPECT_EQ(v.stable(), wall_stable(normalized_stiffness(k, m, t), normalized_damping(b, m, t), d));
     }
   }
 }
@@ -83,13 +84,46 @@ TEST(ClosedLoop, SpringOnTwoMassPlantAgreesWithCriticalStiffness) {
       const double kcr = critical_stiffness(plant, sensor, t, d * t).k_cr;
       const auto inside = analyze_closed_loop(plant, sensor, spring_scene(0.97 * kcr), t, d);
       const auto outside = analyze_closed_loop(plant, sensor, spring_scene(1.03 * kcr), t, d);
-      EXPECT_TRUE(inside.stable) << d;
-      EXPECT_FALSE(outside.stable) << d;
+      EXPECT_TRUE(inside.stable()) << d;
+      EXPECT_FALSE(outside.stable()) << d;
       EXPECT_GT(outside.growth_per_second, 1.0);
       const auto at = analyze_closed_loop(plant, sensor, spring_scene(kcr), t, d);
       EXPECT_NEAR(at.pole_radius, 1.0, 1e-7) << d;
     }
   }
+}
+
+// hapticctl load wall damping=1e308 was accepted with pole radius 0.0125:
+// B/T overflowed to inf in the scene, the loop matrix held inf, and the
+// eigenvalues Eigen returned for it meant nothing. Likewise the wheel's
+// forward Euler with b = 1e308 (b/J = inf in Ad): "stable, radius 0".
+TEST(ClosedLoop, NonFiniteSceneCannotBeAssessed) {
+  const double m = 0.1, t = 1e-3;
+  const world::LinearPlant plant = world::RigidPlant{m, 0.0}.model();
+  const auto wall = analyze_closed_loop(plant, world::Sensor::motor, wall_scene(9000.0, 1e308, t, 1), t);
+  EXPECT_EQ(wall.verdict.state, VerdictState::cannot_assess);
+  EXPECT_FALSE(wall.stable());
+  EXPECT_NE(wall.verdict.reason.find("an entry of the scene's"), std::string::npos) << wall.verdict.reason;
+  EXPECT_NE(wall.verdict.reason.find("overflowed to inf"), std::string::npos) << wall.verdict.reason;
+  EXPECT_TRUE(std::isnan(wall.pole_radius));
+
+  world::SpringParameters wheel;
+  wheel.stiffness = 1.0186;
+  wheel.inertia = 0.0258;
+  wheel.damping = 1e308;
+  wheel.integrator = world::Integrator::forward_euler;
+  const auto model = world::SpringScene<world::SpringDamping::relative>(wheel, t).linear_model();
+  const auto spring =
+      analyze_closed_loop(world::RigidPlant{0.01, 0.002}.model(), world::Sensor::motor, model, t);
+  EXPECT_EQ(spring.verdict.state, VerdictState::cannot_assess);
+  EXPECT_FALSE(spring.stable());
+
+  // A plant whose ZOH the matrix exponential gets wrong (m = 1e-100 kg: it
+  // returned Ad = 0, Bd = 0, and the loop read "stable, radius 9e-5").
+  const auto light = analyze_closed_loop(world::RigidPlant{1e-100, 0.0}.model(), world::Sensor::motor,
+                                         wall_scene(9000.0, 46.0, t, 1), t);
+  EXPECT_EQ(light.verdict.state, VerdictState::cannot_assess);
+  EXPECT_NE(light.verdict.reason.find("det e^(A T) = 0"), std::string::npos) << light.verdict.reason;
 }
 
 TEST(ClosedLoop, RejectsInconsistentScene) {

@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include "analysis/closed_loop.hpp"
 #include "analysis/relay_experiment.hpp"
 #include "analysis/two_mass.hpp"
 #include "world/integrator.hpp"
@@ -197,6 +198,114 @@ TEST(TwoMass, ResonanceParametersTableI) {
 }
 
 // Eq. (10) versus (5)-(7): same denominator except the s^2 coefficient.
+// analyze critical-stiffness --plant two-mass --motor-mass 1e308 printed
+// "w_n = -nan" and still "Q < K_CR: the cable mode limits the stiffness":
+// k_c m overflowed in omega_n = sqrt(k_c m / (m_d m_m)) = sqrt(inf / inf).
+TEST(TwoMass, OverflowingParametersCannotBeAssessed) {
+  world::TwoMassPlant p;
+  p.motor_mass = 1e308;
+  const ResonanceParameters modes = resonance_parameters(p);
+  EXPECT_FALSE(modes.assessed());
+  EXPECT_NE(modes.numerics.reason().find("omega_n"), std::string::npos) << modes.numerics.reason();
+  EXPECT_FALSE(resonant_peak(p).has_value());
+  const CriticalStiffness k = critical_stiffness(p.model(), world::Sensor::motor, 1e-3, 0.0);
+  EXPECT_FALSE(k.assessed());  // H ~ 1/m_m: -1/H overflows
+  EXPECT_FALSE(rigid_model_suffices(modes, k).has_value());
+  // Table I: both assessed, and the comparison is made (Q = 78.6 dB < K_CR = 78.9 dB at td = 0).
+  const world::TwoMassPlant table1;
+  const ResonanceParameters ok = resonance_parameters(table1);
+  const CriticalStiffness kcr = critical_stiffness(table1.model(), world::Sensor::motor, 1e-3, 0.0);
+  ASSERT_TRUE(ok.assessed());
+  ASSERT_TRUE(kcr.assessed());
+  ASSERT_TRUE(rigid_model_suffices(ok, kcr).has_value());
+  EXPECT_EQ(*rigid_model_suffices(ok, kcr), ok.q >= kcr.k_cr);
+}
+
+// A 1e-20 kg mass with b = 3.5 N s/m is a first-order lag whose K_CR is
+// 2 b / T = 7000 N/m; the ZOH of its pole at b/m = 3.5e20 rad/s is rounded
+// beyond meaning (rho(A) T = 3.5e17) and K_CR came out as 1.04e7 N/m.
+TEST(CriticalStiffness, PlantWhoseDiscretizationLosesPrecisionCannotBeAssessed) {
+  const CriticalStiffness k =
+      critical_stiffness(world::RigidPlant{1e-20, 3.5}.model(), world::Sensor::motor, 1e-3, 0.0);
+  EXPECT_FALSE(k.assessed());
+  EXPECT_NE(k.numerics.reason().find("3.5e+17 per period"), std::string::npos) << k.numerics.reason();
+  // At 1e-9 kg (the loopback's smallest mass) it is still a verdict, and the right one.
+  const CriticalStiffness small =
+      critical_stiffness(world::RigidPlant{1e-9, 3.5}.model(), world::Sensor::motor, 1e-3, 0.0);
+  ASSERT_TRUE(small.assessed()) << small.numerics.reason();
+  EXPECT_NEAR(small.k_cr, 7000.0, 1.0);
+}
+
+// At T = 1 us the scan used to start at 1e-4/T = 100 rad/s, above the rigid
+// LHifAM's corner b/m = 0.65 rad/s: the phase was already past -180 deg there
+// (td = 100 us) and K_CR read 0, as for an undamped mass. The scan now starts
+// below the slowest mode; the closed-loop poles confirm the crossing.
+TEST(CriticalStiffness, CrossoverBelowTheDefaultScanIsFound) {
+  const world::LinearPlant plant = world::RigidPlant{5.4, 3.5}.model();
+  const double t = 1e-6;
+  const CriticalStiffness k = critical_stiffness(plant, world::Sensor::motor, t, 100 * t);
+  ASSERT_TRUE(k.assessed()) << k.numerics.reason();
+  EXPECT_GT(k.k_cr, 1e4);
+  world::DiscreteLinearScene spring;
+  spring.a.resize(0, 0);
+  spring.b.resize(0, 1);
+  spring.c.resize(1, 0);
+  spring.d = Eigen::MatrixXd::Constant(1, 1, -0.97 * k.k_cr);
+  EXPECT_TRUE(analyze_closed_loop(plant, world::Sensor::motor, spring, t, 100).stable());
+  spring.d(0, 0) = -1.03 * k.k_cr;
+  EXPECT_FALSE(analyze_closed_loop(plant, world::Sensor::motor, spring, t, 100).stable());
+  // A truly undamped mass (double pole at 0) keeps K_CR = 0.
+  EXPECT_EQ(critical_stiffness(world::RigidPlant{5.4, 0.0}.model(), world::Sensor::motor, 1e-3, 0.0).k_cr,
+            0.0);
+}
+
+// b = 1e-30 N s/m on 5.4 kg read K_CR = 0, as if undamped (with the scan
+// started below b/m: 6e-10 N/m; it is 2 b / T = 2e-27): the discrete pole
+// e^(-b T / m) rounds to 1 and H no longer knows the damping.
+// Down to b/m T = 2.2e-10 it does: two-mass with b_d = 1e-4 gives 2 b / T.
+TEST(CriticalStiffness, DampingLostInRoundingCannotBeAssessed) {
+  const CriticalStiffness k =
+      critical_stiffness(world::RigidPlant{5.4, 1e-30}.model(), world::Sensor::motor, 1e-3, 0.0);
+  EXPECT_FALSE(k.assessed());
+  EXPECT_NE(k.numerics.reason().find("lost in rounding next to z = 1"), std::string::npos)
+      << k.numerics.reason();
+  world::TwoMassPlant light;
+  light.motor_damping = 0.0;
+  light.body_damping = 1e-4;
+  const CriticalStiffness two = critical_stiffness(light.model(), world::Sensor::motor, 1e-3, 0.0);
+  ASSERT_TRUE(two.assessed()) << two.numerics.reason();
+  EXPECT_NEAR(two.k_cr, 2.0 * 1e-4 / 1e-3, 1e-3 * 0.2);
+}
+
+// The phase scan resolves a delay of max_delay_periods: K_CR there agrees
+// with the closed-loop poles (a 102-state matrix) at 0.97 / 1.03 K_CR; a
+// longer one is refused rather than answered from a scan that may miss a
+// crossover. (td = 1e300 s used to overflow int in the whole-sample count.)
+TEST(CriticalStiffness, LongestDelayIsResolvedLongerIsRefused) {
+  const world::LinearPlant plant = world::RigidPlant{5.4, 3.5}.model();
+  const double t = 1e-3;
+  const CriticalStiffness k = critical_stiffness(plant, world::Sensor::motor, t, max_delay_periods * t);
+  ASSERT_TRUE(k.assessed()) << k.numerics.reason();
+  auto spring = [](double stiffness) {
+    world::DiscreteLinearScene s;
+    s.a.resize(0, 0);
+    s.b.resize(0, 1);
+    s.c.resize(1, 0);
+    s.d = Eigen::MatrixXd::Constant(1, 1, -stiffness);
+    return s;
+  };
+  EXPECT_TRUE(
+      analyze_closed_loop(plant, world::Sensor::motor, spring(0.97 * k.k_cr), t, max_delay_periods).stable());
+  EXPECT_FALSE(
+      analyze_closed_loop(plant, world::Sensor::motor, spring(1.03 * k.k_cr), t, max_delay_periods).stable());
+  EXPECT_THROW(critical_stiffness(plant, world::Sensor::motor, t, (max_delay_periods + 1) * t),
+               std::invalid_argument);
+  EXPECT_THROW(critical_stiffness(plant, world::Sensor::motor, t, 1e300), std::invalid_argument);
+  EXPECT_THROW(critical_stiffness(plant, world::Sensor::motor, t, std::nan("")), std::invalid_argument);
+  EXPECT_THROW(discretize_delayed_zoh(plant.dynamics.a, plant.dynamics.b.col(0), t, 1e300),
+               std::invalid_argument);
+}
+
 TEST(TwoMass, FactorizationEq10IsApproximateInOneCoefficient) {
   const world::TwoMassPlant p;
   const Polynomial exact = two_mass_denominator(p);

@@ -3,6 +3,7 @@
 #include "analysis/integrator_stability.hpp"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <tuple>
 
@@ -94,29 +95,29 @@ TEST(IntegratorStability, ForwardEulerMatchesEq2_13) {
 TEST(IntegratorStability, ForwardEulerDampingRule) {
   const double k = 10.0, j = 0.01, t = 1e-3;
   const IntegratorVerdict at = analyze_integrator({k, j, t * k, t, Integrator::forward_euler});
-  EXPECT_TRUE(at.marginal);
-  EXPECT_TRUE(at.stable);
+  EXPECT_TRUE(at.marginal());
+  EXPECT_TRUE(at.stable());
   const IntegratorVerdict above = analyze_integrator({k, j, 1.1 * t * k, t, Integrator::forward_euler});
-  EXPECT_TRUE(above.stable);
-  EXPECT_FALSE(above.marginal);
+  EXPECT_TRUE(above.stable());
+  EXPECT_FALSE(above.marginal());
   const IntegratorVerdict below = analyze_integrator({k, j, 0.9 * t * k, t, Integrator::forward_euler});
-  EXPECT_FALSE(below.stable);
+  EXPECT_FALSE(below.stable());
   EXPECT_GT(below.growth_per_second, 1.0);
 }
 
 TEST(IntegratorStability, UndampedVerdictsPerIntegrator) {
   const double k = 10.0, j = 0.01, t = 1e-3;
   auto verdict = [&](Integrator i) { return analyze_integrator({k, j, 0.0, t, i}); };
-  EXPECT_FALSE(verdict(Integrator::forward_euler).stable);  // Freudenberg Fig. 8
+  EXPECT_FALSE(verdict(Integrator::forward_euler).stable());  // Freudenberg Fig. 8
   EXPECT_NEAR(verdict(Integrator::forward_euler).eigenvalue_magnitude, std::sqrt(1 + t * t * k / j), 1e-15);
   for (Integrator i : {Integrator::semi_implicit_euler, Integrator::trapezoid, Integrator::exact}) {
-    EXPECT_TRUE(verdict(i).stable) << to_string(i);
-    EXPECT_TRUE(verdict(i).marginal) << to_string(i);  // symplectic / energy-preserving
+    EXPECT_TRUE(verdict(i).stable()) << to_string(i);
+    EXPECT_TRUE(verdict(i).marginal()) << to_string(i);  // symplectic / energy-preserving
   }
   // RK4 damps an undamped oscillator slightly: |R(jy)|^2 = 1 - y^6/72 + y^8/576.
   const IntegratorVerdict rk4 = verdict(Integrator::rk4);
-  EXPECT_TRUE(rk4.stable);
-  EXPECT_FALSE(rk4.marginal);
+  EXPECT_TRUE(rk4.stable());
+  EXPECT_FALSE(rk4.marginal());
   const double y = t * std::sqrt(k / j);
   EXPECT_NEAR(rk4.eigenvalue_magnitude, std::sqrt(1 - std::pow(y, 6) / 72 + std::pow(y, 8) / 576), 1e-14);
 }
@@ -129,10 +130,10 @@ TEST(IntegratorStability, TimeDomainGrowthMatchesVerdict) {
       const IntegratorVerdict v = analyze_integrator(s);
       const double measured = simulated_growth_per_second(s, 10.0);
       EXPECT_NEAR(measured, v.growth_per_second, 0.01 * v.growth_per_second) << to_string(i) << " b=" << b;
-      if (v.stable && !v.marginal) {
+      if (v.stable() && !v.marginal()) {
         EXPECT_LT(measured, 1.0) << to_string(i) << " b=" << b;
       }
-      if (!v.stable) {
+      if (!v.stable()) {
         EXPECT_GT(measured, 1.0) << to_string(i) << " b=" << b;
       }
     }
@@ -142,7 +143,7 @@ TEST(IntegratorStability, TimeDomainGrowthMatchesVerdict) {
 // Forward Euler with a coarse period on a stiff spring: grows visibly.
 TEST(IntegratorStability, StiffForwardEulerGrowsFast) {
   const IntegratorVerdict v = analyze_integrator({1000.0, 0.01, 0.0, 1e-3, Integrator::forward_euler});
-  EXPECT_FALSE(v.stable);
+  EXPECT_FALSE(v.stable());
   EXPECT_GT(v.growth_per_second, 1e20);
 }
 
@@ -154,8 +155,8 @@ TEST(IntegratorStability, ExactStaysMarginalOnStiffSprings) {
   for (const auto& [k, j, t] : {std::tuple{1e4, 1e-4, 1e-3}, std::tuple{1e6, 1e-4, 1e-3},
                                 std::tuple{1e8, 1e-6, 1e-3}, std::tuple{1e9, 1e-6, 1e-2}}) {
     const IntegratorVerdict v = analyze_integrator({k, j, 0.0, t, Integrator::exact});
-    EXPECT_TRUE(v.stable) << k;
-    EXPECT_TRUE(v.marginal) << k << ": |lambda| - 1 = " << v.eigenvalue_magnitude - 1.0;
+    EXPECT_TRUE(v.stable()) << k;
+    EXPECT_TRUE(v.marginal()) << k << ": |lambda| - 1 = " << v.eigenvalue_magnitude - 1.0;
   }
   // Damped, it decays at exactly e^{-zeta w T} per step.
   const double k = 1e6, j = 1e-4, b = 0.2;  // zeta = b / (2 sqrt(k j)) = 0.01
@@ -166,7 +167,7 @@ TEST(IntegratorStability, ExactStaysMarginalOnStiffSprings) {
 // Growth that overflows a double still has a finite log10 to report.
 TEST(IntegratorStability, OverflowingGrowthKeepsItsLog10) {
   const IntegratorVerdict v = analyze_integrator({1e6, 1e-4, 0.0, 1e-3, Integrator::semi_implicit_euler});
-  EXPECT_FALSE(v.stable);
+  EXPECT_FALSE(v.stable());
   EXPECT_TRUE(std::isinf(v.growth_per_second));
   // Closed form, undamped semi-implicit Euler: Ad = [[1 - y^2, T], [-T k/J, 1]]
   // with y = w T has trace 2 - y^2 and det 1, so for y > 2 the larger root of
@@ -182,10 +183,54 @@ TEST(IntegratorStability, OverflowingGrowthKeepsItsLog10) {
   EXPECT_GT(v.growth_per_second_log10, 3000.0);
 }
 
+// hapticctl analyze integrator --scheme forward-euler --stiffness 1e308
+// --inertia 0.0258 said "stable, marginal, |lambda| = 0": k/J overflowed, Ad
+// held inf and NaN, and max |lambda| over NaN eigenvalues stayed 0.
+TEST(IntegratorStability, OverflowCannotBeAssessed) {
+  const IntegratorVerdict v = analyze_integrator({1e308, 0.0258, 0.0, 1e-3, Integrator::forward_euler});
+  EXPECT_EQ(v.verdict.state, VerdictState::cannot_assess);
+  EXPECT_FALSE(v.stable());
+  EXPECT_FALSE(v.marginal());
+  EXPECT_NE(v.verdict.reason.find("k / J = 1e+308 / 0.0258 overflowed to inf"), std::string::npos)
+      << v.verdict.reason;
+  // The damper as well, under every scheme.
+  for (const Integrator i : world::all_integrators) {
+    const IntegratorVerdict d = analyze_integrator({1.0, 0.0258, 1e308, 1e-3, i});
+    EXPECT_EQ(d.verdict.state, VerdictState::cannot_assess) << to_string(i);
+    EXPECT_NE(d.verdict.reason.find("b / J"), std::string::npos) << d.verdict.reason;
+  }
+  // Finite k/J whose Ad overflows: forward Euler's w^2 T at k/J = 1e307, T = 1 s.
+  const IntegratorVerdict ad = analyze_integrator({1e307, 1.0, 0.0, 1.0, Integrator::rk4});
+  EXPECT_EQ(ad.verdict.state, VerdictState::cannot_assess);
+  EXPECT_NE(ad.verdict.reason.find("Ad"), std::string::npos) << ad.verdict.reason;
+}
+
+// analyze integrator --scheme exact --stiffness 1e20 --inertia 0.0258
+// --period 1ms said "marginal": at w_n T = 6.2e7 the matrix exponential
+// rounds |lambda| to 64 eps w_n T = 9e-7, wider than the 1e-7 a verdict
+// needs; at k = 1e28, T = 1 s (w_n T = 6e14) it read 1.0072 and "marginal".
+TEST(IntegratorStability, PrecisionLossCannotBeAssessed) {
+  for (const auto& [k, t] : {std::pair{1e20, 1e-3}, std::pair{1e28, 1.0}}) {
+    const IntegratorVerdict v = analyze_integrator({k, 0.0258, 0.0, t, Integrator::exact});
+    EXPECT_EQ(v.verdict.state, VerdictState::cannot_assess) << k;
+    EXPECT_FALSE(v.stable()) << k;
+    EXPECT_NE(v.verdict.reason.find("w_n T = "), std::string::npos) << v.verdict.reason;
+    EXPECT_TRUE(std::isnan(v.growth_per_second)) << k;
+  }
+  // Clearly unstable stays a verdict however coarse: forward Euler's |lambda| = w T.
+  EXPECT_EQ(analyze_integrator({1e20, 0.0258, 0.0, 1e-3, Integrator::forward_euler}).verdict.state,
+            VerdictState::unstable);
+  // The scene catalog's extremes at 1 ms (k = 1e9, J = 1e-9: w_n T = 1e6) are assessed.
+  EXPECT_TRUE(analyze_integrator({1e9, 1e-9, 0.0, 1e-3, Integrator::exact}).marginal());
+}
+
 TEST(IntegratorStability, RejectsBadInput) {
   EXPECT_THROW(analyze_integrator({1.0, 0.0, 0.0, 1e-3, Integrator::exact}), std::invalid_argument);
   EXPECT_THROW(analyze_integrator({1.0, 1.0, -1.0, 1e-3, Integrator::exact}), std::invalid_argument);
   EXPECT_THROW(analyze_integrator({1.0, 1.0, 0.0, 0.0, Integrator::exact}), std::invalid_argument);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(analyze_integrator({nan, 1.0, 0.0, 1e-3, Integrator::exact}), std::invalid_argument);
+  EXPECT_THROW(analyze_integrator({1.0, 1.0, 0.0, nan, Integrator::exact}), std::invalid_argument);
 }
 
 }  // namespace

@@ -351,11 +351,11 @@ TEST(WallStability, Section7Phantom) {
   const WallVerdict ok = analyze_wall(0.1, 1e-3, 1, 9000.0, 46.0);
   EXPECT_NEAR(ok.alpha, 0.09, 1e-12);
   EXPECT_NEAR(ok.beta, 0.46, 1e-12);
-  EXPECT_TRUE(ok.stable);
+  EXPECT_TRUE(ok.stable());
   EXPECT_TRUE(refusal_message(ok).empty());
 
   const WallVerdict typo = analyze_wall(0.1, 1e-3, 1, 9000.0, 4.6);
-  EXPECT_FALSE(typo.stable);
+  EXPECT_FALSE(typo.stable());
   const double alpha_typo = boundary_alpha(theta_for_beta(0.046, 1), 1);
   EXPECT_NEAR(alpha_typo, 0.0290935744869607, 1e-13);  // mpmath, 30 digits
   const double k_typo = alpha_typo * 0.1 / (1e-3 * 1e-3);
@@ -363,7 +363,7 @@ TEST(WallStability, Section7Phantom) {
   EXPECT_LT(typo.k_max_for_damping, 3000.0);
 
   const WallVerdict stiff = analyze_wall(0.1, 1e-3, 1, 20000.0, 4.6);
-  EXPECT_FALSE(stiff.stable);
+  EXPECT_FALSE(stiff.stable());
   EXPECT_FALSE(stiff.damping_range);  // 20 kN/m > k_max for any damping
   const BoundaryPoint top = closed_form_max_stiffness(1);
   EXPECT_NEAR(stiff.k_max, top.alpha * 0.1 / 1e-6, 1e-6 * top.alpha * 0.1 / 1e-6);
@@ -378,14 +378,43 @@ TEST(WallStability, Section7Phantom) {
 
 TEST(WallStability, VerdictEdgeCases) {
   // Free mass with a damper only: the drift root is not an instability.
-  EXPECT_TRUE(analyze_wall(0.1, 1e-3, 1, std::nullopt, 20.0).stable);
-  EXPECT_FALSE(analyze_wall(0.1, 1e-3, 1, std::nullopt, 90.0).stable);  // beta 0.9 > 0.828
-  EXPECT_TRUE(analyze_wall(0.1, 1e-3, 1, std::nullopt, std::nullopt).stable);
+  EXPECT_TRUE(analyze_wall(0.1, 1e-3, 1, std::nullopt, 20.0).stable());
+  EXPECT_FALSE(analyze_wall(0.1, 1e-3, 1, std::nullopt, 90.0).stable());  // beta 0.9 > 0.828
+  EXPECT_TRUE(analyze_wall(0.1, 1e-3, 1, std::nullopt, std::nullopt).stable());
   // A spring without damping is never stable (Hulin: beta = 0 is outside).
-  EXPECT_FALSE(analyze_wall(0.1, 1e-3, 0, 100.0, std::nullopt).stable);
+  EXPECT_FALSE(analyze_wall(0.1, 1e-3, 0, 100.0, std::nullopt).stable());
   EXPECT_THROW(analyze_wall(0.0, 1e-3, 0, 1.0, 1.0), std::invalid_argument);
   EXPECT_THROW(analyze_wall(0.1, 1e-3, -1, 1.0, 1.0), std::invalid_argument);
   EXPECT_THROW(analyze_wall(0.1, 1e-3, 0, -1.0, 1.0), std::invalid_argument);
+}
+
+// analyze wall --mass 0.1 --period 1ms --delay 1 --stiffness 9000 --damping
+// 1e300 said "UNSTABLE, pole radius 2": with beta = 1e298 the mass term
+// 2 z^2 (z-1)^2 of eq. (3) is below the rounding of the companion matrix, and
+// the roots it returned are not those of the wall (true ones reach 7e148).
+// A 1e-300 kg mass overflows alpha. Neither is a verdict.
+TEST(WallStability, SwampedOrOverflowingTermsCannotBeAssessed) {
+  const WallVerdict damped = analyze_wall(0.1, 1e-3, 1, 9000.0, 1e300);
+  EXPECT_EQ(damped.verdict.state, VerdictState::cannot_assess);
+  EXPECT_FALSE(damped.stable());
+  EXPECT_NE(damped.verdict.reason.find("mass term"), std::string::npos) << damped.verdict.reason;
+  EXPECT_TRUE(std::isnan(damped.pole_radius));
+  // The region at the (resolvable) requested stiffness is still reported.
+  ASSERT_TRUE(damped.damping_range.has_value());
+  EXPECT_NEAR(damped.damping_range->lower, 16.6054, 1e-3);
+  const std::string msg = refusal_message(damped);
+  EXPECT_NE(msg.find("cannot be assessed"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("mass term"), std::string::npos) << msg;
+
+  const WallVerdict light = analyze_wall(1e-300, 1e-3, 1, 9000.0, 46.0);
+  EXPECT_EQ(light.verdict.state, VerdictState::cannot_assess);
+  EXPECT_NE(light.verdict.reason.find("mass term"), std::string::npos) << light.verdict.reason;
+  const WallVerdict overflow = analyze_wall(1e-3, 1.0, 1, 1e308, 0.0);
+  EXPECT_EQ(overflow.verdict.state, VerdictState::cannot_assess);
+  EXPECT_NE(overflow.verdict.reason.find("alpha = K T^2 / m overflowed to inf"), std::string::npos)
+      << overflow.verdict.reason;
+  // Up to alpha + beta = 1e6 (K = 1e11 N/m at m = 0.1 kg, T = 1 ms) it is a verdict.
+  EXPECT_EQ(analyze_wall(0.1, 1e-3, 1, 1e11, 46.0).verdict.state, VerdictState::unstable);
 }
 
 TEST(WallStability, VerdictIsFastEnoughForTheControlThread) {

@@ -50,14 +50,12 @@ TEST(ConfigDefaults, BuiltInDefaultIsLoopbackWheelWithExactIntegrator) {
   const DaemonConfig config = default_config();
   EXPECT_EQ(config.source, "<built-in default>");
   EXPECT_EQ(config.device.driver, "loopback");
-  // A rotary wheel with bearing damping (without it the default scene is
-  // refused as unstable) and an actuator peak above the software limit.
-  ASSERT_EQ(config.device.parameters.size(), 3u);
+  // A rotary wheel with the driver's own defaults: the built-in default
+  // restates none of them, so a file that leaves them out gets the same
+  // device (MinimalConfig tests in default_equivalence_test.cpp).
+  ASSERT_EQ(config.device.parameters.size(), 1u);
   EXPECT_EQ(config.device.parameters[0].key, "motion");
   EXPECT_EQ(config.device.parameters[0].value, ParameterValue{std::string("rotary")});
-  EXPECT_EQ(config.device.parameters[1].key, "damping");
-  EXPECT_EQ(config.device.parameters[1].value, ParameterValue{0.002});
-  EXPECT_EQ(config.device.parameters[2].key, "max_force");
   EXPECT_EQ(config.scene.name, "spring-wheel");
   ASSERT_EQ(config.scene.parameters.size(), 1u);
   EXPECT_EQ(config.scene.parameters[0].key, "integrator");
@@ -70,7 +68,12 @@ TEST(ConfigDefaults, BuiltInDefaultIsLoopbackWheelWithExactIntegrator) {
 void strip_positions(DaemonConfig& config) {
   config.source.clear();
   config.device.driver_where = {};
+  config.device.table_where = {};
   config.scene.name_where = {};
+  config.scene.table_where = {};
+  config.control.socket_where = {};
+  config.control.group_where = {};
+  config.recorder.directory_where = {};
   for (auto& p : config.device.parameters) p.where = {};
   for (auto& p : config.scene.parameters) p.where = {};
 }
@@ -157,6 +160,35 @@ flush_interval = 0.25
   EXPECT_DOUBLE_EQ(config.recorder.ring_seconds, 0.5);
   EXPECT_DOUBLE_EQ(config.recorder.flush_interval_s, 0.25);
   EXPECT_EQ(config.recorder.ring_capacity(config.loop.period_s), 2000u);
+}
+
+// The positions errors found after parsing (host checks, the driver, the
+// scene catalog) are reported at.
+TEST(ConfigPositions, KeysAndTablesKeepTheirPositions) {
+  const DaemonConfig config = parse_config(R"([control]
+socket = "/run/x.sock"
+  group = "haptics"
+[recorder]
+directory = "/tmp/rec"
+[device.loopback]
+mass = 0.2
+[scene]
+stiffness = 3
+)",
+                                           "p.toml");
+  EXPECT_EQ(config.control.socket_where.to_string(), "p.toml:2:10");
+  EXPECT_EQ(config.control.group_where.to_string(), "p.toml:3:11");
+  EXPECT_EQ(config.recorder.directory_where.to_string(), "p.toml:5:13");
+  EXPECT_EQ(config.device.table_where.to_string(), "p.toml:6:9");
+  EXPECT_EQ(config.device.driver_where.to_string(), "p.toml:6:2");  // no driver key: the [device...] header
+  EXPECT_EQ(config.scene.table_where.to_string(), "p.toml:8:2");
+  EXPECT_EQ(config.scene.name_where.to_string(), "p.toml:8:2");  // no name key: the [scene] header
+  // What the file leaves out is blamed on the file.
+  const DaemonConfig empty = parse_config("", "e.toml");
+  EXPECT_EQ(empty.control.socket_where.to_string(), "e.toml");
+  EXPECT_EQ(empty.recorder.directory_where.to_string(), "e.toml");
+  EXPECT_EQ(empty.device.table_where.to_string(), "e.toml");
+  EXPECT_EQ(empty.scene.name_where.to_string(), "e.toml");
 }
 
 TEST(ConfigDurations, SuffixesNumbersAndRangeEdges) {
@@ -275,7 +307,7 @@ TEST(ConfigErrors, DriversAndDriverTables) {
   EXPECT_EQ(
       error_of("[device]\ndriver = \"serial\""),
       "t.toml:2:10: device.driver = \"serial\" is not a known driver; accepted: loopback, usb-hid, canopen, "
-      "modbus, gpio");
+      "modbus, gpio-pwm");  // names from the driver registry
   // The table must match the selected driver, wherever driver is written.
   EXPECT_EQ(error_of("[device.canopen]\nnode_id = 5\n[device]\ndriver = \"loopback\""),
             "t.toml:1:9: [device.canopen] does not match device.driver = \"loopback\"; accepted: "

@@ -40,7 +40,7 @@ TEST(ShippedConfigs, EveryFileParsesWithTheExpectedDriverAndScene) {
       {"usb-hid.toml", {"usb-hid", "spring-wheel"}},
       {"canopen.toml", {"canopen", "spring-wheel"}},
       {"modbus.toml", {"modbus", "spring-wheel"}},
-      {"gpio.toml", {"gpio", "spring-wheel"}},
+      {"gpio-pwm.toml", {"gpio-pwm", "spring-wheel"}},
   };
   std::size_t seen = 0;
   for (const auto& entry : std::filesystem::directory_iterator(config_dir)) {

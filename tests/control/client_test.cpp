@@ -4,7 +4,10 @@
 #include <cerrno>
 #include <cstdlib>
 #include <string>
+#include <thread>
 
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -21,6 +24,7 @@ using hapticd::client::ConnectError;
 using hapticd::client::parse_assignment;
 using hapticd::client::parse_assignments;
 using hapticd::client::parse_value;
+using hapticd::client::ProtocolError;
 using hapticd::client::resolve_socket_path;
 using nlohmann::json;
 
@@ -74,6 +78,65 @@ TEST(ClientConnect, MissingSocketIsConnectErrorNamingThePath) {
               "hapticd is not running at " + path + " (connect: No such file or directory)");
   }
   EXPECT_THROW(Client::connect(std::string(200, 'x'), 1s), ConnectError);
+}
+
+/// A daemon that answers the first request line with `reply`, whatever it was.
+class FakeDaemon {
+ public:
+  FakeDaemon(const std::string& path, std::string reply) : reply_(std::move(reply)) {
+    listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    path.copy(addr.sun_path, sizeof(addr.sun_path) - 1);
+    if (::bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0 ||
+        ::listen(listen_fd_, 1) != 0)
+      throw std::runtime_error("fake daemon: bind/listen failed");
+    thread_ = std::thread([this] {
+      int fd = ::accept(listen_fd_, nullptr, nullptr);
+      if (fd < 0) return;
+      char c = 0;
+      while (::recv(fd, &c, 1, 0) == 1 && c != '\n') {
+      }
+      std::size_t off = 0;
+      while (off < reply_.size()) {
+        ssize_t n = ::send(fd, reply_.data() + off, reply_.size() - off, MSG_NOSIGNAL);
+        if (n <= 0) break;
+        off += static_cast<std::size_t>(n);
+      }
+      ::shutdown(fd, SHUT_WR);
+      while (::recv(fd, &c, 1, 0) == 1) {
+      }
+      ::close(fd);
+    });
+  }
+  ~FakeDaemon() {
+    thread_.join();
+    ::close(listen_fd_);
+  }
+  FakeDaemon(const FakeDaemon&) = delete;
+  FakeDaemon& operator=(const FakeDaemon&) = delete;
+
+ private:
+  std::string reply_;
+  int listen_fd_ = -1;
+  std::thread thread_;
+};
+
+// Issue 6: a reply nesting a million levels (a hostile or broken daemon) must
+// not crash hapticctl: the client bounds nesting before parsing, as the server.
+TEST(ClientReplies, NestingDeeperThanTheLimitIsAProtocolError) {
+  hapticd::daemon::control::test::TempDir dir;
+  const std::string path = dir.file("fake.sock");
+  const std::size_t levels = 1'000'000;
+  FakeDaemon daemon(path, R"({"jsonrpc":"2.0","id":1,"error":)" + std::string(levels, '[') +
+                              std::string(levels, ']') + "}\n");
+  auto c = Client::connect(path, 5s);
+  try {
+    c.call("status");
+    FAIL() << "a million-level reply was accepted";
+  } catch (const ProtocolError& e) {
+    EXPECT_NE(std::string(e.what()).find("64 levels"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Assignment, ValuesBecomeTypedJson) {

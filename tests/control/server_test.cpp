@@ -1,9 +1,12 @@
 // ControlServer driven by the Client and by raw sockets.
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <fstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <grp.h>
 #include <pwd.h>
@@ -24,6 +27,7 @@ using hapticd::client::ConnectError;
 using hapticd::daemon::control::Access;
 using hapticd::daemon::control::ControlServer;
 using hapticd::daemon::control::PeerInfo;
+using hapticd::daemon::control::Precedence;
 using hapticd::daemon::control::ServerError;
 using hapticd::daemon::control::ServerOptions;
 using hapticd::daemon::control::test::eventually;
@@ -84,6 +88,28 @@ class ServerTest : public ::testing::Test {
         Access::read);
     server->register_method(
         "count", [this](const json&, const PeerInfo&) { return json(++counted); }, Access::read);
+    // Like `count`, but as slow as a real method (scene.list builds the whole catalog).
+    server->register_method(
+        "slow",
+        [this](const json&, const PeerInfo&) {
+          std::this_thread::sleep_for(20us);
+          return json(++counted);
+        },
+        Access::read);
+    // Holds the server thread, as a long handler does.
+    server->register_method(
+        "nap",
+        [](const json&, const PeerInfo&) {
+          std::this_thread::sleep_for(300ms);
+          return json(true);
+        },
+        Access::read);
+    // `mark` and `estop` note how many `count` requests were served before them.
+    server->register_method(
+        "mark", [this](const json&, const PeerInfo&) { return json(marked = counted.load()); }, Access::read);
+    server->register_method(
+        "estop", [this](const json&, const PeerInfo&) { return json(estopped = counted.load()); },
+        Access::read, Precedence::first);
     server->set_stream_source([](const std::vector<std::string>& channels) {
       json values = json::object();
       for (const auto& ch : channels.empty() ? std::vector<std::string>{"position"} : channels) {
@@ -104,6 +130,8 @@ class ServerTest : public ::testing::Test {
   std::string path;
   std::atomic<int> writes{0};
   std::atomic<int> counted{0};
+  std::atomic<int> marked{-1};
+  std::atomic<int> estopped{-1};
 };
 
 TEST_F(ServerTest, RoundTrip) {
@@ -184,6 +212,39 @@ TEST_F(ServerTest, MalformedRequestsGetStandardErrors) {
   EXPECT_EQ(ok["result"]["v"], 1);
 }
 
+// Issue 6: the id -9223372036854775809 came back as -9.223372036854776e+18.
+// Integer ids in the 64-bit range are echoed exactly; a number with a
+// fraction or exponent, or a larger integer, cannot be (nlohmann::json holds
+// it as a double) and is refused with -32600 saying so.
+TEST_F(ServerTest, NumericIdsAreEchoedExactlyOrRefused) {
+  start();
+  RawPeer p(path);
+  auto raw_reply = [&](const std::string& id) {
+    EXPECT_TRUE(p.send(R"({"jsonrpc":"2.0","method":"echo","id":)" + id + "}\n"));
+    return p.read_line().value_or("");
+  };
+  for (const char* id :
+       {"-9223372036854775808", "18446744073709551615", "9223372036854775807", "0", "-1", "7"}) {
+    const std::string reply = raw_reply(id);
+    EXPECT_NE(reply.find(std::string("\"id\":") + id + ","), std::string::npos) << id << " -> " << reply;
+    EXPECT_TRUE(json::parse(reply).contains("result")) << reply;
+  }
+  for (const char* id : {"-9223372036854775809", "18446744073709551616", "99999999999999999999999999", "1.5",
+                         "1e3", "1.0", "-0.0"}) {
+    const std::string text = raw_reply(id);
+    json reply = json::parse(text, nullptr, false);
+    if (!reply.contains("error")) {
+      ADD_FAILURE() << "id " << id << " -> " << text;
+      continue;
+    }
+    EXPECT_EQ(reply["error"]["code"], code::invalid_request) << id << " -> " << text;
+    EXPECT_EQ(reply["id"], nullptr) << id;
+    EXPECT_NE(reply["error"]["message"].get<std::string>().find("exactly"), std::string::npos)
+        << reply.dump();
+  }
+  EXPECT_EQ(parse(p.read_line(100ms)), json()) << "one reply per request";
+}
+
 TEST_F(ServerTest, NotificationsFromClientsAreExecutedWithoutReply) {
   start();
   RawPeer p(path);
@@ -249,6 +310,43 @@ TEST_F(ServerTest, OversizedLineIsRefusedAndConnectionClosed) {
   EXPECT_EQ(c.call("echo", {{"a", 1}})["a"], 1);
 }
 
+// Issue 6: `names` nested 60,000 levels deep crashed hapticd (SIGSEGV; here
+// 500,000 levels crash the test binary's server thread the same way):
+// nlohmann::json recurses once per level to copy, compare or dump a value.
+// Nesting is bounded before the line is parsed: -32600 naming the limit.
+TEST_F(ServerTest, NestingDeeperThanTheLimitIsRefusedBeforeParsing) {
+  ServerOptions o;
+  o.max_message_bytes = 1024 * 1024;  // allowed up to 16 MiB by the config
+  start(o);
+  RawPeer p(path);
+  auto request = [](const std::string& params_member) {
+    return R"({"jsonrpc":"2.0","id":7,"method":"echo","params":{"names":)" + params_member + "}}\n";
+  };
+  auto nested = [](std::size_t levels) { return std::string(levels, '[') + std::string(levels, ']'); };
+  for (const std::string& line : {request(nested(500000)), std::string(1000000, '[') + "\n",
+                                  R"({"jsonrpc":"2.0","method":"echo","id":)" + nested(500000) + "}\n"}) {
+    ASSERT_TRUE(p.send(line));
+    auto reply = parse(p.read_line());
+    ASSERT_TRUE(reply.is_object()) << "no reply: the server died?";
+    EXPECT_EQ(reply["error"]["code"], code::invalid_request);
+    EXPECT_EQ(reply["error"]["data"]["limit"], hapticd::rpc::max_nesting_depth);
+    EXPECT_NE(reply["error"]["message"].get<std::string>().find("64 levels"), std::string::npos)
+        << reply.dump();
+    EXPECT_EQ(reply["id"], nullptr);
+  }
+  // The limit counts the request object: 64 levels in all pass, 65 do not.
+  ASSERT_TRUE(p.send(request(nested(62))));
+  auto at_limit = parse(p.read_line());
+  EXPECT_EQ(at_limit["result"]["names"], json::parse(nested(62))) << at_limit.dump().substr(0, 200);
+  ASSERT_TRUE(p.send(request(nested(63))));
+  EXPECT_EQ(parse(p.read_line())["error"]["code"], code::invalid_request);
+  // Brackets inside strings are text, not nesting.
+  ASSERT_TRUE(p.send(request("\"" + nested(100) + "\\\"[[[\"")));
+  EXPECT_EQ(parse(p.read_line())["result"]["names"], nested(100) + "\"[[[");
+  auto c = connect();
+  EXPECT_EQ(c.call("echo", {{"ok", 1}})["ok"], 1);
+}
+
 TEST_F(ServerTest, TooManyClientsGetBusy) {
   ServerOptions o;
   o.max_clients = 2;
@@ -275,6 +373,73 @@ TEST_F(ServerTest, TooManyClientsGetBusy) {
   auto again = connect();
   EXPECT_EQ(again.call("echo", {{"n", 3}})["n"], 3);
   EXPECT_EQ(server->stats().refused_busy, 1u);
+}
+
+// Issue 6: a client pipelining requests without waiting for replies delayed
+// every other client's reply, and an estop from another connection, by
+// ~770 ms: the loop handled all that one wake-up had read (up to 512 KiB,
+// thousands of requests) before it looked at anyone else. Measured here in requests the
+// flooder got served meanwhile, not in wall time (the median of 10 tries,
+// so a vCPU stall of the test thread cannot decide it).
+TEST_F(ServerTest, PipeliningClientStarvesNeitherOtherClientsNorEstop) {
+  start();
+  RawPeer flooder(path);
+  std::atomic<bool> stop{false};
+  std::thread flood([&] {
+    std::string burst;
+    for (int i = 0; i < 1000; ++i) burst += "{\"jsonrpc\":\"2.0\",\"method\":\"slow\"}\n";
+    while (!stop && flooder.send(burst)) {
+    }
+  });
+  struct StopFlood {
+    std::atomic<bool>& stop;
+    RawPeer& flooder;
+    std::thread& flood;
+    ~StopFlood() {
+      stop = true;
+      ::shutdown(flooder.fd(), SHUT_RDWR);  // unblocks the flooder's send()
+      flood.join();
+    }
+  } stop_flood{stop, flooder, flood};
+  ASSERT_TRUE(eventually([&] { return counted.load() > 2000; }, 10s)) << "the flood did not start";
+  auto c = Client::connect(path, 30s);  // before the fix a reply took seconds
+  std::vector<int> before_mark, before_estop;
+  for (int i = 0; i < 10; ++i) {
+    int before = counted.load();
+    c.call("mark");
+    before_mark.push_back(marked.load() - before);
+    before = counted.load();
+    c.call("estop");
+    before_estop.push_back(estopped.load() - before);
+  }
+  auto median = [](std::vector<int> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  auto text = [](const std::vector<int>& v) {
+    std::string t;
+    for (int x : v) t += std::to_string(x) + " ";
+    return t;
+  };
+  EXPECT_LT(median(before_mark), 1000) << "a reply waited for the flooder's requests: " << text(before_mark);
+  EXPECT_LT(median(before_estop), 1000) << "estop waited for the flooder's requests: " << text(before_estop);
+  EXPECT_GT(counted.load(), 2000);
+}
+
+// Within one connection, requests are answered in order even when estop
+// goes first among clients: estop after fault.clear on the same connection
+// must not be served before it.
+TEST_F(ServerTest, EstopKeepsItsPlaceWithinItsOwnConnection) {
+  start();
+  RawPeer p(path);
+  std::string lines;
+  for (int i = 0; i < 20; ++i)
+    lines += R"({"jsonrpc":"2.0","method":"count"})"
+             "\n";
+  lines += R"({"jsonrpc":"2.0","id":1,"method":"estop"})"
+           "\n";
+  ASSERT_TRUE(p.send(lines));
+  EXPECT_EQ(parse(p.read_line())["result"], 20);
 }
 
 TEST_F(ServerTest, IdleClientsAreDisconnectedButSubscribersAreNot) {
@@ -365,6 +530,32 @@ TEST_F(ServerTest, StreamValidatesItsParams) {
   EXPECT_EQ(c.unsubscribe()["subscription"], nullptr);
 }
 
+// Issue 6: `stream` with rate_hz 1e-300 (any reader may ask) became a 1 ns
+// timer: 1e9 / 1e-300 overflowed the period, clamped to 1 ns, and the
+// server sent ~430,000 notifications in 10 s on a full core. Any rate below
+// about 1.1e-10 Hz did the same. The range is now 0.1 to 1000 Hz.
+TEST_F(ServerTest, StreamRateOutsideItsRangeIsRefused) {
+  start();
+  auto c = connect();
+  for (double hz : {1e-300, 1e-12, 1e-10, 0.0999, 1000.001, 1e300}) {
+    try {
+      c.subscribe(hz);
+      ADD_FAILURE() << "rate_hz " << hz << " accepted";
+    } catch (const RpcError& e) {
+      EXPECT_EQ(e.code(), code::invalid_params) << hz;
+      EXPECT_NE(std::string(e.what()).find("from 0.1 to 1000"), std::string::npos) << e.what();
+      EXPECT_EQ(e.data()["minimum"], 0.1) << e.data().dump();
+      EXPECT_EQ(e.data()["maximum"], 1000.0) << e.data().dump();
+    }
+  }
+  EXPECT_FALSE(c.read_notification(300ms).has_value()) << "a refused stream sent samples";
+  EXPECT_EQ(c.subscribe(0.1)["rate_hz"], 0.1);
+  EXPECT_FALSE(c.read_notification(500ms).has_value()) << "0.1 Hz: the first sample is due after 10 s";
+  EXPECT_EQ(c.subscribe(1000)["rate_hz"], 1000.0);
+  EXPECT_TRUE(c.read_notification(2s).has_value());
+  EXPECT_NO_THROW(c.unsubscribe());
+}
+
 TEST_F(ServerTest, SlowStreamReaderGetsDropsCountedNotUnboundedMemory) {
   ServerOptions o;
   o.max_output_bytes = 4096;
@@ -383,6 +574,24 @@ TEST_F(ServerTest, SlowStreamReaderGetsDropsCountedNotUnboundedMemory) {
   }
   EXPECT_GT(dropped, 0u);
   EXPECT_NO_THROW(c.unsubscribe());
+}
+
+// Issue 6: stats.control.notifications_dropped stayed 0 while stream.stop
+// reported drops: the ticks the server thread slept through were added to
+// the subscription's count only. One place now counts a drop for both.
+TEST_F(ServerTest, DroppedSamplesAgreeBetweenStreamStopAndStats) {
+  start();
+  auto c = connect();
+  c.subscribe(1000);
+  auto other = connect();
+  other.call("nap");  // 300 ms without the server thread: ~300 ticks missed
+  auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < 300ms) c.read_notification(50ms);
+  auto stop = c.unsubscribe();
+  const auto stats = server->stats();
+  EXPECT_GT(stop["dropped"].get<std::uint64_t>(), 0u) << "the nap dropped nothing?";
+  EXPECT_EQ(stats.notifications_dropped, stop["dropped"].get<std::uint64_t>());
+  EXPECT_EQ(stats.notifications_sent, stop["sent"].get<std::uint64_t>());
 }
 
 TEST_F(ServerTest, StopRemovesSocketAndClosesClients) {
@@ -583,6 +792,72 @@ TEST_F(PermissionTest, PrimaryGroupMemberMayWrite) {
   auto r = call_as_nobody(path, group.second, {});
   EXPECT_EQ(r.write_code, 0) << r.message;
   EXPECT_EQ(writes.load(), 1);
+}
+
+// Issue 6: 16 idle connections from a user outside the group took every slot
+// and root's `hapticctl estop` got "too many clients". Readers still cannot
+// get past max_clients, but a writer takes the slot of the longest-idle
+// read-only connection.
+TEST_F(PermissionTest, ReadersHoldingEverySlotCannotLockAWriterOut) {
+  server->stop();
+  ServerOptions o;
+  o.group = group.first;
+  o.mode = 0666;
+  o.max_clients = 4;
+  start(o);
+  int to_child[2], from_child[2];
+  ASSERT_EQ(::pipe(to_child), 0);
+  ASSERT_EQ(::pipe(from_child), 0);
+  const uid_t nobody = ::getpwnam("nobody")->pw_uid;
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    // As nobody: hold every slot, check a fifth reader is refused, then
+    // after the writer came, count the connections closed for it.
+    ::close(to_child[1]);
+    ::close(from_child[0]);
+    if (::setgroups(0, nullptr) != 0 || ::setgid(nogroup) != 0 || ::setuid(nobody) != 0) ::_exit(100);
+    std::vector<std::unique_ptr<RawPeer>> held;
+    for (int i = 0; i < 4; ++i) {
+      held.push_back(std::make_unique<RawPeer>(path));
+      held.back()->send(R"({"jsonrpc":"2.0","id":1,"method":"echo"})"
+                        "\n");
+      if (!held.back()->read_line()) ::_exit(101);  // accepted and served
+    }
+    RawPeer fifth(path);
+    json busy = parse(fifth.read_line());
+    char go = 0;
+    [[maybe_unused]] auto w = ::write(from_child[1], "r", 1);
+    if (::read(to_child[0], &go, 1) != 1) ::_exit(102);
+    int evicted = 0;
+    for (auto& peer : held) {
+      auto line = peer->read_line(500ms);
+      if (line && parse(line)["error"]["code"] == code::busy && peer->closed_within(500ms)) ++evicted;
+    }
+    std::string out = json{{"fifth", busy}, {"evicted", evicted}}.dump();
+    w = ::write(from_child[1], out.data(), out.size());
+    ::_exit(0);
+  }
+  ::close(to_child[0]);
+  ::close(from_child[1]);
+  char ready = 0;
+  ASSERT_EQ(::read(from_child[0], &ready, 1), 1) << "the child (as nobody) failed";
+  // The writer (root) gets in and stops the device.
+  auto writer = connect();
+  EXPECT_NO_THROW(writer.call("estop"));
+  ASSERT_EQ(::write(to_child[1], "g", 1), 1);
+  std::string text;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::read(from_child[0], buf, sizeof(buf))) > 0) text.append(buf, static_cast<std::size_t>(n));
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ::close(to_child[1]);
+  ::close(from_child[0]);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "child status " << status << " " << text;
+  json r = json::parse(text);
+  EXPECT_EQ(r["fifth"]["error"]["code"], code::busy) << "a fifth reader got in";
+  EXPECT_EQ(r["evicted"], 1) << "exactly one reader makes room for the writer";
+  EXPECT_EQ(server->stats().evictions, 1u);
 }
 
 }  // namespace

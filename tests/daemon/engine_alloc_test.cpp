@@ -19,6 +19,7 @@
 #include "rt/clock.hpp"
 #include "rt/loop_timing.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
 namespace {
@@ -113,10 +114,10 @@ struct Rig {
       : device(rotary_config()),
         engine(options ? *options : quiet_options(telemetry_capacity), device, clock),
         schedule(clock, rt::Nanos{1'000'000}) {
-    device.start();
+    hapticd::testing::start(device);
     schedule.start();
   }
-  ~Rig() { device.stop(); }
+  ~Rig() { device.disable(); }
   void cycle() { engine.run_cycle(schedule.wait_next()); }
   /// Runs `n` cycles inside a fresh guard; returns the allocations counted.
   std::size_t guarded(int n) {
@@ -184,9 +185,12 @@ namespace {
 class AllocatingDevice final : public hapticd::drivers::Device {
  public:
   explicit AllocatingDevice(hapticd::drivers::Device& inner) : inner_(inner) {}
-  hapticd::drivers::DeviceInfo info() const override { return inner_.info(); }
-  void start() override { inner_.start(); }
-  void stop() noexcept override { inner_.stop(); }
+  void configure(const hapticd::drivers::LoopContext& loop) override { inner_.configure(loop); }
+  void enable() override { inner_.enable(); }
+  std::string clear_fault() override { return inner_.clear_fault(); }
+  void disable() noexcept override { inner_.disable(); }
+  void close() noexcept override { inner_.close(); }
+  hapticd::drivers::DeviceModel model() const override { return inner_.model(); }
   hapticd::drivers::IoResult read(hapticd::drivers::Reading& out) noexcept override {
     void* p = ::operator new(32, std::nothrow);
     escape(p);
@@ -207,7 +211,7 @@ TEST(EngineAlloc, GuardSeesAnAllocationInsideRunCycle) {
   AllocatingDevice device(inner);
   Engine engine(quiet_options(), device, clock);
   rt::PeriodicSchedule schedule(clock, rt::Nanos{1'000'000});
-  device.start();
+  hapticd::testing::start(inner);
   schedule.start();
   engine.publish(make_plan("spring-wheel", {}, 0.5));
   std::size_t n = 0;
@@ -216,7 +220,7 @@ TEST(EngineAlloc, GuardSeesAnAllocationInsideRunCycle) {
     for (int i = 0; i < 100; ++i) engine.run_cycle(schedule.wait_next());
     n = guard.count();
   }
-  device.stop();
+  device.disable();
   EXPECT_EQ(n, 100u);
 }
 

@@ -17,6 +17,7 @@
 #include "drivers/loopback/loopback_device.hpp"
 #include "rt/clock.hpp"
 #include "rt/loop_timing.hpp"
+#include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
 namespace {
@@ -74,12 +75,12 @@ class EngineSafety : public ::testing::Test {
   void build(std::optional<double> initial_position = std::nullopt) {
     if (initial_position) device.set_initial_state(*initial_position, 0.0);
     engine = std::make_unique<Engine>(options, device, clock);
-    device.start();
+    hapticd::testing::start(device);
     schedule.start();
   }
   void TearDown() override {
     engine.reset();
-    device.stop();
+    device.disable();
   }
   /// Runs one cycle and returns its telemetry sample.
   TelemetrySample cycle() {
@@ -363,7 +364,7 @@ TEST(EngineThread, PublishThenWaitAppliedReturnsTheCycle) {
   rt::RealClock clock;
   loopback::LoopbackDevice device(rotary_config());
   device.set_hand("mode=hold trajectory=constant position=0");
-  device.start();
+  hapticd::testing::start(device);
   Engine engine(quiet_options(), device, clock);
   const auto& report = engine.start();
   ASSERT_FALSE(report.fatal) << report.message();
@@ -399,5 +400,5 @@ TEST(EngineThread, PublishThenWaitAppliedReturnsTheCycle) {
   }
   engine.stop();
   EXPECT_TRUE(engine.finished());
-  device.stop();
+  device.disable();
 }

@@ -17,6 +17,7 @@
 #include "daemon/engine/engine.hpp"
 #include "drivers/loopback/loopback_device.hpp"
 #include "rt/clock.hpp"
+#include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
 namespace {
@@ -72,7 +73,7 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   config.damping = 0.002;
   loopback::LoopbackDevice device(config);
   device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=3");
-  device.start();
+  hapticd::testing::start(device);
 
   EngineOptions options;
   options.realtime.priority = 0;
@@ -140,7 +141,7 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   EXPECT_TRUE(engine.finished());
   consuming.store(false, std::memory_order_release);
   consumer.join();
-  device.stop();
+  device.disable();
 
   EXPECT_EQ(applied_seen, waited);
   EXPECT_GE(engine.cycle(), seen + 20);

@@ -12,7 +12,10 @@
 #include "analysis/wall_stability.hpp"
 #include "daemon/planner.hpp"
 #include "drivers/loopback/loopback_device.hpp"
+#include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
+#include "world/spring_scene.hpp"
+#include "world/wall_scene.hpp"
 
 namespace {
 
@@ -43,7 +46,7 @@ loopback::LoopbackConfig wheel_config(double damping) {
 }
 
 DeviceModel model_of(const loopback::LoopbackDevice& device) {
-  return hapticd::daemon::make_device_model(device, &device, T);
+  return hapticd::daemon::make_device_model(device, T);
 }
 
 // By value: the outcome is usually a temporary.
@@ -75,7 +78,7 @@ TEST(Planner, DeviceModelOfTheHulinLoopback) {
   const DeviceModel model = model_of(device);
   EXPECT_EQ(model.motion(), world::Motion::linear);
   EXPECT_DOUBLE_EQ(model.info.effective_mass, hulin_mass);
-  EXPECT_EQ(model.info.inherent_delay_samples, 0);
+  EXPECT_EQ(model.info.delay_periods, 0);
   EXPECT_EQ(model.plant.dynamics.a.rows(), 2);
   EXPECT_DOUBLE_EQ(model.period_s, T);
   EXPECT_NE(model.describe().find("m = 0.1 kg"), std::string::npos) << model.describe();
@@ -99,7 +102,7 @@ TEST(Planner, StiffWallIsRefusedWithTheLargestStableStiffness) {
   EXPECT_FALSE(r.invalid);
   EXPECT_NE(r.message.find("largest stable stiffness"), std::string::npos) << r.message;
   const auto verdict = analysis::analyze_wall(hulin_mass, T, 1, 20000.0, 46.0);
-  EXPECT_FALSE(verdict.stable);
+  EXPECT_FALSE(verdict.stable());
   EXPECT_NE(r.message.find("Hulin: " + analysis::refusal_message(verdict)), std::string::npos) << r.message;
   EXPECT_NE(hapticd::daemon::refusal_text(r, hapticd::daemon::force_over_rpc).find("force=true"),
             std::string::npos);
@@ -230,8 +233,10 @@ TEST(Planner, TwoMassLoopbackUsesTheFourStateModel) {
   const DeviceModel model = model_of(device);
   EXPECT_EQ(model.plant.dynamics.a.rows(), 4);
   EXPECT_NE(model.describe().find("two-mass"), std::string::npos) << model.describe();
-  // Without the loopback pointer only the rigid approximation is available.
-  const DeviceModel rigid = hapticd::daemon::make_device_model(device, nullptr, T);
+  // A driver without a plant model gives the rigid approximation of the same total mass.
+  DeviceModel rigid = model;
+  rigid.info.plant.reset();
+  rigid.plant = world::RigidPlant{rigid.info.effective_mass, rigid.info.viscous_damping}.model();
   EXPECT_EQ(rigid.plant.dynamics.a.rows(), 2);
 
   EXPECT_TRUE(model.plant.dynamics.a.isApprox(device.plant_model().dynamics.a));
@@ -264,6 +269,63 @@ TEST(Planner, RelayAndFreeAreNotChecked) {
   }
 }
 
+// hapticctl load spring-wheel damping=1e308 integrator=forward-euler was
+// accepted as "stable, pole radius 0.000000000": b/J overflowed, the scene's
+// Ad held -inf, and the largest |eigenvalue| over NaN was read as 0. The
+// catalog now refuses 1e308 (its range); behind it, a linear model with a
+// non-finite entry is never stable.
+TEST(Planner, NonFiniteLinearModelCannotBeAssessed) {
+  const loopback::LoopbackDevice device(wheel_config(0.002));
+  world::SpringParameters wheel;
+  wheel.stiffness = world::scene_defaults::wheel_stiffness;
+  wheel.inertia = world::scene_defaults::wheel_inertia;
+  wheel.damping = 1e308;
+  wheel.integrator = world::Integrator::forward_euler;
+  world::ScenePlan plan;
+  plan.scene = "spring-wheel";
+  plan.linear = world::SpringScene<world::SpringDamping::relative>(wheel, T).linear_model();
+  const auto v = hapticd::daemon::check_stability(plan, model_of(device));
+  EXPECT_TRUE(v.checked);
+  EXPECT_FALSE(v.stable);
+  EXPECT_EQ(v.verdict, analysis::VerdictState::cannot_assess);
+  EXPECT_NE(v.reason.find("overflowed to inf"), std::string::npos) << v.reason;
+  EXPECT_NE(v.summary.find("cannot be assessed"), std::string::npos) << v.summary;
+  const auto json = hapticd::daemon::to_json(v);
+  EXPECT_EQ(json["verdict"], "cannot_assess");
+  EXPECT_EQ(json["reason"], v.reason);
+  EXPECT_TRUE(json["growth_per_second"].is_null());  // NaN, not a number to read
+
+  // The wall's B/T = inf likewise (it was accepted with radius 0.0125).
+  world::WallParameters wall;
+  wall.damping = 1e308;
+  plan.scene = "wall";
+  plan.linear = world::WallScene<world::WallDamping::backward_difference, world::WallDelay::samples>(wall, T)
+                    .linear_model();
+  EXPECT_EQ(hapticd::daemon::check_stability(plan, model_of(device)).verdict,
+            analysis::VerdictState::cannot_assess);
+}
+
+// Parameters each within their range can still make numbers no verdict can
+// rest on (a 1e-9 kg device with 1e6 N s/m to ground: a pole at 1e15 rad/s,
+// rho T = 1e12). The gate refuses with the reason, and force does not apply:
+// the scene would run on a discretization the analysis cannot describe.
+TEST(Planner, CannotAssessIsRefusedEvenWhenForced) {
+  auto config = loopback::LoopbackConfig::defaults(Motion::linear);
+  config.mass = 1e-9;
+  config.damping = 1e6;
+  const loopback::LoopbackDevice device(config);
+  for (const bool force : {false, true}) {
+    const auto r = refused(wall(model_of(device), 9000.0, 46.0, force));
+    EXPECT_FALSE(r.invalid);
+    EXPECT_FALSE(r.assessed);
+    EXPECT_NE(r.message.find("cannot be assessed"), std::string::npos) << r.message;
+    EXPECT_NE(r.message.find("1e+12 per period"), std::string::npos) << r.message;
+    const std::string text = hapticd::daemon::refusal_text(r, hapticd::daemon::force_over_rpc);
+    EXPECT_EQ(text.find("force"), std::string::npos) << text;
+    EXPECT_EQ(r.data["stability"]["verdict"], "cannot_assess");
+  }
+}
+
 TEST(Planner, InvalidParametersAreRefusedAsInvalid) {
   const loopback::LoopbackDevice device(hulin_config());
   const auto r =
@@ -272,4 +334,9 @@ TEST(Planner, InvalidParametersAreRefusedAsInvalid) {
   EXPECT_NE(r.message.find("stiffness"), std::string::npos);
   const auto u = refused(hapticd::daemon::plan_on_device("wal", {}, model_of(device), false));
   EXPECT_TRUE(u.invalid);
+  // Out of the catalog's range, forced or not.
+  const auto damper =
+      refused(hapticd::daemon::plan_on_device("wall", {{"damping", 1e308}}, model_of(device), true));
+  EXPECT_TRUE(damper.invalid);
+  EXPECT_NE(damper.message.find("<= 1e+06"), std::string::npos) << damper.message;
 }

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "drivers/loopback/loopback_device.hpp"
+#include "tests/support/loopback_start.hpp"
 
 namespace {
 
@@ -16,12 +17,14 @@ using hapticd::drivers::IoResult;
 using hapticd::drivers::Motion;
 using hapticd::drivers::Reading;
 using namespace hapticd::drivers::loopback;
+using namespace hapticd::drivers::simulation;
 
 constexpr double pi = 3.14159265358979323846;
 
 LoopbackConfig wheel() {
   LoopbackConfig config = LoopbackConfig::defaults(Motion::rotary);
   config.mass = 0.01;
+  config.damping = 0.0;  // frictionless: the expectations below are for an undamped wheel
   return config;
 }
 
@@ -30,7 +33,7 @@ TEST(LoopbackHand, IdealHoldTracksStepExactlyWhileTheMotorPushes) {
   // holds it; the virtual spring torque the scene commands is what the hand feels.
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config, parse_hand_script("mode=hold trajectory=step amplitude=0.785398 at=0.5"));
-  device.start();
+  hapticd::testing::start(device);
   const double res = config.resolution();
   const double k = 1.0;  // N m/rad virtual spring
   Reading r;
@@ -55,7 +58,7 @@ TEST(LoopbackHand, IdealHoldTracksSineExactlyAtSampleTimes) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(
       config, parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0"));
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 1; n <= 2000; ++n) {
     device.write(0.1 * std::sin(n * 0.01));
     const double t = n * config.period_s;
@@ -72,7 +75,7 @@ TEST(LoopbackHand, IdealHoldHandForceIsInertialReaction) {
   // is the impulse that takes the wheel from rest to the sine's velocity.
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config, parse_hand_script("mode=hold trajectory=sine amplitude=0.1 frequency=2"));
-  device.start();
+  hapticd::testing::start(device);
   const double w = 2.0 * pi * 2.0;
   device.write(0.0);
   EXPECT_NEAR(device.snapshot().hand_force, 2.0 * config.mass * 0.1 * w / config.period_s, 1e-3);
@@ -87,7 +90,7 @@ TEST(LoopbackHand, IdealHoldHandForceIsInertialReaction) {
 TEST(LoopbackHand, RampHoldFollowsRateThenStops) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config, parse_hand_script("mode=hold trajectory=ramp rate=2 from=0.1 to=0.5 at=0.1"));
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 1; n <= 500; ++n) {
     device.write(0.0);
     const double t = n * config.period_s;
@@ -100,7 +103,7 @@ TEST(LoopbackHand, RampHoldFollowsRateThenStops) {
 TEST(LoopbackHand, ReleaseAtLetsGoAtTheRightSample) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config, parse_hand_script("mode=hold position=0.1 release_at=0.2"));
-  device.start();
+  hapticd::testing::start(device);
   const double force = 0.01;
   for (int n = 1; n <= 400; ++n) {
     device.write(force);
@@ -121,7 +124,7 @@ TEST(LoopbackHand, ReleaseAtLetsGoAtTheRightSample) {
 TEST(LoopbackHand, ForceModeStepsAtTheGivenTime) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config, parse_hand_script("mode=force force=0.2 at=1"));
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 1; n <= 1500; ++n) {
     device.write(0.0);
     const double t = n * config.period_s;
@@ -138,7 +141,7 @@ TEST(LoopbackHand, ImpedanceIsAnExactDampedSpring) {
   LoopbackDevice device(config);
   device.set_initial_state(0.1, 0.0);
   device.set_hand(parse_hand_script("mode=impedance stiffness=50 damping=1 position=0"));
-  device.start();
+  hapticd::testing::start(device);
   const double m = config.mass, k = 50.0, b = 1.0;
   const double wn = std::sqrt(k / m), zeta = b / (2.0 * std::sqrt(k * m));
   const double wd = wn * std::sqrt(1.0 - zeta * zeta);
@@ -153,7 +156,7 @@ TEST(LoopbackHand, ImpedanceIsAnExactDampedSpring) {
 TEST(LoopbackHand, ImpedanceStaticBalanceWithMotorForce) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config, parse_hand_script("mode=impedance stiffness=50 damping=1 position=0.2"));
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 0; n < 3000; ++n) device.write(0.5);
   const auto s = device.snapshot();
   EXPECT_NEAR(s.motor_position, 0.2 + 0.5 / 50.0, 1e-12);
@@ -164,7 +167,7 @@ TEST(LoopbackHand, StiffNonIdealHoldFollowsClosely) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config,
                         parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1"));
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 1; n <= 400; ++n) {
     device.write(0.0);
     // A spring, not a constraint: just after the step the wheel is still on its way.
@@ -179,7 +182,7 @@ TEST(LoopbackHand, StiffNonIdealHoldFollowsClosely) {
 TEST(LoopbackHand, ScriptTimesCountFromActivation) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 0; n < 100; ++n) device.write(0.0);
   device.set_hand(parse_hand_script("mode=hold trajectory=step amplitude=0.3 at=0.05"));
   for (int n = 1; n <= 100; ++n) {
@@ -191,7 +194,7 @@ TEST(LoopbackHand, ScriptTimesCountFromActivation) {
 TEST(LoopbackHand, SetHandFromAnotherThreadWhileRunning) {
   const LoopbackConfig config = wheel();
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   std::atomic<bool> done{false};
   std::atomic<int> torn{0};
   std::thread control([&] {

@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 
 #include "drivers/loopback/loopback_device.hpp"
+#include "tests/support/loopback_start.hpp"
 
 namespace {
 
@@ -20,6 +21,7 @@ using hapticd::drivers::IoResult;
 using hapticd::drivers::Motion;
 using hapticd::drivers::Reading;
 using namespace hapticd::drivers::loopback;
+using namespace hapticd::drivers::simulation;
 
 LoopbackConfig rotary_rigid(double mass, double damping = 0.0) {
   LoopbackConfig config = LoopbackConfig::defaults(Motion::rotary);
@@ -31,7 +33,7 @@ LoopbackConfig rotary_rigid(double mass, double damping = 0.0) {
 TEST(LoopbackPlant, FreeMassUnderConstantForceIsParabolaAtSampleTimes) {
   const LoopbackConfig config = rotary_rigid(0.01);
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   const double force = 0.01;
   const double res = config.resolution();
   for (int n = 1; n <= 500; ++n) {
@@ -54,7 +56,7 @@ TEST(LoopbackPlant, ViscousDampingMatchesClosedForm) {
   config.mass = 0.1;
   config.damping = 2.0;
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   const double f = 1.0, m = config.mass, b = config.damping;
   for (int n = 1; n <= 2000; ++n) {
     device.write(f);
@@ -71,7 +73,7 @@ TEST(LoopbackPlant, CoulombBelowLevelStaysAtRest) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.coulomb = 0.1;
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 0; n < 1000; ++n) device.write(n % 2 == 0 ? 0.099 : -0.05);
   const auto s = device.snapshot();
   EXPECT_EQ(s.motor_position, 0.0);
@@ -84,11 +86,11 @@ TEST(LoopbackPlant, CoulombAboveLevelAcceleratesWithNetForce) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.coulomb = 0.1;
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   for (const double force : {0.3, -0.3}) {
-    device.stop();
+    device.disable();
     device.set_initial_state(0.0, 0.0);
-    device.start();
+    hapticd::testing::start(device);
     const auto start = device.snapshot();
     for (int n = 1; n <= 300; ++n) {
       device.write(force);
@@ -107,7 +109,7 @@ TEST(LoopbackPlant, CoulombSlidingMassStopsAndSticks) {
   config.coulomb = 0.1;  // deceleration Fc/m = 10 rad/s^2
   LoopbackDevice device(config);
   device.set_initial_state(0.0, 1.0);
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 1; n <= 400; ++n) device.write(0.05);  // below the friction level
   // v0^2 / (2 (Fc - F)/m) with F helping: deceleration (0.1 - 0.05)/0.01 = 5.
   const auto s = device.snapshot();
@@ -122,26 +124,26 @@ TEST(LoopbackPlant, EncoderQuantizesToCounts) {
   const LoopbackConfig config = rotary_rigid(0.01);
   LoopbackDevice device(config);
   const double res = 2.0 * std::acos(-1.0) / 16384.0;
-  EXPECT_DOUBLE_EQ(device.info().position_resolution, res);
+  EXPECT_DOUBLE_EQ(device.model().position_resolution, res);
   for (int count = -3; count <= 3; ++count) {
     for (const double fraction : {0.001, 0.5, 0.999}) {
-      device.stop();
+      device.disable();
       device.set_initial_state((count + fraction) * res, 0.0);
-      device.start();
+      hapticd::testing::start(device);
       Reading r;
       ASSERT_EQ(device.read(r), IoResult::ok);
       EXPECT_NEAR(r.position, count * res, 1e-15) << count << " + " << fraction;
     }
   }
   LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
-  EXPECT_NEAR(LoopbackDevice(linear).info().position_resolution, 3.14e-6, 1e-18);
+  EXPECT_NEAR(LoopbackDevice(linear).model().position_resolution, 3.14e-6, 1e-18);
 }
 
 TEST(LoopbackPlant, SaturationClampsTheForce) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.max_force = 0.8;
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   ASSERT_EQ(device.write(5.0), IoResult::ok);
   EXPECT_EQ(device.snapshot().applied_force, 0.8);
   EXPECT_EQ(device.snapshot().commanded_force, 0.8);
@@ -161,7 +163,7 @@ TEST(LoopbackPlant, SaturationClampsTheForce) {
 
 TEST(LoopbackPlant, NonFiniteCommandIsRefusedAndZeroApplied) {
   LoopbackDevice device(rotary_rigid(0.01));
-  device.start();
+  hapticd::testing::start(device);
   EXPECT_EQ(device.write(std::nan("")), IoResult::error);
   EXPECT_EQ(device.snapshot().applied_force, 0.0);
   EXPECT_EQ(device.status().write_errors, 1U);
@@ -173,9 +175,9 @@ TEST(LoopbackPlant, DelayShiftsResponseByExactlyDSamples) {
     LoopbackConfig delayed = config;
     delayed.delay = d;
     LoopbackDevice a(config), b(delayed);
-    EXPECT_EQ(b.info().inherent_delay_samples, d);
-    a.start();
-    b.start();
+    EXPECT_EQ(b.model().delay_periods, d);
+    hapticd::testing::start(a);
+    hapticd::testing::start(b);
     std::vector<double> xa, xb;
     for (int n = 0; n < 300; ++n) {
       const double f = 0.5 * std::sin(0.05 * n) + (n == 10 ? 0.3 : 0.0);
@@ -195,12 +197,12 @@ TEST(LoopbackPlant, WriteBeforeStartIsRefused) {
   EXPECT_EQ(device.read(r), IoResult::error);
   EXPECT_EQ(device.write(0.1), IoResult::error);
   EXPECT_EQ(device.snapshot().period, 0U);
-  device.start();
+  hapticd::testing::start(device);
   EXPECT_EQ(device.write(0.1), IoResult::ok);
-  device.stop();
+  device.disable();
   EXPECT_EQ(device.write(0.1), IoResult::error);
   EXPECT_EQ(device.snapshot().period, 1U);
-  EXPECT_FALSE(device.status().running);
+  EXPECT_EQ(device.status().state, hapticd::drivers::DeviceState::configured);
 }
 
 LoopbackConfig two_mass_linear() {
@@ -211,8 +213,8 @@ LoopbackConfig two_mass_linear() {
 
 TEST(LoopbackTwoMass, InfoReportsTotalMassAndFullModel) {
   LoopbackDevice device(two_mass_linear());
-  EXPECT_DOUBLE_EQ(device.info().effective_mass, 5.4);
-  EXPECT_DOUBLE_EQ(device.info().viscous_damping, 3.5);
+  EXPECT_DOUBLE_EQ(device.model().effective_mass, 5.4);
+  EXPECT_DOUBLE_EQ(device.model().viscous_damping, 3.5);
   ASSERT_TRUE(device.two_mass().has_value());
   EXPECT_EQ(device.two_mass()->cable_stiffness, 79.5e3);
   EXPECT_FALSE(LoopbackDevice(rotary_rigid(0.01)).two_mass().has_value());
@@ -221,7 +223,7 @@ TEST(LoopbackTwoMass, InfoReportsTotalMassAndFullModel) {
 TEST(LoopbackTwoMass, StaticDeflectionUnderHeldBodyIsForceOverCableStiffness) {
   LoopbackDevice device(two_mass_linear());
   device.set_hand(parse_hand_script("mode=hold trajectory=constant position=0"));
-  device.start();
+  hapticd::testing::start(device);
   const double force = 5.0;
   for (int n = 0; n < 3000; ++n) device.write(force);
   const auto s = device.snapshot();
@@ -240,7 +242,7 @@ TEST(LoopbackTwoMass, BodySensorReadsTheBody) {
   config.sensor = hapticd::world::Sensor::body;
   LoopbackDevice device(config);
   device.set_hand(parse_hand_script("mode=hold position=0.01"));
-  device.start();
+  hapticd::testing::start(device);
   for (int n = 0; n < 100; ++n) device.write(5.0);
   hapticd::drivers::Reading r;
   device.read(r);
@@ -302,7 +304,7 @@ std::vector<std::complex<double>> durand_kerner(const std::vector<double>& c) {
 TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
   const LoopbackConfig config = two_mass_linear();
   LoopbackDevice device(config);
-  device.start();
+  hapticd::testing::start(device);
   device.write(10.0);  // one-period force pulse, then the free response
   std::vector<double> d;
   for (int n = 0; n < 120; ++n) {

@@ -1,11 +1,15 @@
 #include "support.hpp"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -94,7 +98,8 @@ CommandResult run(const fs::path& program, const std::vector<std::string>& args,
   return {decode(status), slurp(out), slurp(err)};
 }
 
-Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args)
+Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args,
+               std::vector<std::string> launcher)
     : dir_(dir.path), socket_(dir.path / "hapticd.sock"), log_(dir.path / "hapticd.log") {
   std::string config = config_toml;
   if (config.find("[control]") == std::string::npos) {
@@ -107,7 +112,14 @@ Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<s
   std::ofstream(config_path) << config;
   std::vector<std::string> args{"--config", config_path.string()};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
-  pid_ = spawn(hapticd_binary(), args, log_, log_);
+  if (launcher.empty()) {
+    pid_ = spawn(hapticd_binary(), args, log_, log_);
+  } else {
+    std::vector<std::string> full(launcher.begin() + 1, launcher.end());
+    full.push_back(hapticd_binary().string());
+    full.insert(full.end(), args.begin(), args.end());
+    pid_ = spawn(launcher.front(), full, log_, log_);
+  }
   // Ready when the socket answers `status`, or when the process has exited.
   const auto deadline = std::chrono::steady_clock::now() + 20s;
   while (std::chrono::steady_clock::now() < deadline) {
@@ -163,6 +175,51 @@ std::string Daemon::log() const { return slurp(log_); }
 bool Daemon::running() const {
   if (pid_ <= 0) return false;
   return kill(pid_, 0) == 0;
+}
+
+RawConnection::RawConnection(const fs::path& socket) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string text = socket.string();
+  if (text.size() >= sizeof addr.sun_path) throw std::runtime_error("socket path too long: " + text);
+  std::memcpy(addr.sun_path, text.c_str(), text.size() + 1);
+  fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    if (fd_ >= 0) ::close(fd_);
+    throw std::runtime_error("cannot connect to " + text + ": " + std::strerror(errno));
+  }
+}
+
+RawConnection::~RawConnection() { ::close(fd_); }
+
+bool RawConnection::send(const std::string& bytes) {
+  std::size_t sent = 0;
+  while (sent < bytes.size()) {
+    const ssize_t n = ::send(fd_, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
+    if (n <= 0) return false;
+    sent += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+std::string RawConnection::read_line(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    if (const auto nl = buffer_.find('\n'); nl != std::string::npos) {
+      std::string line = buffer_.substr(0, nl);
+      buffer_.erase(0, nl + 1);
+      return line;
+    }
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return "";
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) return "";
+    char chunk[65536];
+    const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
+    if (n <= 0) return "";
+    buffer_.append(chunk, static_cast<std::size_t>(n));
+  }
 }
 
 std::size_t Recording::column(const std::string& name) const {

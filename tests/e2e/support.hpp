@@ -39,7 +39,10 @@ class Daemon {
  public:
   /// Writes `config_toml` to dir/hapticd.toml (its [control] socket and
   /// [recorder] directory are set to dir) and starts hapticd on it.
-  Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args = {});
+  /// launcher: a command line hapticd is run under (hapticd and its
+  /// arguments are appended), e.g. to give it its own mount namespace.
+  Daemon(const TempDir& dir, const std::string& config_toml, std::vector<std::string> extra_args = {},
+         std::vector<std::string> launcher = {});
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -53,6 +56,7 @@ class Daemon {
   int wait(std::chrono::seconds timeout = std::chrono::seconds(120));
   std::string log() const;  ///< everything hapticd printed so far (stdout+stderr)
   bool running() const;
+  pid_t pid() const { return pid_; }  ///< the process started (hapticd, or the launcher exec'ing it)
 
  private:
   std::filesystem::path dir_;
@@ -60,6 +64,23 @@ class Daemon {
   std::filesystem::path log_;
   pid_t pid_ = -1;
   int status_ = -1;
+};
+
+/// A raw connection to a socket, for sending what hapticctl never would.
+class RawConnection {
+ public:
+  explicit RawConnection(const std::filesystem::path& socket);  ///< throws if it cannot connect
+  ~RawConnection();
+  RawConnection(const RawConnection&) = delete;
+  RawConnection& operator=(const RawConnection&) = delete;
+  bool send(const std::string& bytes);  ///< false when the peer is gone
+  /// The next '\n'-terminated line without it; "" on timeout or end of input.
+  std::string read_line(std::chrono::milliseconds timeout = std::chrono::seconds(10));
+  int fd() const { return fd_; }
+
+ private:
+  int fd_ = -1;
+  std::string buffer_;
 };
 
 /// A CSV recording: '# key: value' header lines, one column-name line, numbers.

@@ -1,14 +1,21 @@
 #include "daemon/recorder/recorder.hpp"
 
+#include <sched.h>
+#include <sys/mount.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <deque>
 #include <fstream>
+#include <functional>
 #include <mutex>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -59,17 +66,24 @@ class TestRing {
   std::atomic<std::uint64_t> drops_{0};
 };
 
-/// In-memory sink; can stall every write for a while, or fail.
+/// In-memory sink; can stall every write for a while, fail, or be a disk
+/// of `capacity` bytes.
 struct MemoryData {
   std::mutex mutex;
   std::string bytes;
   int syncs = 0;
+  int truncations = 0;
   bool closed = false;
   std::chrono::milliseconds stall{0};
   bool fail = false;
+  std::size_t capacity = std::string::npos;
   std::string contents() {
     std::lock_guard lock(mutex);
     return bytes;
+  }
+  void set_capacity(std::size_t bytes_available) {
+    std::lock_guard lock(mutex);
+    capacity = bytes_available;
   }
 };
 
@@ -85,7 +99,17 @@ class MemorySink final : public Sink {
     }
     if (stall.count() > 0) std::this_thread::sleep_for(stall);
     std::lock_guard lock(data_->mutex);
-    data_->bytes.append(bytes);
+    // Like write(2) on a full disk: what fits goes in, then ENOSPC.
+    const std::size_t room = data_->capacity - std::min(data_->capacity, data_->bytes.size());
+    data_->bytes.append(bytes.substr(0, room));
+    if (bytes.size() > room) {
+      throw SinkWriteError("write test: No space left on device", ENOSPC, room);
+    }
+  }
+  void truncate(std::uint64_t size) override {
+    std::lock_guard lock(data_->mutex);
+    data_->bytes.resize(static_cast<std::size_t>(size));
+    ++data_->truncations;
   }
   void sync() override {
     std::lock_guard lock(data_->mutex);
@@ -396,6 +420,298 @@ TEST(Recorder, FailingSinkCountsWriteDropsAndReportsTheError) {
   EXPECT_EQ(final.error, "write test: No space left on device");
   EXPECT_EQ(data->syncs, 0);  // no fsync after a failed write
   EXPECT_TRUE(data->closed);
+}
+
+/// What a recording's text holds: data rows (whole lines with the right
+/// number of fields; anything else is a torn row), their cycles, comments.
+struct FileContents {
+  std::uint64_t rows = 0;
+  std::uint64_t torn = 0;  ///< data lines cut short or not ended by '\n'
+  std::vector<std::uint64_t> cycles;
+  std::vector<std::string> comments;
+};
+
+FileContents scan(const std::string& text, std::size_t fields) {
+  FileContents out;
+  std::size_t begin = 0;
+  while (begin < text.size()) {
+    const std::size_t end = text.find('\n', begin);
+    const bool ended = end != std::string::npos;
+    const std::string line = text.substr(begin, ended ? end - begin : std::string::npos);
+    begin = ended ? end + 1 : text.size();
+    if (line.starts_with("#")) {
+      out.comments.push_back(line);
+      out.torn += ended ? 0 : 1;
+    } else if (!line.starts_with("time_s,")) {
+      const auto f = split(line);
+      if (!ended || f.size() != fields) {
+        ++out.torn;
+        continue;
+      }
+      ++out.rows;
+      out.cycles.push_back(std::stoull(f[1]));
+    }
+  }
+  return out;
+}
+
+bool has_prefix(const std::vector<std::string>& lines, const std::string& prefix) {
+  return std::any_of(lines.begin(), lines.end(), [&](const std::string& l) { return l.starts_with(prefix); });
+}
+
+// Issue 6: after the disk filled, the file held 3686 whole rows and a torn
+// one with no trailer, while the recorder said 3608 written. Now a row
+// counts as written only when it is whole in the file; a torn row is cut
+// back; dropped = received - written; the status says the disk is full.
+TEST(RecorderDiskFull, TornRowIsCutBackAndTheCountsMatchTheFile) {
+  TestRing ring(1u << 14);
+  auto data = std::make_shared<MemoryData>();
+  RecorderOptions options;
+  options.directory = temp_dir("disk-full");
+  options.flush_interval_s = 0.005;
+  options.buffer_bytes = 1000;  // many writes, each several rows
+  options.sink_factory = memory_factory(data);
+  // Room for the header block and a bit over 40 rows: every write fits until
+  // one stops part-way through a row.
+  data->set_capacity(2000 + 40 * 60 + 17);
+  Recorder recorder([&](std::span<TelemetrySample> out) { return ring.pop(out); }, options);
+  recorder.set_ring_drop_counter([&] { return ring.drops(); });
+  recorder.start("full", wheel_header());
+  std::uint64_t cycle = 0;
+  while (!recorder.status().disk_full && cycle < 100000) {
+    ASSERT_TRUE(ring.push(sample_for(++cycle)));
+    if (cycle % 50 == 0) {
+      ASSERT_TRUE(wait_until([&] { return ring.size() == 0; }));
+    }
+  }
+  ASSERT_TRUE(recorder.status().disk_full) << "the disk never filled";
+  const RecorderStatus during = recorder.status();
+  EXPECT_TRUE(during.recording);
+  EXPECT_EQ(during.error, "write test: No space left on device");
+  // The disk stays full: the recorder keeps draining (the RT side never
+  // finds the ring full) and counts what it cannot write.
+  for (int i = 0; i < 3000; ++i) ASSERT_TRUE(ring.push(sample_for(++cycle)));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_received == cycle; }));
+  EXPECT_EQ(ring.drops(), 0u);
+
+  const RecorderStatus final = recorder.stop();
+  const FileContents file = scan(data->contents(), 10);
+  EXPECT_EQ(file.torn, 0u) << "a partial row is left in the file";
+  EXPECT_GT(data->truncations, 0) << "no write stopped part-way: the test did not tear a row";
+  EXPECT_EQ(final.samples_written, file.rows);
+  EXPECT_EQ(final.samples_received, cycle);
+  EXPECT_EQ(final.dropped_write, final.samples_received - final.samples_written);
+  EXPECT_EQ(final.dropped_ring, 0u);
+  EXPECT_EQ(final.bytes_written, data->contents().size());
+  ASSERT_FALSE(file.cycles.empty());
+  EXPECT_EQ(file.cycles.back(), file.rows);  // rows 1..n, the first n cycles
+  // Still full at stop: no trailer, and the status says so.
+  EXPECT_TRUE(final.disk_full);
+  EXPECT_FALSE(final.complete);
+  EXPECT_FALSE(has_prefix(file.comments, "# dropped"));
+  EXPECT_EQ(final.error, "write test: No space left on device");
+  EXPECT_EQ(data->syncs, 0);
+  EXPECT_TRUE(data->closed);
+}
+
+TEST(RecorderDiskFull, WhenSpaceReturnsARecordingResumesWithAMarkedGap) {
+  TestRing ring(1u << 14);
+  auto data = std::make_shared<MemoryData>();
+  RecorderOptions options;
+  options.directory = temp_dir("resume");
+  options.flush_interval_s = 0.005;
+  options.buffer_bytes = 1000;
+  options.sink_factory = memory_factory(data);
+  data->set_capacity(3000);
+  Recorder recorder([&](std::span<TelemetrySample> out) { return ring.pop(out); }, options);
+  recorder.set_ring_drop_counter([&] { return ring.drops(); });
+  recorder.start("resume", wheel_header());
+  std::uint64_t cycle = 0;
+  while (!recorder.status().disk_full && cycle < 100000) {
+    ASSERT_TRUE(ring.push(sample_for(++cycle)));
+    if (cycle % 50 == 0) {
+      ASSERT_TRUE(wait_until([&] { return ring.size() == 0; }));
+    }
+  }
+  ASSERT_TRUE(recorder.status().disk_full);
+  for (int i = 0; i < 500; ++i) ASSERT_TRUE(ring.push(sample_for(++cycle)));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_received == cycle; }));
+  const std::uint64_t written_before = recorder.status().samples_written;
+  const std::uint64_t lost = recorder.status().dropped_write;
+  ASSERT_GT(lost, 500u);
+
+  data->set_capacity(std::string::npos);  // space returns
+  ASSERT_TRUE(wait_until([&] { return recorder.status().resumed == 1; }));
+  EXPECT_FALSE(recorder.status().disk_full);
+  const std::uint64_t first_after = cycle + 1;
+  for (int i = 0; i < 200; ++i) ASSERT_TRUE(ring.push(sample_for(++cycle)));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_received == cycle; }));
+
+  const RecorderStatus final = recorder.stop();
+  EXPECT_TRUE(final.complete);
+  EXPECT_FALSE(final.disk_full);
+  EXPECT_EQ(final.resumed, 1u);
+  EXPECT_EQ(final.sections, 2u);
+  EXPECT_EQ(final.samples_received, cycle);
+  EXPECT_EQ(final.dropped_write, lost);
+  EXPECT_EQ(final.samples_written, written_before + 200);
+  EXPECT_EQ(final.samples_written + final.dropped_write, final.samples_received);
+  const FileContents file = scan(data->contents(), 10);
+  EXPECT_EQ(file.torn, 0u);
+  EXPECT_EQ(file.rows, final.samples_written);
+  // The gap is marked where it is, and says what is missing.
+  const std::string gap = "# gap: " + std::to_string(lost) +
+                          " samples not written while the disk was full (cycles " +
+                          std::to_string(written_before + 1) + " to " + std::to_string(first_after - 1) +
+                          "): write test: No space left on device";
+  const auto gap_at = std::find(file.comments.begin(), file.comments.end(), gap);
+  ASSERT_NE(gap_at, file.comments.end()) << data->contents().substr(0, 4000);
+  EXPECT_EQ(*(gap_at - 1), "# section 2: resumed after the disk was full");
+  const auto resumed_at = std::find(file.cycles.begin(), file.cycles.end(), first_after);
+  ASSERT_NE(resumed_at, file.cycles.end());
+  EXPECT_EQ(*(resumed_at - 1), written_before);  // the row before the gap
+  EXPECT_EQ(file.comments.back(), "# dropped " + std::to_string(lost) +
+                                      " samples (ring full: 0, write failed: " + std::to_string(lost) + ")");
+  EXPECT_EQ(data->syncs, 1);
+}
+
+TEST(RecorderDiskFull, SceneSwitchWhileFullIsTheResumedSectionsScene) {
+  TestRing ring(1u << 14);
+  auto data = std::make_shared<MemoryData>();
+  RecorderOptions options;
+  options.directory = temp_dir("switch-full");
+  options.flush_interval_s = 0.005;
+  options.sink_factory = memory_factory(data);
+  Recorder recorder([&](std::span<TelemetrySample> out) { return ring.pop(out); }, options);
+  recorder.start("switch", wheel_header());
+  for (std::uint64_t c = 1; c <= 5; ++c) ring.push(sample_for(c));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_written == 5; }));
+  data->set_capacity(data->contents().size());  // full from here
+  ring.push(sample_for(6));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().disk_full; }));
+  recorder.set_scene(wall_header(), 7);
+  for (std::uint64_t c = 7; c <= 9; ++c) ring.push(sample_for(c, 0));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_received == 9; }));
+  data->set_capacity(std::string::npos);
+  ASSERT_TRUE(wait_until([&] { return recorder.status().resumed == 1; }));
+  ring.push(sample_for(10, 0));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_received == 10; }));
+  const RecorderStatus final = recorder.stop();
+  EXPECT_EQ(final.samples_written, 6u);  // 1..5, then 10
+  EXPECT_EQ(final.dropped_write, 4u);
+  EXPECT_EQ(final.sections, 2u);
+  const auto lines = lines_of(data->contents());
+  // The resumed section is the wall's (no channels); its column line follows.
+  const auto section = std::find(lines.begin(), lines.end(), "# section 2: resumed after the disk was full");
+  ASSERT_NE(section, lines.end());
+  EXPECT_NE(std::find(section, lines.end(), "# scene: wall"), lines.end());
+  const auto columns =
+      std::find_if(section, lines.end(), [](const auto& l) { return l.starts_with("time_s,"); });
+  ASSERT_NE(columns, lines.end());
+  EXPECT_EQ(*columns, "time_s,cycle,position_m,command_n,applied_n,latency_s,compute_s,flags");
+  EXPECT_EQ(split(*(columns + 1))[1], "10");
+}
+
+bool write_file(const char* path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  return static_cast<bool>(out.flush());
+}
+
+/// Runs `body` in a child process in which `dir` is a tmpfs of `bytes`,
+/// mounted in the child's own mount namespace (the host never sees it).
+/// Returns the body's report ("" when all is well), or nothing when this
+/// host lets no process mount one (neither root nor user namespaces).
+std::optional<std::string> in_small_filesystem(const std::filesystem::path& dir, std::size_t bytes,
+                                               const std::function<std::string()>& body) {
+  int fds[2];
+  if (::pipe(fds) != 0) return "pipe failed";
+  const uid_t uid = ::getuid();
+  const gid_t gid = ::getgid();
+  const pid_t pid = ::fork();
+  if (pid < 0) return "fork failed";
+  if (pid == 0) {
+    ::close(fds[0]);
+    if (::unshare(CLONE_NEWNS) != 0) {
+      if (::unshare(CLONE_NEWUSER | CLONE_NEWNS) != 0) ::_exit(77);
+      write_file("/proc/self/setgroups", "deny");
+      write_file("/proc/self/uid_map", "0 " + std::to_string(uid) + " 1");
+      write_file("/proc/self/gid_map", "0 " + std::to_string(gid) + " 1");
+    }
+    if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) ::_exit(77);
+    const std::string size = "size=" + std::to_string(bytes);
+    if (::mount("tmpfs", dir.c_str(), "tmpfs", 0, size.c_str()) != 0) ::_exit(77);
+    const std::string report = body();
+    std::size_t sent = 0;
+    while (sent < report.size()) {
+      const ssize_t n = ::write(fds[1], report.data() + sent, report.size() - sent);
+      if (n <= 0) break;
+      sent += static_cast<std::size_t>(n);
+    }
+    ::_exit(0);
+  }
+  ::close(fds[1]);
+  std::string report;
+  char chunk[4096];
+  for (ssize_t n = 0; (n = ::read(fds[0], chunk, sizeof chunk)) > 0;)
+    report.append(chunk, static_cast<std::size_t>(n));
+  ::close(fds[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 77) return std::nullopt;
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return "the child died (status " + std::to_string(status) + ")";
+  return report;
+}
+
+// The same on a real filesystem that fills: FileSink reports how far a
+// write got, cuts the torn row with ftruncate, and the counts match the file.
+TEST(RecorderDiskFull, RealFullFilesystemLeavesWholeRowsAndExactCounts) {
+  const auto dir = temp_dir("tmpfs");
+  const auto report = in_small_filesystem(dir, 64 * 1024, [&dir]() -> std::string {
+    TestRing ring(1u << 14);
+    RecorderOptions options;
+    options.directory = dir;
+    options.flush_interval_s = 0.005;
+    options.buffer_bytes = 3000;  // writes of ~50 rows: the one that meets the end stops part-way
+    std::string problems;
+    auto check = [&problems](bool ok, const std::string& what) {
+      if (!ok) problems += what + "\n";
+    };
+    std::uint64_t cycle = 0;
+    RecorderStatus final;
+    std::filesystem::path path;
+    {
+      Recorder recorder([&](std::span<TelemetrySample> out) { return ring.pop(out); }, options);
+      path = recorder.start("real", wheel_header());
+      while (!recorder.status().disk_full && cycle < 2000000) {
+        ring.push(sample_for(++cycle));
+        if (cycle % 100 == 0 && !wait_until([&] { return ring.size() == 0; })) return "the recorder stalled";
+      }
+      check(recorder.status().disk_full, "the filesystem never filled");
+      for (int i = 0; i < 1000; ++i) ring.push(sample_for(++cycle));
+      if (!wait_until([&] { return recorder.status().samples_received == cycle; })) return "not drained";
+      final = recorder.stop();
+    }
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    const FileContents file = scan(text.str(), 10);
+    check(ring.drops() == 0, "the ring overflowed while the disk was full");
+    check(file.torn == 0, "a partial row is left in the file");
+    check(final.samples_written == file.rows, "samples_written " + std::to_string(final.samples_written) +
+                                                  " but the file has " + std::to_string(file.rows) + " rows");
+    check(final.samples_received == cycle, "received " + std::to_string(final.samples_received));
+    check(final.dropped_write == final.samples_received - final.samples_written,
+          "dropped != received - written");
+    check(final.bytes_written == text.str().size(), "bytes_written is not the file's size");
+    check(final.disk_full && !final.complete, "the status does not say the disk was full at stop");
+    check(final.error.find("No space left on device") != std::string::npos, "error: " + final.error);
+    return problems;
+  });
+  std::filesystem::remove_all(dir);
+  if (!report) GTEST_SKIP() << "cannot mount a small tmpfs here (needs root or user namespaces)";
+  EXPECT_EQ(*report, "");
 }
 
 TEST(Recorder, SceneSwitchStartsANewSectionAtTheGivenCycle) {

@@ -108,29 +108,74 @@ TEST(SceneCatalog, ErrorMessages) {
   EXPECT_EQ(error_of("free", {{"stiffness", 1.0}}),
             "unknown parameter 'stiffness' for scene free; accepted: none");
   EXPECT_EQ(error_of("spring-wheel", {{"stiffness", -3.0}}),
-            "stiffness: -3 is not accepted; a finite number >= 0 (N m/rad)");
-  EXPECT_EQ(error_of("spring-mass", {{"mass", -1.0}}), "mass: -1 is not accepted; a finite number > 0 (kg)");
-  EXPECT_EQ(error_of("spring-mass", {{"mass", 0.0}}), "mass: 0 is not accepted; a finite number > 0 (kg)");
+            "stiffness: -3 is not accepted; a finite number >= 0 and <= 1e+09 (N m/rad)");
+  EXPECT_EQ(error_of("spring-mass", {{"mass", -1.0}}),
+            "mass: -1 is not accepted; a finite number >= 1e-09 and <= 1e+06 (kg)");
+  EXPECT_EQ(error_of("spring-mass", {{"mass", 0.0}}),
+            "mass: 0 is not accepted; a finite number >= 1e-09 and <= 1e+06 (kg)");
   EXPECT_EQ(error_of("spring-mass", {{"inertia", 1.0}}),
             "unknown parameter 'inertia' for scene spring-mass; accepted: stiffness, mass, damping, "
             "damping_reference, integrator");
   EXPECT_EQ(error_of("spring-mass", {{"stiffness", std::numeric_limits<double>::quiet_NaN()}}),
-            "stiffness: nan is not accepted; a finite number >= 0 (N/m)");
+            "stiffness: nan is not accepted; a finite number >= 0 and <= 1e+09 (N/m)");
   EXPECT_EQ(error_of("spring-mass", {{"stiffness", "abc"}}),
-            "stiffness: 'abc' is not accepted; a finite number >= 0 (N/m)");
+            "stiffness: 'abc' is not accepted; a finite number >= 0 and <= 1e+09 (N/m)");
   EXPECT_EQ(error_of("spring-wheel", {{"damping", "automatic"}}),
-            "damping: 'automatic' is not accepted; a finite number >= 0 (N m s/rad) or auto");
+            "damping: 'automatic' is not accepted; a finite number >= 0 and <= 1e+06 (N m s/rad) or auto");
   EXPECT_EQ(error_of("wall", {{"side", "middle"}}), "side: 'middle' is not accepted; one of upper, lower");
   EXPECT_EQ(error_of("wall", {{"delay", 2.5}}), "delay: 2.5 is not accepted; an integer 0..16 (samples)");
   EXPECT_EQ(error_of("wall", {{"delay", 17.0}}), "delay: 17 is not accepted; an integer 0..16 (samples)");
   EXPECT_EQ(error_of("wall", {{"stiffness", -1.0}}, 1e-3, Motion::rotary),
-            "stiffness: -1 is not accepted; a finite number >= 0 (N m/rad)");
+            "stiffness: -1 is not accepted; a finite number >= 0 and <= 1e+09 (N m/rad)");
   EXPECT_EQ(error_of("spring-wheel", {{"integrator", "leapfrog"}}),
             "integrator: 'leapfrog' is not accepted; one of forward-euler, semi-implicit-euler, trapezoid, "
             "rk4, exact");
   EXPECT_EQ(error_of("relay", {{"hysteresis", -0.1}}),
-            "hysteresis: -0.1 is not accepted; a finite number >= 0 (m)");
+            "hysteresis: -0.1 is not accepted; a finite number >= 0 and <= 1e+06 (m)");
   EXPECT_EQ(error_of("free", {}, 0.0), "period: 0 is not accepted; a finite number > 0 (s)");
+}
+
+// Every number a scene takes has a finite range on both sides: a 1e308 N s/m
+// damper overflowed b/J and B/T (the wheel then produced NaN, the wall
+// chattered) and a 1e-300 kg mass overflowed k/m; both were accepted.
+TEST(SceneCatalog, EveryNumberHasAFiniteRange) {
+  for (const auto& scene : scene_catalog()) {
+    for (const auto& p : scene.parameters) {
+      if (p.type != ParameterType::number && p.type != ParameterType::integer) continue;
+      ASSERT_TRUE(p.minimum.has_value()) << scene.name << "." << p.name;
+      ASSERT_TRUE(p.maximum.has_value()) << scene.name << "." << p.name;
+      EXPECT_TRUE(std::isfinite(*p.minimum) && std::isfinite(*p.maximum)) << scene.name << "." << p.name;
+      EXPECT_LT(*p.minimum, *p.maximum) << scene.name << "." << p.name;
+      // The default lies inside its own range.
+      const double def = std::get<double>(p.default_value);
+      EXPECT_GE(def, *p.minimum) << scene.name << "." << p.name;
+      EXPECT_LE(def, *p.maximum) << scene.name << "." << p.name;
+    }
+  }
+}
+
+TEST(SceneCatalog, RefusesValuesOutsideTheRangeNamingIt) {
+  EXPECT_EQ(error_of("spring-wheel", {{"damping", 1e308}, {"integrator", "forward-euler"}}),
+            "damping: 1e+308 is not accepted; a finite number >= 0 and <= 1e+06 (N m s/rad) or auto");
+  EXPECT_EQ(error_of("wall", {{"damping", 1e308}}),
+            "damping: 1e+308 is not accepted; a finite number >= 0 and <= 1e+06 (N s/m)");
+  EXPECT_EQ(error_of("spring-wheel", {{"inertia", 1e-300}}),
+            "inertia: 1e-300 is not accepted; a finite number >= 1e-09 and <= 1e+06 (kg m^2)");
+  EXPECT_EQ(error_of("spring-mass", {{"mass", "2e6"}}),
+            "mass: '2e6' is not accepted; a finite number >= 1e-09 and <= 1e+06 (kg)");
+  EXPECT_EQ(error_of("wall", {{"stiffness", 1.5e9}}, 1e-3, Motion::rotary),
+            "stiffness: 1.5e+09 is not accepted; a finite number >= 0 and <= 1e+09 (N m/rad)");
+  EXPECT_EQ(error_of("wall", {{"position", -1e300}}),
+            "position: -1e+300 is not accepted; a finite number >= -1e+06 and <= 1e+06 (m)");
+  EXPECT_EQ(error_of("relay", {{"amplitude", 1e308}}, 1e-3, Motion::rotary),
+            "amplitude: 1e+308 is not accepted; a finite number >= 0 and <= 1e+06 (N m)");
+  EXPECT_EQ(error_of("relay", {{"reference", std::numeric_limits<double>::infinity()}}),
+            "reference: inf is not accepted; a finite number >= -1e+06 and <= 1e+06 (m)");
+  // The bounds themselves are accepted.
+  EXPECT_EQ(error_of("spring-mass", {{"mass", parameter_range::min_mass}}), "(planned)");
+  EXPECT_EQ(error_of("spring-wheel", {{"stiffness", parameter_range::max_stiffness},
+                                      {"damping", parameter_range::max_damping}}),
+            "(planned)");
 }
 
 TEST(SceneCatalog, PlannedSceneRunsFromReset) {

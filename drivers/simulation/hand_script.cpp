@@ -1,4 +1,4 @@
-#include "drivers/loopback/hand_script.hpp"
+#include "drivers/simulation/hand_script.hpp"
 
 #include <algorithm>
 #include <array>
@@ -6,10 +6,11 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "drivers/loopback/key_value.hpp"
+#include "drivers/parameter.hpp"
+#include "drivers/simulation/key_value.hpp"
 #include "world/units.hpp"
 
-namespace hapticd::drivers::loopback {
+namespace hapticd::drivers::simulation {
 
 namespace {
 
@@ -19,7 +20,10 @@ constexpr std::string_view all_keys =
     "mode, trajectory, position (alias offset), amplitude, at, rate, from, to, frequency, phase, ideal, "
     "stiffness, damping, force, release_at";
 
-[[noreturn]] void fail(const std::string& message) { throw std::invalid_argument("hand script: " + message); }
+/// key: the hand-script key the error is about (ParameterError::key()).
+[[noreturn]] void fail(std::string_view key, const std::string& message) {
+  throw ParameterError(std::string(key), "hand script: " + message);
+}
 
 std::string join(std::initializer_list<std::string_view> names) {
   std::string out;
@@ -119,11 +123,11 @@ HandScript parse_hand_script(std::string_view text) {
                        key == "amplitude" || key == "at" || key == "rate" || key == "from" || key == "to" ||
                        key == "frequency" || key == "phase" || key == "ideal" || key == "stiffness" ||
                        key == "damping" || key == "force" || key == "release_at";
-    if (!known) fail("unknown key '" + key + "'; accepted: " + std::string(all_keys));
+    if (!known) fail(key, "unknown key '" + key + "'; accepted: " + std::string(all_keys));
     for (std::size_t j = 0; j < i; ++j) {
       const bool alias = (key == "offset" && pairs[j].first == "position") ||
                          (key == "position" && pairs[j].first == "offset");
-      if (pairs[j].first == key || alias) fail("key '" + key + "' given twice");
+      if (pairs[j].first == key || alias) fail(key, "key '" + key + "' given twice");
     }
   }
   auto find = [&pairs](std::string_view key) -> const std::string* {
@@ -134,15 +138,16 @@ HandScript parse_hand_script(std::string_view text) {
   };
   auto number = [](std::string_view key, const std::string& value) {
     const auto parsed = world::units::parse_finite(value);
-    if (!parsed) fail(std::string(key) + "=" + value + " is not a finite number");
+    if (!parsed) fail(key, std::string(key) + "=" + value + " is not a finite number");
     return *parsed;
   };
 
   HandScript script;
   const std::string* mode = find("mode");
-  if (!mode) fail("missing mode; accepted: mode=" + join({"free", "hold", "force", "impedance"}));
+  if (!mode) fail("mode", "missing mode; accepted: mode=" + join({"free", "hold", "force", "impedance"}));
   const auto mode_it = std::find(mode_names.begin(), mode_names.end(), *mode);
-  if (mode_it == mode_names.end()) fail("mode=" + *mode + " is not one of free, hold, force, impedance");
+  if (mode_it == mode_names.end())
+    fail("mode", "mode=" + *mode + " is not one of free, hold, force, impedance");
   script.mode = static_cast<HandMode>(mode_it - mode_names.begin());
 
   // Which keys this mode (and trajectory) accepts.
@@ -153,7 +158,7 @@ HandScript parse_hand_script(std::string_view text) {
     if (const std::string* kind = find("trajectory")) {
       const auto it = std::find(trajectory_names.begin(), trajectory_names.end(), *kind);
       if (it == trajectory_names.end())
-        fail("trajectory=" + *kind + " is not one of constant, step, ramp, sine");
+        fail("trajectory", "trajectory=" + *kind + " is not one of constant, step, ramp, sine");
       script.trajectory.kind = static_cast<TrajectoryKind>(it - trajectory_names.begin());
     }
     switch (script.trajectory.kind) {
@@ -184,7 +189,7 @@ HandScript parse_hand_script(std::string_view text) {
     }
     std::string context = "mode=" + *mode;
     if (has_reference) context += " trajectory=" + std::string(to_string(script.trajectory.kind));
-    fail("key '" + key + "' does not apply to " + context + "; accepted: " + list);
+    fail(key, "key '" + key + "' does not apply to " + context + "; accepted: " + list);
   }
 
   if (const std::string* v = find("ideal")) {
@@ -193,7 +198,7 @@ HandScript parse_hand_script(std::string_view text) {
     } else if (*v == "false" || *v == "0" || *v == "no") {
       script.ideal = false;
     } else {
-      fail("ideal=" + *v + " is not one of true, false");
+      fail("ideal", "ideal=" + *v + " is not one of true, false");
     }
   }
   Trajectory& r = script.trajectory;
@@ -229,40 +234,43 @@ HandScript parse_hand_script(std::string_view text) {
   }
 
   // Required keys and ranges.
-  auto require = [&find, &script](std::string_view key) {
-    if (!find(key)) fail("mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
+  // A missing key is blamed on the key that asks for it.
+  auto require = [&find, &script](std::string_view key, std::string_view asked_by = "mode") {
+    if (!find(key))
+      fail(asked_by, "mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
   };
   if (has_reference) {
     switch (r.kind) {
       case TrajectoryKind::constant:
         break;
       case TrajectoryKind::step:
-        require("amplitude");
+        require("amplitude", "trajectory");
         break;
       case TrajectoryKind::ramp:
-        require("rate");
-        require("to");
-        if (!(r.rate > 0.0)) fail("rate must be > 0 (got " + number_text(r.rate) + ")");
+        require("rate", "trajectory");
+        require("to", "trajectory");
+        if (!(r.rate > 0.0)) fail("rate", "rate must be > 0 (got " + number_text(r.rate) + ")");
         break;
       case TrajectoryKind::sine:
-        require("amplitude");
-        require("frequency");
-        if (!(r.frequency > 0.0)) fail("frequency must be > 0 Hz (got " + number_text(r.frequency) + ")");
+        require("amplitude", "trajectory");
+        require("frequency", "trajectory");
+        if (!(r.frequency > 0.0))
+          fail("frequency", "frequency must be > 0 Hz (got " + number_text(r.frequency) + ")");
         break;
     }
   }
   if (script.mode == HandMode::force) require("force");
   if (script.mode == HandMode::impedance) require("stiffness");
   if (script.mode == HandMode::hold && script.ideal && (script.stiffness || script.damping)) {
-    fail(
-        "stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position "
-        "exactly)");
+    fail(script.stiffness ? "stiffness" : "damping",
+         "stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position "
+         "exactly)");
   }
   if (script.stiffness && !(*script.stiffness > 0.0)) {
-    fail("stiffness must be > 0 (got " + number_text(*script.stiffness) + ")");
+    fail("stiffness", "stiffness must be > 0 (got " + number_text(*script.stiffness) + ")");
   }
   if (script.damping && !(*script.damping >= 0.0)) {
-    fail("damping must be >= 0 (got " + number_text(*script.damping) + ")");
+    fail("damping", "damping must be >= 0 (got " + number_text(*script.damping) + ")");
   }
   return script;
 }
@@ -276,4 +284,4 @@ std::optional<HandScript> try_parse_hand_script(std::string_view text, std::stri
   }
 }
 
-}  // namespace hapticd::drivers::loopback
+}  // namespace hapticd::drivers::simulation

@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-namespace hapticd::drivers::loopback::detail {
+namespace hapticd::drivers::simulation::detail {
 
 /// Splits on spaces/tabs; every token must be key=value with a non-empty key
 /// and value. Throws std::invalid_argument("<what>: ...") otherwise.
@@ -33,4 +33,4 @@ inline std::vector<std::pair<std::string, std::string>> split_key_values(std::st
   return pairs;
 }
 
-}  // namespace hapticd::drivers::loopback::detail
+}  // namespace hapticd::drivers::simulation::detail

@@ -17,7 +17,7 @@
 #include <string>
 #include <string_view>
 
-namespace hapticd::drivers::loopback {
+namespace hapticd::drivers::simulation {
 
 enum class HandMode { free, hold, force, impedance };
 enum class TrajectoryKind { constant, step, ramp, sine };
@@ -78,4 +78,4 @@ HandScript parse_hand_script(std::string_view text);
 /// Non-throwing form: nothing on error, the one-line message in `error`.
 std::optional<HandScript> try_parse_hand_script(std::string_view text, std::string& error);
 
-}  // namespace hapticd::drivers::loopback
+}  // namespace hapticd::drivers::simulation

@@ -1,0 +1,190 @@
+#include "analysis/stability_gate.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "analysis/closed_loop.hpp"
+#include "analysis/wall_stability.hpp"
+
+namespace hapticd::analysis {
+
+namespace {
+
+// A double eigenvalue at z = 1 (the free drift of device plus virtual body
+// when nothing damps it) is computed only to about sqrt(machine epsilon).
+// Growing modes of interest here sit 1e-6 and more above 1 (forward Euler
+// at 1 Hz, T = 1 ms: 2e-5), so this tolerance separates the two.
+constexpr double drift_tolerance = 1e-7;
+// The scene alone is a small, well-conditioned matrix: marginal means 1 to
+// rounding (the exact and trapezoid schemes on an undamped spring).
+constexpr double scene_tolerance = 1e-12;
+
+std::string num(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+
+/// Pole radii live next to 1: show enough digits to see the difference.
+std::string radius(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.9f", v);
+  return b;
+}
+
+std::string stiffness_unit(const world::ScenePlan& plan) {
+  if (const auto* d = world::find_scene(plan.scene)) {
+    for (const auto& p : d->parameters) {
+      if (p.name == "stiffness") return p.unit;
+    }
+  }
+  return "N/m";
+}
+
+/// Largest stiffness in [0, requested] for which the plan is stable, other
+/// parameters fixed (bisection; stability is monotone in K along this line
+/// for the scenes here). Nothing if even a vanishing stiffness is unstable.
+std::optional<double> largest_stable_stiffness(std::string_view scene, world::ParameterSet parameters,
+                                               double requested, const GateDevice& device) {
+  auto stable_at = [&](double k) {
+    parameters["stiffness"] = k;
+    auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion);
+    const auto* plan = std::get_if<world::ScenePlan>(&outcome);
+    return plan != nullptr && check_scene_stability(*plan, device).stable;
+  };
+  double lo = 0.0;
+  double hi = requested;
+  if (!stable_at(requested * 1e-6)) return std::nullopt;
+  lo = requested * 1e-6;
+  for (int i = 0; i < 60 && hi - lo > 1e-9 * requested; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (stable_at(mid) ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+}  // namespace
+
+std::string GateDevice::describe() const {
+  const bool rotary = motion == world::Motion::rotary;
+  std::string s = rotary ? "J = " + num(mass) + " kg m^2" : "m = " + num(mass) + " kg";
+  if (damping > 0) s += ", b = " + num(damping) + (rotary ? " N m s/rad" : " N s/m");
+  s += ", T = " + num(period_s * 1e3) + " ms, d = " + std::to_string(delay_samples);
+  if (plant.dynamics.a.rows() == 4) s += ", two-mass (" + std::string(world::to_string(sensor)) + " sensing)";
+  return s;
+}
+
+GateDevice rigid_device(double mass, double damping, double period_s, int delay_samples,
+                        world::Motion motion) {
+  GateDevice device;
+  device.plant = world::RigidPlant{mass, damping}.model();
+  device.period_s = period_s;
+  device.delay_samples = delay_samples;
+  device.mass = mass;
+  device.damping = damping;
+  device.motion = motion;
+  return device;
+}
+
+SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDevice& device) {
+  SceneStability v;
+  if (!plan.linear) {
+    v.summary = "not a linear scene: no stability region applies (the torque limit holds)";
+    return v;
+  }
+  v.checked = true;
+  NumericRecord scene_record;
+  // The plant was built from these: 1 / inf = 0 would make finite matrices
+  // (a device that never moves) out of a non-finite number.
+  scene_record.check_finite("the device's mass or inertia", device.mass);
+  scene_record.check_finite("the device's damping", device.damping);
+  const Spectrum held = spectrum("the scene's state matrix", plan.linear->a, scene_record);
+  const auto closed = analyze_closed_loop(device.plant, device.sensor, *plan.linear, device.period_s,
+                                          device.delay_samples, drift_tolerance);
+  // A copy: worse() returns a reference to one of its arguments, and
+  // judge_radius()'s is a temporary that ends with this statement.
+  const Verdict verdict =
+      worse(judge_radius(held.radius, scene_tolerance, device.period_s, scene_record), closed.verdict);
+  v.verdict = verdict.state;
+  v.reason = verdict.reason;
+  v.stable = verdict.stable();
+  v.scene_radius = held.radius;
+  v.closed_loop_radius = closed.pole_radius;
+  if (!verdict.assessed()) {
+    v.growth_per_second = std::numeric_limits<double>::quiet_NaN();
+    v.summary = "stability cannot be assessed on this device (" + device.describe() + "): " + verdict.reason;
+    return v;
+  }
+  const double worst = std::max(v.scene_radius, v.closed_loop_radius);
+  v.growth_per_second = std::pow(worst, 1.0 / device.period_s);
+  if (v.stable) {
+    v.summary = "stable on this device: pole radius " + radius(v.closed_loop_radius) + " (released), " +
+                radius(v.scene_radius) + " (held)";
+  } else {
+    v.summary = "unstable on this device (" + device.describe() + "): pole radius " + radius(worst) +
+                ", amplitude grows x" + num(v.growth_per_second) + " per second";
+  }
+  return v;
+}
+
+GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parameters,
+                       const GateDevice& device, bool force) {
+  auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion);
+  if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
+    GateRefusal invalid;
+    invalid.invalid = true;
+    invalid.message = error->message;
+    invalid.parameter = error->parameter;
+    return invalid;
+  }
+  GateAccepted accepted{std::move(std::get<world::ScenePlan>(outcome)), {}, false};
+  accepted.stability = check_scene_stability(accepted.plan, device);
+  if (accepted.stability.stable) return accepted;
+  if (accepted.stability.verdict == VerdictState::cannot_assess) {
+    // Not forceable: a scene whose numbers overflow or lost precision renders
+    // nothing the analysis could describe (it may emit NaN).
+    GateRefusal refusal;
+    refusal.assessed = false;
+    refusal.message = std::string(scene) + ": " + accepted.stability.summary;
+    refusal.stability = accepted.stability;
+    return refusal;
+  }
+  if (force) {
+    accepted.forced = true;
+    return accepted;
+  }
+
+  GateRefusal refusal;
+  refusal.stability = accepted.stability;
+  refusal.message = std::string(scene) + ": " + accepted.stability.summary;
+  const auto it = accepted.plan.parameters.find("stiffness");
+  if (it != accepted.plan.parameters.end()) {
+    const double requested = std::get<double>(it->second);
+    refusal.stiffness_limit = largest_stable_stiffness(scene, accepted.plan.parameters, requested, device);
+    const std::string unit = stiffness_unit(accepted.plan);
+    if (refusal.stiffness_limit) {
+      refusal.message += "; the largest stable stiffness with these parameters is " +
+                         num(*refusal.stiffness_limit) + " " + unit;
+    } else {
+      refusal.message += "; no stiffness > 0 is stable with these parameters";
+      if (scene.starts_with("spring")) {
+        refusal.message += " (try damping=auto, i.e. b = T k (Freudenberg 2.24), or another integrator)";
+      }
+    }
+  }
+  // The wall on a rigid device without mechanical damping is exactly Hulin's
+  // problem: say what his region allows.
+  if (scene == "wall" && device.plant.dynamics.a.rows() == 2 && device.damping == 0.0) {
+    const int d =
+        static_cast<int>(std::get<double>(accepted.plan.parameters.at("delay"))) + device.delay_samples;
+    const auto verdict = analyze_wall(device.mass, device.period_s, d,
+                                      std::get<double>(accepted.plan.parameters.at("stiffness")),
+                                      std::get<double>(accepted.plan.parameters.at("damping")));
+    refusal.message += ". Hulin: " + refusal_message(verdict);
+    refusal.hulin = WallLimits{verdict.k_max, verdict.b_at_k_max, verdict.damping_range};
+  }
+  return refusal;
+}
+
+}  // namespace hapticd::analysis

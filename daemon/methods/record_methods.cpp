@@ -1,0 +1,53 @@
+#include "daemon/service.hpp"
+
+#include "daemon/methods/method_support.hpp"
+
+namespace hapticd::daemon {
+
+using nlohmann::json;
+using rpc::RpcError;
+namespace code = rpc::code;
+using control::Access;
+using control::PeerInfo;
+
+void Service::register_record_methods(control::ControlServer& server) {
+  server.register_method(
+      "record.start",
+      [this](const json& params, const PeerInfo&) {
+        methods::reject_unknown_keys("record.start", params, {"path"});
+        const std::string name = params.value("path", std::string());
+        const CurrentScene scene = current_scene();
+        try {
+          const auto path = recorder_->start(name, header_for(scene));
+          return json{{"path", path.string()}, {"cycle", engine_->cycle()}};
+        } catch (const recorder::RecorderError& e) {
+          throw RpcError(code::refused, e.what());
+        }
+      },
+      Access::write);
+
+  server.register_method(
+      "record.stop",
+      [this](const json&, const PeerInfo&) {
+        recorder::RecorderStatus status;
+        try {
+          status = recorder_->stop();
+        } catch (const recorder::RecorderError& e) {
+          throw RpcError(code::refused, e.what());
+        }
+        return json{{"path", status.path.string()},
+                    {"samples", status.samples_written},
+                    {"samples_received", status.samples_received},
+                    {"sections", status.sections},
+                    {"dropped_ring", status.dropped_ring},
+                    {"dropped_write", status.dropped_write},
+                    {"cycle_gaps", status.cycle_gaps},
+                    {"disk_full", status.disk_full},
+                    {"resumed", status.resumed},
+                    {"complete", status.complete},
+                    {"error", status.error}};
+      },
+      Access::write);
+}
+
+}  // namespace hapticd::daemon

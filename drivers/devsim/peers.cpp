@@ -1,0 +1,26 @@
+#include "drivers/devsim/peers.hpp"
+
+#include "drivers/loopback/loopback_config.hpp"
+
+namespace hapticd::drivers::devsim {
+
+const std::vector<SimulatedPeer>& simulated_peers() {
+  // One line per driver with a simulated peer (its sim/ folder).
+  static const std::vector<SimulatedPeer> peers{};
+  return peers;
+}
+
+void add_plant_option(CLI::App& command, std::string& text) {
+  command.add_option("--plant", text,
+                     "the simulated plant, as the loopback driver's keys: \"motion=linear plant=two-mass "
+                     "delay=1 hand=...\" (default: the loopback's rigid wheel)");
+}
+
+simulation::PlantConfig plant_from(const std::string& text, double period_s) {
+  simulation::PlantConfig config = loopback::parse_loopback_config(text);
+  config.period_s = period_s;
+  config.validate();
+  return config;
+}
+
+}  // namespace hapticd::drivers::devsim

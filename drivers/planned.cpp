@@ -1,0 +1,85 @@
+#include "drivers/planned.hpp"
+
+namespace hapticd::drivers::planned {
+
+namespace {
+
+using P = ParameterSpec;
+
+/// What every real device needs for the stability gate (DRIVERS.md): the
+/// device cannot know its own moving mass, so the config says it.
+std::vector<ParameterSpec> common() {
+  return {P::choice("motion", {"rotary", "linear"},
+                    "rotary (rad, N m, kg m^2) or linear (m, N, kg): the units of everything below")
+              .defaults_to("rotary"),
+          P::number("mass", "kg m^2 | kg", "moving inertia (rotary) or mass (linear) the stability gate uses")
+              .above(0.0)
+              .at_most(1e6),
+          P::number("damping", "N m s/rad | N s/m", "viscous damping to ground the stability gate uses")
+              .defaults_to(0.0)
+              .at_least(0.0)
+              .at_most(1e6)};
+}
+
+DriverDescription planned(std::string name, std::string summary, std::vector<ParameterSpec> specific) {
+  std::vector<ParameterSpec> all = common();
+  for (auto& p : specific) all.push_back(std::move(p));
+  return {std::move(name), std::move(summary), false, std::move(all), {}};
+}
+
+P counts_per_unit() {
+  return P::number("counts_per_unit", "1/rev | 1/m", "encoder counts per revolution or per metre").above(0.0);
+}
+
+}  // namespace
+
+DriverDescription usb_hid_driver() {
+  return planned(
+      "usb-hid", "USB encoder/motor board over libusb-1.0 (interrupt IN and OUT reports)",
+      {P::text("vendor_id", "USB vendor id, e.g. \"0x1209\""),
+       P::text("product_id", "USB product id, e.g. \"0x0001\""),
+       P::text("serial", "serial number to choose among several boards (empty: any)").defaults_to(""),
+       counts_per_unit(),
+       P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
+}
+
+DriverDescription canopen_driver() {
+  return planned(
+      "canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)",
+      {P::text("interface", "SocketCAN interface, or unix:/path for the simulated bus").defaults_to("can0"),
+       P::integer("node_id", "", "CANopen node id").defaults_to(1.0).at_least(1).at_most(127),
+       P::number("bitrate", "bit/s", "bus bitrate, for the bus budget")
+           .defaults_to(1e6)
+           .at_least(10e3)
+           .at_most(1e6),
+       counts_per_unit(),
+       P::number("rated_torque", "N m | N", "rated torque 0x6076 in SI (0x6071 is per mille of it)")
+           .above(0.0)});
+}
+
+DriverDescription modbus_driver() {
+  return planned(
+      "modbus", "Modbus amplifier over libmodbus, RTU or TCP (function 23 per period)",
+      {P::choice("transport", {"tcp", "rtu"}, "tcp (host, port) or rtu (device, baud ...)")
+           .defaults_to("tcp"),
+       P::text("host", "TCP: the amplifier's address").defaults_to("127.0.0.1"),
+       P::integer("port", "", "TCP port").defaults_to(502.0).at_least(1).at_most(65535),
+       P::text("device", "RTU: serial device").defaults_to("/dev/ttyUSB0"),
+       P::integer("baud", "bit/s", "RTU baud rate").defaults_to(115200.0).at_least(300).at_most(12e6),
+       P::integer("slave_id", "", "Modbus slave (unit) id").defaults_to(1.0).at_least(1).at_most(247),
+       counts_per_unit(),
+       P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
+}
+
+DriverDescription gpio_pwm_driver() {
+  return planned("gpio-pwm", "GPIO lines and kernel PWM through libgpiod and sysfs (Hapkit-class rigs)",
+                 {P::text("chip", "GPIO chip of the lines").defaults_to("/dev/gpiochip0"),
+                  P::integer("direction_line", "", "direction output line offset").at_least(0).at_most(1023),
+                  P::integer("enable_line", "", "enable output line offset").at_least(0).at_most(1023),
+                  P::text("pwm_chip", "PWM chip directory").defaults_to("/sys/class/pwm/pwmchip0"),
+                  P::integer("pwm_channel", "", "PWM channel").defaults_to(0.0).at_least(0).at_most(1023),
+                  counts_per_unit(),
+                  P::number("force_at_full_duty", "N m | N", "force or torque at 100 % duty").above(0.0)});
+}
+
+}  // namespace hapticd::drivers::planned
