@@ -71,15 +71,4 @@ DriverDescription modbus_driver() {
        P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
 }
 
-DriverDescription gpio_pwm_driver() {
-  return planned("gpio-pwm", "GPIO lines and kernel PWM through libgpiod and sysfs (Hapkit-class rigs)",
-                 {P::text("chip", "GPIO chip of the lines").defaults_to("/dev/gpiochip0"),
-                  P::integer("direction_line", "", "direction output line offset").at_least(0).at_most(1023),
-                  P::integer("enable_line", "", "enable output line offset").at_least(0).at_most(1023),
-                  P::text("pwm_chip", "PWM chip directory").defaults_to("/sys/class/pwm/pwmchip0"),
-                  P::integer("pwm_channel", "", "PWM channel").defaults_to(0.0).at_least(0).at_most(1023),
-                  counts_per_unit(),
-                  P::number("force_at_full_duty", "N m | N", "force or torque at 100 % duty").above(0.0)});
-}
-
 }  // namespace hapticd::drivers::planned

@@ -11,6 +11,5 @@ namespace hapticd::drivers::planned {
 DriverDescription usb_hid_driver();
 DriverDescription canopen_driver();
 DriverDescription modbus_driver();
-DriverDescription gpio_pwm_driver();
 
 }  // namespace hapticd::drivers::planned

@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "drivers/gpio_pwm/gpio_pwm_config.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/planned.hpp"
 
@@ -10,8 +11,8 @@ namespace hapticd::drivers {
 const std::vector<DriverDescription>& driver_registry() {
   // One line per driver; a driver issue replaces its planned entry here.
   static const std::vector<DriverDescription> drivers{
-      loopback::loopback_driver(), planned::usb_hid_driver(),  planned::canopen_driver(),
-      planned::modbus_driver(),    planned::gpio_pwm_driver(),
+      loopback::loopback_driver(), planned::usb_hid_driver(),   planned::canopen_driver(),
+      planned::modbus_driver(),    gpio_pwm::gpio_pwm_driver(),
   };
   return drivers;
 }

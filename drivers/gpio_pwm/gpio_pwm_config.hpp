@@ -7,23 +7,14 @@
 
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <string_view>
 
 #include "drivers/device.hpp"
+#include "drivers/parameter.hpp"
+#include "drivers/registry.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
-
-/// A configuration value that is not accepted; `key()` names the parameter.
-class ConfigError : public std::invalid_argument {
- public:
-  ConfigError(std::string key, const std::string& message);
-  const std::string& key() const noexcept { return key_; }
-
- private:
-  std::string key_;
-};
 
 /// A GPIO line by offset on the chip ("17") or by name ("MOTOR_EN"), and
 /// whether its active level is low. Unconfigured: neither.
@@ -38,7 +29,7 @@ struct LineSpec {
 };
 
 /// "" -> unconfigured; all digits -> offset; otherwise a line name (at most
-/// 31 characters: the uAPI's 32-byte name field). Throws ConfigError(key).
+/// 31 characters: the uAPI's 32-byte name field). Throws ParameterError(key).
 LineSpec parse_line_spec(std::string_view key, std::string_view text, bool active_low = false);
 
 enum class PositionSource { counter, quadrature };
@@ -90,8 +81,16 @@ struct GpioPwmConfig {
   double metres_or_radians_per_count() const noexcept;
 };
 
-/// Checks ranges and combinations; throws ConfigError naming the key and
+/// Checks ranges and combinations; throws ParameterError naming the key and
 /// what is accepted.
 void validate(const GpioPwmConfig& config);
+
+/// The typed parameters of [device.gpio-pwm] (README.md, docs/driver-parameters.md).
+const std::vector<ParameterSpec>& gpio_pwm_parameters();
+/// The configuration from checked parameters; throws ParameterError naming
+/// the key for what the table alone cannot check (combinations, line names).
+GpioPwmConfig gpio_pwm_config_from(const DriverParameters& parameters);
+/// The registry's entry (drivers/registry.cpp).
+DriverDescription gpio_pwm_driver();
 
 }  // namespace hapticd::drivers::gpio_pwm

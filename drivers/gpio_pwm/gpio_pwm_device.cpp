@@ -37,10 +37,10 @@ GpioPwmDevice::GpioPwmDevice(GpioPwmConfig config) : config_(std::move(config)) 
 
 GpioPwmDevice::~GpioPwmDevice() { close(); }
 
-void GpioPwmDevice::configure(double period_s) {
+void GpioPwmDevice::configure(const LoopContext& loop) {
   std::lock_guard lock(lifecycle_);
-  if (state_.load() != GpioPwmState::closed) throw std::logic_error("gpio-pwm: configure() while configured");
-  (void)period_s;  // every period does the same bounded I/O: nothing to size on it
+  if (state_.load() != DeviceState::closed) throw std::logic_error("gpio-pwm: configure() while configured");
+  if (!(loop.period_s > 0.0)) throw DeviceError("gpio-pwm: the loop period must be > 0 s", "period");
   try {
     chip_ = std::make_unique<GpioChip>(config_.chip);
     // One request for every output: enable inactive, direction "positive",
@@ -116,7 +116,7 @@ void GpioPwmDevice::configure(double period_s) {
              ? "charge pump on " + line_words(*chip_, offsets[static_cast<std::size_t>(slot_[pump_out])])
              : "NO charge pump: nothing stops the motor if hapticd is killed");
     fault_latched_.store(false);
-    state_.store(GpioPwmState::configured);
+    state_.store(DeviceState::configured);
   } catch (...) {
     release();
     throw;
@@ -125,9 +125,9 @@ void GpioPwmDevice::configure(double period_s) {
 
 void GpioPwmDevice::enable() {
   std::lock_guard lock(lifecycle_);
-  const GpioPwmState s = state_.load();
-  if (s == GpioPwmState::closed) throw std::logic_error("gpio-pwm: enable() before configure()");
-  if (s == GpioPwmState::enabled) return;
+  const DeviceState s = state_.load();
+  if (s == DeviceState::closed) throw std::logic_error("gpio-pwm: enable() before configure()");
+  if (s == DeviceState::enabled) return;
   if (const int error = pwm_->off(); error != 0) {
     throw TransportError("pwm_channel",
                          std::string("gpio-pwm: setting duty 0 failed: ") + system_reason(error), error);
@@ -136,7 +136,7 @@ void GpioPwmDevice::enable() {
   // as the first charge-pump edge: every output commit is one period's
   // (the simulated board counts one period per commit), and the power stage
   // is never on before the loop drives it.
-  state_.store(GpioPwmState::enabled);
+  state_.store(DeviceState::enabled);
 }
 
 bool GpioPwmDevice::fault_line_active() {
@@ -174,7 +174,7 @@ void GpioPwmDevice::pulse_reset() {
 
 std::string GpioPwmDevice::clear_fault() {
   std::lock_guard lock(lifecycle_);
-  if (state_.load() == GpioPwmState::closed)
+  if (state_.load() == DeviceState::closed)
     throw std::logic_error("gpio-pwm: clear_fault() before configure()");
   if (!fault_latched_.load(std::memory_order_acquire)) return "";
   if (reset_) pulse_reset();
@@ -213,7 +213,7 @@ void GpioPwmDevice::drive_off() noexcept {
 }
 
 IoResult GpioPwmDevice::read(Reading& out) noexcept {
-  if (state_.load(std::memory_order_acquire) == GpioPwmState::closed) return IoResult::error;
+  if (state_.load(std::memory_order_acquire) == DeviceState::closed) return IoResult::error;
   if (fault_) {
     std::array<EdgeEvent, kernel_event_queue_depth> events;
     const int n = fault_->read(events);
@@ -252,7 +252,7 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
 }
 
 IoResult GpioPwmDevice::write(double force) noexcept {
-  if (state_.load(std::memory_order_acquire) != GpioPwmState::enabled) return IoResult::error;
+  if (state_.load(std::memory_order_acquire) != DeviceState::enabled) return IoResult::error;
   if (fault_latched_.load(std::memory_order_acquire)) {
     drive_off();
     return IoResult::fault;
@@ -281,7 +281,7 @@ void GpioPwmDevice::disable() noexcept {
 }
 
 void GpioPwmDevice::disable_locked() noexcept {
-  if (state_.load() != GpioPwmState::enabled) return;
+  if (state_.load() != DeviceState::enabled) return;
   if (pwm_->off() != 0) write_errors_.fetch_add(1, std::memory_order_relaxed);
   // Enable inactive and the brake on; the pump keeps its level and stops.
   const auto put = [this](Output role, bool logical) {
@@ -293,15 +293,15 @@ void GpioPwmDevice::disable_locked() noexcept {
   if (outputs_->set(std::span<const int>(levels_.data(), used_outputs_)) != 0) {
     write_errors_.fetch_add(1, std::memory_order_relaxed);
   }
-  state_.store(GpioPwmState::configured);
+  state_.store(DeviceState::configured);
 }
 
 void GpioPwmDevice::close() noexcept {
   std::lock_guard lock(lifecycle_);
-  if (state_.load() == GpioPwmState::closed) return;
+  if (state_.load() == DeviceState::closed) return;
   disable_locked();
   release();
-  state_.store(GpioPwmState::closed);
+  state_.store(DeviceState::closed);
 }
 
 void GpioPwmDevice::release() noexcept {
@@ -320,24 +320,42 @@ void GpioPwmDevice::release() noexcept {
   used_outputs_ = 0;
 }
 
-GpioPwmStatus GpioPwmDevice::status() const {
+DeviceModel GpioPwmDevice::model() const {
+  DeviceModel m;
+  m.motion = config_.motion;
+  m.effective_mass = config_.mass;
+  m.viscous_damping = config_.damping;
+  m.position_resolution = position_per_count_;
+  m.delay_periods = 0;  // the duty written in period n drives the bridge from then on
+  m.source = "config";
+  m.description =
+      std::string(to_string(config_.motion)) + ", H-bridge on " + config_.pwm_chip + "/pwm" +
+      std::to_string(config_.pwm_channel) +
+      (config_.position_source() == PositionSource::counter ? ", kernel counter" : ", quadrature lines");
+  return m;
+}
+
+DeviceStatus GpioPwmDevice::status() const {
   std::lock_guard lock(lifecycle_);
-  GpioPwmStatus s;
+  DeviceStatus s;
   s.state = state_.load();
-  s.fault = fault_latched_.load();
+  const bool fault = s.state != DeviceState::closed && fault_latched_.load();
+  if (fault) {
+    s.state = DeviceState::fault;
+    s.fault_reason = fault_reason_;
+  }
   s.read_errors = read_errors_.load();
   s.write_errors = write_errors_.load();
   s.faults = faults_.load();
-  if (s.fault) s.fault_reason = fault_reason_;
   if (const int e = last_errno_.load(); e != 0) s.last_error = system_reason(e);
-  s.counters.emplace_back("counter_range_errors", counter_range_errors_.load());
-  if (s.state != GpioPwmState::closed && pwm_) s.counters.emplace_back("pwm_writes", pwm_->writes());
-  if (s.state != GpioPwmState::closed && quadrature_) {
+  s.counters.push_back({"counter_range_errors", counter_range_errors_.load()});
+  if (pwm_) s.counters.push_back({"pwm_writes", pwm_->writes()});
+  if (quadrature_) {
     const auto q = quadrature_->stats();
-    s.counters.emplace_back("encoder_edges", q.edges);
-    s.counters.emplace_back("encoder_invalid_transitions", q.invalid_transitions);
-    s.counters.emplace_back("encoder_lost_edges", q.lost_edges);
-    s.counters.emplace_back("encoder_full_queue_reads", q.full_reads);
+    s.counters.push_back({"encoder_edges", q.edges});
+    s.counters.push_back({"encoder_invalid_transitions", q.invalid_transitions});
+    s.counters.push_back({"encoder_lost_edges", q.lost_edges});
+    s.counters.push_back({"encoder_full_queue_reads", q.full_reads});
   }
   return s;
 }

@@ -28,49 +28,41 @@
 
 namespace hapticd::drivers::gpio_pwm {
 
-enum class GpioPwmState { closed, configured, enabled };
-
-struct GpioPwmStatus {
-  GpioPwmState state = GpioPwmState::closed;
-  bool fault = false;
-  std::uint64_t read_errors = 0, write_errors = 0, faults = 0;
-  std::string fault_reason;
-  std::string last_error;
-  std::vector<std::pair<std::string, std::uint64_t>> counters;
-};
-
-class GpioPwmDevice {
+class GpioPwmDevice final : public Device {
  public:
-  /// Validates the configuration (throws ConfigError naming the key).
+  /// Validates the configuration (throws ParameterError naming the key).
   explicit GpioPwmDevice(GpioPwmConfig config);
-  ~GpioPwmDevice();
+  ~GpioPwmDevice() override;
   GpioPwmDevice(const GpioPwmDevice&) = delete;
   GpioPwmDevice& operator=(const GpioPwmDevice&) = delete;
 
   /// Opens the chip, requests the lines, configures the PWM channel to
   /// enabled at duty 0, opens the counter or starts the quadrature thread.
-  /// Enable inactive, brake active. Throws TransportError (with the key) or
-  /// std::logic_error when not closed.
-  void configure(double period_s);
+  /// Enable inactive, brake active. Throws TransportError (a DeviceError
+  /// with the key) or std::logic_error when not closed.
+  void configure(const LoopContext& loop) override;
   /// Arms the output: duty 0 now; the enable line goes active and the
   /// brake is released with the first write(). Throws std::logic_error
   /// before configure().
-  void enable();
+  void enable() override;
   /// Pulses the reset line (if any), checks the fault line reads inactive,
   /// then clears the latch. Returns what was cleared ("" if nothing was
   /// latched); throws TransportError("fault_line") if the fault persists.
-  std::string clear_fault();
+  std::string clear_fault() override;
   /// Duty 0, enable inactive, brake active; the charge pump stops (no more
   /// writes). Idempotent.
-  void disable() noexcept;
+  void disable() noexcept override;
   /// disable(), then releases every line and file; the PWM channel stays
   /// exported and enabled at duty 0. Idempotent.
-  void close() noexcept;
+  void close() noexcept override;
 
-  IoResult read(Reading& out) noexcept;
-  IoResult write(double force) noexcept;
+  IoResult read(Reading& out) noexcept override;
+  IoResult write(double force) noexcept override;
 
-  GpioPwmStatus status() const;
+  /// From the config (the device cannot measure its own mass): motion,
+  /// mass, damping, the encoder's resolution; no added delay.
+  DeviceModel model() const override;
+  DeviceStatus status() const override;
   const GpioPwmConfig& config() const noexcept { return config_; }
   /// One line: chip, PWM, position source, and whether the rig is safe if
   /// hapticd is killed (a charge pump) or not.
@@ -114,8 +106,8 @@ class GpioPwmDevice {
   bool fault_seen_ = false;  // the RT thread's copy of the latch
 
   // Shared with non-RT threads.
-  mutable std::mutex lifecycle_;  // non-RT calls only
-  std::atomic<GpioPwmState> state_{GpioPwmState::closed};
+  mutable std::mutex lifecycle_;                         // non-RT calls only
+  std::atomic<DeviceState> state_{DeviceState::closed};  // closed, configured or enabled
   std::atomic<bool> fault_latched_{false};
   std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0}, counter_range_errors_{0};
   std::atomic<int> last_errno_{0};

@@ -2,11 +2,13 @@
 /// \file
 /// A failure of the GPIO chip, a line, or a sysfs attribute at configure
 /// time: one line with the path, the value and the system's reason, and the
-/// configuration key to blame.
+/// configuration key to blame (a DeviceError, which the daemon places at
+/// that key's file:line:column), plus the errno.
 
-#include <stdexcept>
 #include <string>
 #include <system_error>
+
+#include "drivers/device.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 
@@ -15,15 +17,13 @@ inline std::string system_reason(int error) {
   return std::error_code(error, std::generic_category()).message();
 }
 
-class TransportError : public std::runtime_error {
+class TransportError : public DeviceError {
  public:
   TransportError(std::string key, const std::string& message, int error_code = 0)
-      : std::runtime_error(message), key_(std::move(key)), error_code_(error_code) {}
-  const std::string& key() const noexcept { return key_; }
+      : DeviceError(message, std::move(key)), error_code_(error_code) {}
   int error_code() const noexcept { return error_code_; }
 
  private:
-  std::string key_;
   int error_code_;
 };
 

@@ -6,6 +6,28 @@
 
 namespace hapticd::drivers::gpio_pwm::sim {
 
+SimulatorPlant::SimulatorPlant(std::unique_ptr<simulation::PlantSimulator> simulator)
+    : simulator_(std::move(simulator)), resolution_(simulator_->config().resolution()) {
+  sense();
+}
+
+void SimulatorPlant::sense() {
+  // A failed read (an injected read error) keeps the last count, as an
+  // encoder interface that missed a sample would.
+  double position = 0.0;
+  if (simulator_->sense(position) == IoResult::ok && std::isfinite(position)) sensed_ = position;
+}
+
+void SimulatorPlant::step(double motor_force) {
+  simulator_->step(motor_force);
+  sense();
+}
+
+// sense() quantizes to whole counts: the division gives the count to rounding.
+std::int64_t SimulatorPlant::encoder_counts() const { return std::llround(sensed_ / resolution_); }
+
+double SimulatorPlant::position() const { return sensed_; }
+
 SimulatedBoard::SimulatedBoard(UmockdevGpioTestbed& gpio, SimulatedPwmChip& pwm, SimulatedCounter* counter,
                                BoardConfig config, std::unique_ptr<BoardPlant> plant)
     : gpio_(gpio),
@@ -21,7 +43,7 @@ SimulatedBoard::SimulatedBoard(UmockdevGpioTestbed& gpio, SimulatedPwmChip& pwm,
         "SimulatedBoard: no counter and no encoder lines: nowhere to put the position");
   }
   // Rest state of the position outputs before the driver looks.
-  counts_ = static_cast<std::int64_t>(std::floor(plant_->position() * config_.counts_per_unit));
+  counts_ = plant_->encoder_counts();
   if (config_.encoder_reverse) counts_ = -counts_;
   if (counter_ != nullptr) counter_->set_position(counts_);
   if (w.encoder_a && w.encoder_b) {
@@ -71,8 +93,9 @@ void SimulatedBoard::on_values(RequestId request) {
 void SimulatedBoard::step_period(const AmplifierInputs& in) {
   last_inputs_ = in;
   const double force = amplifier_.step(in);
-  const double position = plant_->step(force);
-  std::int64_t counts = static_cast<std::int64_t>(std::floor(position * config_.counts_per_unit));
+  plant_->step(force);
+  const double position = plant_->position();
+  std::int64_t counts = plant_->encoder_counts();
   if (config_.encoder_reverse) counts = -counts;
   const auto period_ns = static_cast<std::uint64_t>(std::llround(config_.period_s * 1e9));
   publish_position(counts, period_ * period_ns, (period_ + 1) * period_ns);

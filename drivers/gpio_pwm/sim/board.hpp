@@ -29,18 +29,38 @@
 #include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
 #include "drivers/gpio_pwm/sim/sysfs_peripherals.hpp"
 #include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
 
-/// The motor and what it moves: one period under a motor force.
+/// The motor, what it moves and its encoder: one period under a motor force.
 class BoardPlant {
  public:
   virtual ~BoardPlant() = default;
-  /// Applies `motor_force` (N or N m) over one period; returns the true
-  /// position (m or rad) at the encoder after it.
-  virtual double step(double motor_force) = 0;
-  /// The true position at the encoder now.
+  /// Applies `motor_force` (N or N m) over one period.
+  virtual void step(double motor_force) = 0;
+  /// The encoder's count now (its own quantization, faults included).
+  virtual std::int64_t encoder_counts() const = 0;
+  /// The position at the encoder now (m or rad), for the board's record.
   virtual double position() const = 0;
+};
+
+/// The shared plant simulator (drivers/simulation) as the board's plant:
+/// the same plant, hand, friction, saturation and encoder as a loopback
+/// run, so a gpio-pwm run compares with it sample by sample.
+class SimulatorPlant final : public BoardPlant {
+ public:
+  explicit SimulatorPlant(std::unique_ptr<simulation::PlantSimulator> simulator);
+  void step(double motor_force) override;
+  std::int64_t encoder_counts() const override;
+  double position() const override;
+  simulation::PlantSimulator& simulator() { return *simulator_; }
+
+ private:
+  void sense();
+  std::unique_ptr<simulation::PlantSimulator> simulator_;
+  double resolution_;
+  double sensed_ = 0.0;  // once per period: sense() counts injected read faults
 };
 
 /// How the board is wired to the chip (offsets on the simulated chip, and

@@ -25,23 +25,30 @@ bool eventually(const std::function<bool()>& condition) {
   return condition();
 }
 
+constexpr double period = 1e-3;
+constexpr double counts_per_rad = 16384.0 / (2.0 * std::numbers::pi);
+
 // A free inertia, integrated exactly for a force held over the period.
 class Inertia final : public BoardPlant {
  public:
-  Inertia(double inertia, double period) : j_(inertia), t_(period) {}
-  double step(double force) override {
+  Inertia(double inertia, double step_s) : j_(inertia), t_(step_s) {}
+  void step(double force) override {
     x_ += v_ * t_ + force * t_ * t_ / (2.0 * j_);
     v_ += force * t_ / j_;
-    return x_;
+  }
+  std::int64_t encoder_counts() const override {
+    return static_cast<std::int64_t>(std::floor(x_ * counts_per_rad));
   }
   double position() const override { return x_; }
+  // For the reference runs in the tests.
+  double advance(double force) {
+    step(force);
+    return x_;
+  }
 
  private:
   double j_, t_, x_ = 0.0, v_ = 0.0;
 };
-
-constexpr double period = 1e-3;
-constexpr double counts_per_rad = 16384.0 / (2.0 * std::numbers::pi);
 
 GpioChipSpec chip_spec() {
   GpioChipSpec s;
@@ -64,7 +71,6 @@ BoardConfig board_config(bool counter) {
   }
   c.amplifier = {0.8, 0};
   c.period_s = period;
-  c.counts_per_unit = counts_per_rad;
   return c;
 }
 
@@ -95,7 +101,7 @@ TEST_F(BoardLockstep, OnePeriodPerOutputCommitAndTheCountIsReadyAtTheNextRead) {
     const int levels[] = {1, force > 0 ? 1 : 0, pump, 0};
     ASSERT_EQ(outputs.set(levels), 0);
     ASSERT_EQ(board.periods(), static_cast<std::uint64_t>(n + 1));
-    const double x = reference.step(force);
+    const double x = reference.advance(force);
     std::uint64_t raw = 0;
     ASSERT_EQ(count.read(raw), 0);
     const auto expected = static_cast<std::int64_t>(std::floor(x * counts_per_rad));

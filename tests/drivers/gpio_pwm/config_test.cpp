@@ -25,7 +25,7 @@ GpioPwmConfig valid_counter_config() {
 std::string error_key(const GpioPwmConfig& c, std::string* message = nullptr) {
   try {
     validate(c);
-  } catch (const ConfigError& e) {
+  } catch (const ParameterError& e) {
     if (message) *message = e.what();
     return e.key();
   }
@@ -43,12 +43,12 @@ TEST(GpioPwmConfig, LineSpecByOffsetOrName) {
 }
 
 TEST(GpioPwmConfig, LineSpecRefusals) {
-  EXPECT_THROW(parse_line_spec("enable_line", "65536"), ConfigError);
-  EXPECT_THROW(parse_line_spec("enable_line", "99999999999999999999"), ConfigError);
+  EXPECT_THROW(parse_line_spec("enable_line", "65536"), ParameterError);
+  EXPECT_THROW(parse_line_spec("enable_line", "99999999999999999999"), ParameterError);
   try {
     parse_line_spec("fault_line", std::string(32, 'x'));
     FAIL();
-  } catch (const ConfigError& e) {
+  } catch (const ParameterError& e) {
     EXPECT_EQ(e.key(), "fault_line");
     EXPECT_NE(std::string(e.what()).find("31 characters"), std::string::npos);
   }

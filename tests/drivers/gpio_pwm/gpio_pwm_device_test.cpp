@@ -33,10 +33,12 @@ constexpr double counts_per_rad = counts_per_rev / (2.0 * std::numbers::pi);
 class Inertia final : public sim::BoardPlant {
  public:
   explicit Inertia(double inertia) : j_(inertia) {}
-  double step(double force) override {
+  void step(double force) override {
     x_ += v_ * period + force * period * period / (2.0 * j_);
     v_ += force * period / j_;
-    return x_;
+  }
+  std::int64_t encoder_counts() const override {
+    return static_cast<std::int64_t>(std::floor(x_ * counts_per_rad));
   }
   double position() const override { return x_; }
 
@@ -90,7 +92,6 @@ sim::BoardConfig board_config(bool counter) {
   }
   b.amplifier = {0.8, 0};
   b.period_s = period;
-  b.counts_per_unit = counts_per_rad;
   return b;
 }
 
@@ -115,8 +116,8 @@ TEST_F(GpioPwmDeviceTest, LifecycleAndTheDefinedStates) {
   Reading r;
   EXPECT_EQ(device.read(r), IoResult::error);  // before configure
   EXPECT_THROW(device.enable(), std::logic_error);
-  device.configure(period);
-  EXPECT_THROW(device.configure(period), std::logic_error);
+  device.configure({period});
+  EXPECT_THROW(device.configure({period}), std::logic_error);
   EXPECT_NE(device.description().find("charge pump on PUMP (offset 5)"), std::string::npos)
       << device.description();
   EXPECT_FALSE(line(0));  // enable inactive
@@ -140,14 +141,14 @@ TEST_F(GpioPwmDeviceTest, LifecycleAndTheDefinedStates) {
   device.close();
   EXPECT_EQ(device.read(r), IoResult::error);
   GpioPwmDevice again(device_config(true));
-  again.configure(period);  // every line was released
+  again.configure({period});  // every line was released
   EXPECT_TRUE(pwm_chip_.refused().empty());
 }
 
 TEST_F(GpioPwmDeviceTest, ForceAndPositionInLockstepWithAnExactReference) {
   make_board(true);
   GpioPwmDevice device(device_config(true));
-  device.configure(period);
+  device.configure({period});
   device.enable();
   Inertia reference(0.01);
   for (int n = 0; n < 300; ++n) {
@@ -171,7 +172,7 @@ TEST_F(GpioPwmDeviceTest, ForceAndPositionInLockstepWithAnExactReference) {
 TEST_F(GpioPwmDeviceTest, FaultLineLatchesZeroesInThatPeriodAndClearsWithAResetPulse) {
   make_board(true);
   GpioPwmDevice device(device_config(true));
-  device.configure(period);
+  device.configure({period});
   device.enable();
   Reading r;
   for (int n = 0; n < 10; ++n) {
@@ -185,8 +186,8 @@ TEST_F(GpioPwmDeviceTest, FaultLineLatchesZeroesInThatPeriodAndClearsWithAResetP
   EXPECT_FALSE(last.enable);
   EXPECT_EQ(last.pwm_fraction, 0.0);
   EXPECT_EQ(last.motor_force, 0.0);
-  const GpioPwmStatus status = device.status();
-  EXPECT_TRUE(status.fault);
+  const DeviceStatus status = device.status();
+  EXPECT_EQ(status.state, DeviceState::fault);
   EXPECT_EQ(status.faults, 1u);
   EXPECT_EQ(status.fault_reason, "fault line MOTOR_NFAULT (offset 2) active");
   EXPECT_EQ(device.read(r), IoResult::fault);  // latched
@@ -204,7 +205,7 @@ TEST_F(GpioPwmDeviceTest, AnActiveFaultAtConfigureIsResetOnceThenRefused) {
   board_->trip("over-temperature");
   {
     GpioPwmDevice device(device_config(true));
-    device.configure(period);  // the reset pulse clears the board's latch
+    device.configure({period});  // the reset pulse clears the board's latch
     EXPECT_FALSE(board_->fault());
   }
   GpioPwmConfig no_reset = device_config(true);
@@ -212,7 +213,7 @@ TEST_F(GpioPwmDeviceTest, AnActiveFaultAtConfigureIsResetOnceThenRefused) {
   board_->trip("over-temperature");
   GpioPwmDevice device(no_reset);
   try {
-    device.configure(period);
+    device.configure({period});
     FAIL();
   } catch (const TransportError& e) {
     EXPECT_EQ(e.key(), "fault_line");
@@ -223,7 +224,7 @@ TEST_F(GpioPwmDeviceTest, AnActiveFaultAtConfigureIsResetOnceThenRefused) {
 TEST_F(GpioPwmDeviceTest, ChargePumpTogglesWhileWritingAndStopsWhenDisabled) {
   make_board(true);
   GpioPwmDevice device(device_config(true));
-  device.configure(period);
+  device.configure({period});
   device.enable();
   Reading r;
   bool previous = line(5);
@@ -242,7 +243,7 @@ TEST_F(GpioPwmDeviceTest, ChargePumpTogglesWhileWritingAndStopsWhenDisabled) {
 TEST_F(GpioPwmDeviceTest, ReadAndWriteDoNotAllocate) {
   make_board(true);
   GpioPwmDevice device(device_config(true));
-  device.configure(period);
+  device.configure({period});
   device.enable();
   Reading r;
   testing::AllocationGuard guard;
@@ -257,7 +258,7 @@ TEST_F(GpioPwmDeviceTest, ReadAndWriteDoNotAllocate) {
 TEST_F(GpioPwmDeviceTest, QuadratureLinesGiveThePosition) {
   make_board(false);
   GpioPwmDevice device(device_config(false));
-  device.configure(period);
+  device.configure({period});
   device.enable();
   Reading r;
   for (int n = 0; n < 100; ++n) {
@@ -269,9 +270,9 @@ TEST_F(GpioPwmDeviceTest, QuadratureLinesGiveThePosition) {
     ASSERT_EQ(device.write(n < 50 ? 0.01 : -0.01), IoResult::ok);
   }
   EXPECT_NE(board_->counts(), 0);
-  for (const auto& [name, value] : device.status().counters) {
-    if (name.rfind("encoder_", 0) == 0 && name != "encoder_edges") {
-      EXPECT_EQ(value, 0u) << name;
+  for (const auto& counter : device.status().counters) {
+    if (counter.name.rfind("encoder_", 0) == 0 && counter.name != "encoder_edges") {
+      EXPECT_EQ(counter.value, 0u) << counter.name;
     }
   }
 }
