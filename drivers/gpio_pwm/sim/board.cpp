@@ -70,6 +70,7 @@ void SimulatedBoard::on_values(RequestId request) {
   const auto holds = [&offsets](std::optional<unsigned> line) {
     return line && std::find(offsets.begin(), offsets.end(), *line) != offsets.end();
   };
+  if (holds(w.direction) && before_period_) before_period_();
   std::lock_guard lock(mutex_);
   if (holds(w.reset)) {
     const bool had_fault = amplifier_.fault();
@@ -140,6 +141,8 @@ void SimulatedBoard::trip(const std::string& reason) {
   amplifier_.trip(reason);
   drive_fault(true);
 }
+
+void SimulatedBoard::set_before_period(std::function<void()> hook) { before_period_ = std::move(hook); }
 
 void SimulatedBoard::advance_idle(unsigned periods) {
   std::lock_guard lock(mutex_);

@@ -19,6 +19,7 @@
 /// state after n writes, as on the loopback device.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -108,6 +109,9 @@ class SimulatedBoard {
   /// The power stage trips now: off, fault line active (an edge the driver
   /// sees at its next read()).
   void trip(const std::string& reason);
+  /// Called at each period's commit before the period is stepped, on
+  /// umockdev's worker thread, without the board's lock (it may trip()).
+  void set_before_period(std::function<void()> hook);
   /// Time passes without the driver (a killed or hung hapticd): the
   /// amplifier and plant advance with the lines as they were left.
   void advance_idle(unsigned periods);
@@ -140,6 +144,7 @@ class SimulatedBoard {
   std::uint64_t period_ = 0;
   std::int64_t counts_ = 0;
   std::vector<BoardPeriod> history_;
+  std::function<void()> before_period_;  // set before the driver runs
 };
 
 }  // namespace hapticd::drivers::gpio_pwm::sim
