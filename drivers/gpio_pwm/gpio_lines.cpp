@@ -196,6 +196,13 @@ EdgeInput::~EdgeInput() { gpiod_line_release(line_); }
 
 int EdgeInput::fd() const noexcept { return gpiod_line_event_get_fd(line_); }
 
+int EdgeInput::pending() noexcept {
+  pollfd p{fd(), POLLIN, 0};
+  const int n = ::poll(&p, 1, 0);
+  if (n < 0) return -errno;
+  return (p.revents & POLLIN) != 0 ? 1 : 0;
+}
+
 int EdgeInput::read(std::span<EdgeEvent> out) noexcept {
   std::array<gpiod_line_event, kernel_event_queue_depth> events;
   const unsigned wanted = static_cast<unsigned>(std::min<std::size_t>(out.size(), events.size()));
@@ -286,21 +293,27 @@ void QuadratureReader::run() noexcept {
   constexpr std::size_t capacity = std::size_t{4} * kernel_event_queue_depth;
   constexpr int max_passes = 8;
   std::array<EdgeEvent, capacity> a_events, b_events;
-  // Appends what one line has queued now; returns how many.
+  // Appends what one line has queued now; returns how many. A read that
+  // returns less than it asked for has emptied the queue.
   const auto drain = [this](EdgeInput& line, std::array<EdgeEvent, capacity>& events, std::size_t& n) {
     std::size_t got_total = 0;
     while (n < events.size()) {
+      const int queued = line.pending();
+      if (queued <= 0) {
+        if (queued < 0) read_errors_.fetch_add(1, std::memory_order_relaxed);
+        break;
+      }
       const std::size_t room = std::min<std::size_t>(kernel_event_queue_depth, events.size() - n);
       const int got = line.read(std::span<EdgeEvent>(events).subspan(n, room));
       if (got < 0) {
         read_errors_.fetch_add(1, std::memory_order_relaxed);
         break;
       }
-      if (got == 0) break;
       if (static_cast<unsigned>(got) == kernel_event_queue_depth)
         full_.fetch_add(1, std::memory_order_relaxed);
       n += static_cast<std::size_t>(got);
       got_total += static_cast<std::size_t>(got);
+      if (static_cast<std::size_t>(got) < room) break;
     }
     return got_total;
   };

@@ -105,6 +105,10 @@ class EdgeInput {
 
   int fd() const noexcept;
   unsigned offset() const noexcept { return offset_; }
+  /// RT-safe: whether an event is queued (one poll() with no wait: cheaper
+  /// than a read that finds nothing on an emulated chip, the same on the
+  /// kernel's). 1, 0, or -errno.
+  int pending() noexcept;
   /// RT-safe: the events queued for this line, oldest first, at most
   /// min(out.size(), 16). Returns how many, 0 when none, -errno on error.
   int read(std::span<EdgeEvent> out) noexcept;

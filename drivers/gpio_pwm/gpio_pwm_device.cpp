@@ -214,7 +214,7 @@ void GpioPwmDevice::drive_off() noexcept {
 
 IoResult GpioPwmDevice::read(Reading& out) noexcept {
   if (state_.load(std::memory_order_acquire) == DeviceState::closed) return IoResult::error;
-  if (fault_) {
+  if (fault_ && fault_->pending() != 0) {  // one poll() per period; a read only when an edge came
     std::array<EdgeEvent, kernel_event_queue_depth> events;
     const int n = fault_->read(events);
     if (n < 0) {

@@ -4,6 +4,7 @@
 
 #include <fcntl.h>
 #include <linux/gpio.h>
+#include <poll.h>
 #include <sys/stat.h>
 #include <umockdev.h>
 #include <unistd.h>
@@ -83,10 +84,20 @@ struct UmockdevGpioTestbed::Impl {
   }
   RequestId id_of(const Slot& s) const { return static_cast<RequestId>(&s - slots.data()) + 1; }
 
+  // The doorbell byte passes the PTY's line discipline asynchronously (a
+  // kernel work item); wait, bounded, until the slave sees it, so poll() on
+  // the client's fd is exact the moment the event is queued, as on the
+  // kernel's event fd. poll(), not ioctl(FIONREAD): the preload forwards
+  // that ioctl to the handler thread, which waits for the lock held here.
   void ring(Slot& s) {
     if (s.doorbell) return;
     const char byte = 1;
-    if (::write(s.master_fd, &byte, 1) == 1) s.doorbell = true;
+    if (::write(s.master_fd, &byte, 1) != 1) return;
+    s.doorbell = true;
+    pollfd slave{s.direct_fd, POLLIN, 0};
+    constexpr int doorbell_wait_ms = 1000;
+    while (::poll(&slave, 1, doorbell_wait_ms) < 0 && errno == EINTR) {
+    }
   }
   void drain(Slot& s) {
     char buffer[64];
@@ -275,6 +286,29 @@ gboolean on_handle_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpoint
   return impl->request_ioctl(client, *slot, request, arg);
 }
 
+// How one read of an event request's fd ends: now with a result, or later
+// (a blocking read on an empty queue, completed by drive_input()).
+struct ReadOutcome {
+  bool now = true;
+  long result = -1;
+  int error = 0;
+};
+
+// Serves one read of an event request's fd (lineevent_read()); lock held.
+ReadOutcome serve_read(Impl& impl, Impl::Slot& slot, UMockdevIoctlClient* client) {
+  UMockdevIoctlData* arg = umockdev_ioctl_client_get_arg(client);
+  const LineRequest* request = impl.chip().request(impl.id_of(slot));
+  if (request == nullptr || request->kind != LineRequest::Kind::event ||
+      static_cast<std::size_t>(arg->data_len) < sizeof(gpioevent_data))
+    return {true, -1, EINVAL};  // fewer bytes than one event; a handle has no read
+  if (!slot.queue.empty()) return {true, impl.deliver(slot, arg), 0};
+  const int flags = ::fcntl(slot.client_fd, F_GETFL);
+  if (flags >= 0 && (flags & O_NONBLOCK) != 0) return {true, -1, EAGAIN};
+  if (slot.pending_read != nullptr) g_object_unref(slot.pending_read);
+  slot.pending_read = static_cast<UMockdevIoctlClient*>(g_object_ref(client));
+  return {false, 0, 0};
+}
+
 gboolean on_handle_read(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointer data) {
   auto* impl = static_cast<Impl*>(data);
   impl->served.fetch_add(1, std::memory_order_relaxed);
@@ -283,36 +317,21 @@ gboolean on_handle_read(UMockdevIoctlBase*, UMockdevIoctlClient* client, gpointe
     umockdev_ioctl_client_complete(client, -1, EINVAL);  // the chip node has no read
     return TRUE;
   }
-  UMockdevIoctlData* arg = umockdev_ioctl_client_get_arg(client);
   UmockdevGpioTestbed::ReadObserver observer;
   std::optional<unsigned> line;
+  ReadOutcome outcome;
   {
     std::lock_guard lock(impl->mutex());
+    outcome = serve_read(*impl, *slot, client);
     observer = impl->read_observer;
     if (const LineRequest* r = impl->chip().request(impl->id_of(*slot)); r != nullptr && !r->offsets.empty())
       line = r->offsets.front();
   }
-  if (observer && line) observer(*line);
-  std::lock_guard lock(impl->mutex());
-  const LineRequest* request = impl->chip().request(impl->id_of(*slot));
-  if (request == nullptr || request->kind != LineRequest::Kind::event ||
-      static_cast<std::size_t>(arg->data_len) < sizeof(gpioevent_data)) {
-    umockdev_ioctl_client_complete(client, -1,
-                                   EINVAL);  // lineevent_read(): count < one event; linehandle: no read
-    return TRUE;
-  }
-  if (!slot->queue.empty()) {
-    umockdev_ioctl_client_complete(client, impl->deliver(*slot, arg), 0);
-    return TRUE;
-  }
-  const int flags = ::fcntl(slot->client_fd, F_GETFL);
-  if (flags >= 0 && (flags & O_NONBLOCK) != 0) {
-    umockdev_ioctl_client_complete(client, -1, EAGAIN);
-    return TRUE;
-  }
-  if (slot->pending_read != nullptr) g_object_unref(slot->pending_read);
-  slot->pending_read = static_cast<UMockdevIoctlClient*>(g_object_ref(client));
-  return TRUE;  // completed by drive_input()
+  // The events are taken from the queue, the client still waits for them:
+  // what the observer drives arrives exactly between this read and the next.
+  if (outcome.now && observer && line) observer(*line);
+  if (outcome.now) umockdev_ioctl_client_complete(client, outcome.result, outcome.error);
+  return TRUE;
 }
 
 // Binds a request node's connection to its slot. umockdev 0.17 neither

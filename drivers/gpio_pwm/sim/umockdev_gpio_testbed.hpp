@@ -89,10 +89,10 @@ class UmockdevGpioTestbed {
   std::uint64_t dropped_events() const;
   /// Events queued and not yet read, all requests together.
   std::size_t queued_events();
-  /// Called at the start of every read of an event request's fd, with the
-  /// line's offset, on umockdev's worker thread, without the lock held (it
-  /// may call drive_input()): lets a test put an edge exactly between the
-  /// reads of two lines.
+  /// Called when a read of an event request's fd has taken its events and
+  /// before the client gets them (the reader is held), with the line's offset, on umockdev's worker thread,
+  /// without the lock held (it may call drive_input()): lets a test put an edge exactly between the reads of
+  /// two lines.
   using ReadObserver = std::function<void(unsigned offset)>;
   void set_read_observer(ReadObserver observer);
   /// Ioctls and reads served (to see the cost of the emulation).

@@ -230,8 +230,8 @@ TEST_P(GpioLines, QuadratureReaderStartsFromTheLinesLevelsAndHonoursActiveLow) {
 // Regression: the reader took B's queue after A's, so an A edge that
 // arrived between the two reads was decoded after a later B edge (a paced
 // injection showed counts lost without any error). Here the edges B+(2),
-// A-(3), B-(4) arrive exactly while the reader is between its first read
-// of A and its read of B.
+// A-(3), B-(4) arrive exactly after the reader took A+(1) from A's queue and
+// before it looks at B's.
 TEST(QuadratureReaderOrder, AnEdgeArrivingBetweenTheTwoReadsIsDecodedInOrder) {
   sim::GpioChipSpec spec;
   spec.line_names = line_names;
@@ -242,7 +242,7 @@ TEST(QuadratureReaderOrder, AnEdgeArrivingBetweenTheTwoReadsIsDecodedInOrder) {
   QuadratureReader reader(a, b, false, false, false);
   std::atomic<bool> injected{false};
   bed.set_read_observer([&](unsigned offset) {
-    if (offset != 4 || injected.exchange(true)) return;
+    if (offset != 3 || injected.exchange(true)) return;
     bed.drive_input(4, true, 2);   // B+
     bed.drive_input(3, false, 3);  // A-
     bed.drive_input(4, false, 4);  // B-
