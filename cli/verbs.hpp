@@ -32,7 +32,8 @@ inline constexpr int unreachable = 3;  ///< no daemon at the socket, or it stopp
 
 /// Options every daemon verb takes (on the app and on each verb).
 struct CommonOptions {
-  std::string socket;      ///< --socket PATH; empty: client::resolve_socket_path()
+  std::string socket;      ///< --socket PATH; empty: client::resolve_client_socket_path()
+  std::string instance;    ///< --instance NAME: hapticd@NAME.service's socket
   bool json = false;       ///< --json: print the daemon's result object as JSON
   double timeout_s = 5.0;  ///< --timeout SECONDS for connecting and for each call
 };
@@ -48,7 +49,7 @@ class Exit : public std::exception {
   int code_;
 };
 
-/// Adds --socket, --json and --timeout to `app` (skipping any it already has).
+/// Adds --socket, --instance, --json and --timeout to `app` (skipping any it already has).
 void add_common_options(CLI::App& app, CommonOptions& opts);
 
 void add_status_command(CLI::App& app, CommonOptions& opts);  ///< status

@@ -1,5 +1,6 @@
 #include "client/socket_path.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
 #include <cstdlib>
 
@@ -23,6 +24,26 @@ std::string resolve_socket_path(std::string_view configured) {
     if (std::string dir = env_dir(var); !dir.empty()) return dir + "/hapticd.sock";
   }
   return "/tmp/hapticd-" + std::to_string(::geteuid()) + ".sock";
+}
+
+std::string service_socket_path(std::string_view instance) {
+  std::string dir = "/run/hapticd";
+  if (!instance.empty()) dir += "/" + std::string(instance);
+  return dir + "/hapticd.sock";
+}
+
+std::string resolve_client_socket_path(std::string_view configured, std::string_view instance) {
+  if (!configured.empty()) return std::string(configured);
+  if (!instance.empty()) return service_socket_path(instance);
+  if (std::string env = env_dir("HAPTICD_SOCKET"); !env.empty()) return env;
+  auto is_socket = [](const std::string& path) {
+    struct stat st {};
+    return ::stat(path.c_str(), &st) == 0 && S_ISSOCK(st.st_mode);
+  };
+  std::string own = resolve_socket_path();
+  if (is_socket(own)) return own;
+  if (std::string service = service_socket_path(); is_socket(service)) return service;
+  return own;
 }
 
 }  // namespace hapticd::client

@@ -13,4 +13,15 @@ namespace hapticd::client {
 /// else $XDG_RUNTIME_DIR/hapticd.sock; else /tmp/hapticd-<euid>.sock.
 std::string resolve_socket_path(std::string_view configured = {});
 
+/// Where the system service listens: /run/hapticd/hapticd.sock, or
+/// /run/hapticd/<instance>/hapticd.sock for hapticd@<instance>.service.
+std::string service_socket_path(std::string_view instance = {});
+
+/// What a client connects to: `configured` (--socket) if given; else the
+/// instance's service socket if `instance` is given; else $HAPTICD_SOCKET if
+/// set; else the daemon's own rule (resolve_socket_path) when a socket is
+/// there; else the system service's socket when one is there (a user's shell
+/// has no $RUNTIME_DIRECTORY); else the daemon's rule, for the error message.
+std::string resolve_client_socket_path(std::string_view configured = {}, std::string_view instance = {});
+
 }  // namespace hapticd::client

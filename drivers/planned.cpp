@@ -33,16 +33,6 @@ P counts_per_unit() {
 
 }  // namespace
 
-DriverDescription usb_hid_driver() {
-  return planned(
-      "usb-hid", "USB encoder/motor board over libusb-1.0 (interrupt IN and OUT reports)",
-      {P::text("vendor_id", "USB vendor id, e.g. \"0x1209\""),
-       P::text("product_id", "USB product id, e.g. \"0x0001\""),
-       P::text("serial", "serial number to choose among several boards (empty: any)").defaults_to(""),
-       counts_per_unit(),
-       P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
-}
-
 DriverDescription canopen_driver() {
   return planned(
       "canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)",
@@ -55,20 +45,6 @@ DriverDescription canopen_driver() {
        counts_per_unit(),
        P::number("rated_torque", "N m | N", "rated torque 0x6076 in SI (0x6071 is per mille of it)")
            .above(0.0)});
-}
-
-DriverDescription modbus_driver() {
-  return planned(
-      "modbus", "Modbus amplifier over libmodbus, RTU or TCP (function 23 per period)",
-      {P::choice("transport", {"tcp", "rtu"}, "tcp (host, port) or rtu (device, baud ...)")
-           .defaults_to("tcp"),
-       P::text("host", "TCP: the amplifier's address").defaults_to("127.0.0.1"),
-       P::integer("port", "", "TCP port").defaults_to(502.0).at_least(1).at_most(65535),
-       P::text("device", "RTU: serial device").defaults_to("/dev/ttyUSB0"),
-       P::integer("baud", "bit/s", "RTU baud rate").defaults_to(115200.0).at_least(300).at_most(12e6),
-       P::integer("slave_id", "", "Modbus slave (unit) id").defaults_to(1.0).at_least(1).at_most(247),
-       counts_per_unit(),
-       P::number("force_per_count", "N m | N", "force or torque per command count").above(0.0)});
 }
 
 }  // namespace hapticd::drivers::planned

@@ -8,8 +8,6 @@
 
 namespace hapticd::drivers::planned {
 
-DriverDescription usb_hid_driver();
 DriverDescription canopen_driver();
-DriverDescription modbus_driver();
 
 }  // namespace hapticd::drivers::planned

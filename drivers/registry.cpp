@@ -4,15 +4,20 @@
 
 #include "drivers/gpio_pwm/gpio_pwm_config.hpp"
 #include "drivers/loopback/loopback_config.hpp"
+#include "drivers/modbus/modbus_driver.hpp"
 #include "drivers/planned.hpp"
+#include "drivers/usb_hid/usb_hid_device.hpp"
 
 namespace hapticd::drivers {
 
 const std::vector<DriverDescription>& driver_registry() {
   // One line per driver; a driver issue replaces its planned entry here.
   static const std::vector<DriverDescription> drivers{
-      loopback::loopback_driver(), planned::usb_hid_driver(),   planned::canopen_driver(),
-      planned::modbus_driver(),    gpio_pwm::gpio_pwm_driver(),
+      loopback::loopback_driver(),  // drivers/loopback
+      usb_hid::usb_hid_driver(),    // drivers/usb_hid
+      planned::canopen_driver(),    // issue 8
+      modbus::modbus_driver(),      // drivers/modbus
+      gpio_pwm::gpio_pwm_driver(),  // drivers/gpio_pwm
   };
   return drivers;
 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Build the RT tests and the daemon tests (engine thread, plan hand-over,
-# telemetry) with ThreadSanitizer in build-tsan and run them.
+# Build the RT tests, the daemon tests (engine thread, plan hand-over,
+# telemetry) and the usb-hid driver tests with ThreadSanitizer in build-tsan
+# and run them.
 # Why setarch -R: TSan's shadow memory layout breaks with the high
 # mmap randomization (vm.mmap_rnd_bits > 28) of recent kernels ("FATAL:
 # ThreadSanitizer: unexpected memory mapping"); running the binary with ASLR
@@ -12,7 +13,7 @@ build="${BUILD_DIR:-$here/build-tsan}"
 
 cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF >/dev/null
-ninja -C "$build" rt_tests daemon_tests
+ninja -C "$build" rt_tests daemon_tests usb_hid_umockdev_tests
 
 run=()
 if setarch "$(uname -m)" -R true 2>/dev/null; then
@@ -24,3 +25,11 @@ export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1 second_deadlock_stack=1}"
 # The engine's loop thread against a publishing, estopping, clearing control
 # thread and a draining consumer (EngineThreads.*), plus every other daemon test.
 "${run[@]}" "$build/tests/daemon_tests" --gtest_filter="${DAEMON_TSAN_FILTER:-*}"
+# The usb-hid driver through libusb under umockdev: the RT-like thread
+# against clear_fault's hand-over, libusb's event and hotplug threads, the
+# umockdev handler thread. The preload must come before libtsan (the test
+# links it, but -fsanitize=thread puts libtsan first), and the suppressions
+# cover races TSan reports inside the uninstrumented umockdev/glib/libudev.
+LD_PRELOAD=libumockdev-preload.so.0 \
+  TSAN_OPTIONS="$TSAN_OPTIONS suppressions=$here/tests/drivers/usb_hid/tsan.supp" \
+  "${run[@]}" "$build/tests/drivers/usb_hid/usb_hid_umockdev_tests"

@@ -21,7 +21,18 @@ using nlohmann::json;
 void add_common_options(CLI::App& app, CommonOptions& opts) {
   if (app.get_option_no_throw("--socket") == nullptr) {
     app.add_option("--socket", opts.socket,
-                   "hapticd control socket (default: $RUNTIME_DIRECTORY, $XDG_RUNTIME_DIR or /tmp)");
+                   "hapticd control socket (default: $HAPTICD_SOCKET, else $RUNTIME_DIRECTORY, "
+                   "$XDG_RUNTIME_DIR or /tmp when a daemon listens there, else the system service's "
+                   "/run/hapticd/hapticd.sock)");
+  }
+  if (app.get_option_no_throw("--instance") == nullptr) {
+    app.add_option("--instance,-i", opts.instance,
+                   "talk to hapticd@NAME.service (socket /run/hapticd/NAME/hapticd.sock)")
+        ->check([](const std::string& name) {
+          return name.find('/') == std::string::npos && name != "." && name != ".."
+                     ? std::string()
+                     : "an instance name, no '/'";
+        });
   }
   if (app.get_option_no_throw("--json") == nullptr) {
     app.add_flag("--json", opts.json, "print the daemon's result as JSON");
@@ -55,7 +66,7 @@ std::chrono::milliseconds timeout_of(const CommonOptions& opts) {
 }  // namespace
 
 hapticd::client::Client connect(const CommonOptions& opts) {
-  std::string path = hapticd::client::resolve_socket_path(opts.socket);
+  std::string path = hapticd::client::resolve_client_socket_path(opts.socket, opts.instance);
   try {
     return hapticd::client::Client::connect(path, timeout_of(opts));
   } catch (...) {

@@ -118,15 +118,19 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   }
   sample.position = last_position_;
 
+  // A fault.clear landing after the latch check at the top of this cycle
+  // takes effect next cycle, where it restarts the scene at the measured
+  // position: computing a command now would use the stale scene state.
+  const bool output_allowed = !latched_before && !latch_.latched();
   double command = 0.0;
-  if (position_valid && plan_ != nullptr && !latch_.latched()) {
+  if (position_valid && plan_ != nullptr && output_allowed) {
     command = world::step(scene_, reading.position);
     if (!std::isfinite(command)) {
       if (latch_.latch(FaultReason::non_finite_command)) bump(faults_latched_);
     }
   }
   double applied = 0.0;
-  if (position_valid && plan_ != nullptr && !latch_.latched()) {
+  if (position_valid && plan_ != nullptr && !latched_before && !latch_.latched()) {
     applied = limit_output(command, plan_->torque_limit);
     if (applied != command) {
       sample.flags |= flag_torque_limited;

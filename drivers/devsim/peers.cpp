@@ -1,12 +1,17 @@
 #include "drivers/devsim/peers.hpp"
 
 #include "drivers/loopback/loopback_config.hpp"
+#include "drivers/modbus/sim/devsim_peer.hpp"
+#include "drivers/usb_hid/sim/devsim_peer.hpp"
 
 namespace hapticd::drivers::devsim {
 
 const std::vector<SimulatedPeer>& simulated_peers() {
   // One line per driver with a simulated peer (its sim/ folder).
-  static const std::vector<SimulatedPeer> peers{};
+  static const std::vector<SimulatedPeer> peers{
+      modbus::sim::modbus_peer(),    // drivers/modbus/sim
+      usb_hid::sim::usb_hid_peer(),  // drivers/usb_hid/sim
+  };
   return peers;
 }
 

@@ -2,7 +2,9 @@
 // connection failures, name=value parsing.
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <thread>
 
@@ -63,6 +65,34 @@ TEST(SocketPath, ResolutionOrder) {
   EXPECT_EQ(resolve_socket_path(), "/tmp/hapticd-" + std::to_string(::geteuid()) + ".sock");
   ::unsetenv("XDG_RUNTIME_DIR");
   EXPECT_EQ(resolve_socket_path(), "/tmp/hapticd-" + std::to_string(::geteuid()) + ".sock");
+}
+
+TEST(SocketPath, ClientFindsTheDaemonItCanReach) {
+  EnvGuard a("RUNTIME_DIRECTORY"), b("XDG_RUNTIME_DIR"), c("HAPTICD_SOCKET");
+  hapticd::daemon::control::test::TempDir dir;
+  ::unsetenv("RUNTIME_DIRECTORY");
+  ::unsetenv("HAPTICD_SOCKET");
+  ::setenv("XDG_RUNTIME_DIR", dir.path().c_str(), 1);
+  using hapticd::client::resolve_client_socket_path;
+  EXPECT_EQ(resolve_client_socket_path("/etc/custom.sock", "wheel"), "/etc/custom.sock");
+  EXPECT_EQ(resolve_client_socket_path({}, "wheel"), "/run/hapticd/wheel/hapticd.sock");
+  ::setenv("HAPTICD_SOCKET", "/srv/h.sock", 1);
+  EXPECT_EQ(resolve_client_socket_path(), "/srv/h.sock");
+  ::unsetenv("HAPTICD_SOCKET");
+  // Nothing listens in $XDG_RUNTIME_DIR: the daemon's rule, unless the system
+  // service's socket exists (not on a test machine: then the daemon's rule).
+  const std::string own = (dir.path() / "hapticd.sock").string();
+  const std::string expected =
+      std::filesystem::exists("/run/hapticd/hapticd.sock") ? "/run/hapticd/hapticd.sock" : own;
+  EXPECT_EQ(resolve_client_socket_path(), expected);
+  // A daemon listening where the rule points wins.
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", own.c_str());
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  EXPECT_EQ(resolve_client_socket_path(), own);
+  ::close(fd);
 }
 
 TEST(ClientConnect, MissingSocketIsConnectErrorNamingThePath) {

@@ -210,6 +210,59 @@ TEST_F(EngineSafety, ClearRestartsAtTheMeasuredPositionEvenIfTheDeviceMovedDurin
   for (const auto& s : cycles(50)) EXPECT_NEAR(s.applied, 0.0, 1e-12);
 }
 
+/// The loopback, except that its read() lets the control thread's
+/// fault.clear land once, mid-cycle: after the engine's top-of-cycle latch
+/// check and before the command (what a real device's slow read() allows).
+class ClearingMidCycle final : public hapticd::drivers::Device {
+ public:
+  explicit ClearingMidCycle(loopback::LoopbackDevice& inner) : inner_(inner) {}
+  void configure(const hapticd::drivers::LoopContext& loop) override { inner_.configure(loop); }
+  void enable() override { inner_.enable(); }
+  std::string clear_fault() override { return inner_.clear_fault(); }
+  void disable() noexcept override { inner_.disable(); }
+  void close() noexcept override { inner_.close(); }
+  hapticd::drivers::IoResult read(hapticd::drivers::Reading& out) noexcept override {
+    const auto result = inner_.read(out);
+    if (engine != nullptr && clear_next_read) {
+      engine->clear_fault();
+      clear_next_read = false;
+    }
+    return result;
+  }
+  hapticd::drivers::IoResult write(double force) noexcept override { return inner_.write(force); }
+  hapticd::drivers::DeviceModel model() const override { return inner_.model(); }
+  hapticd::drivers::DeviceStatus status() const override { return inner_.status(); }
+  Engine* engine = nullptr;
+  bool clear_next_read = false;
+
+ private:
+  loopback::LoopbackDevice& inner_;
+};
+
+// Regression (found by the usb-hid end-to-end test, about 1 run in 9): a
+// clear landing between the cycle's first latch check and the command
+// computed a command from the stale scene state, without the reset at the
+// measured position: a torque step of 0.18 N m at the resume.
+TEST_F(EngineSafety, ClearLandingMidCycleTakesEffectNextCycleWithTheReset) {
+  ClearingMidCycle clearing(device);
+  engine = std::make_unique<Engine>(options, clearing, clock);
+  clearing.engine = engine.get();
+  hapticd::testing::start(device);
+  schedule.start();
+  device.set_hand("mode=hold trajectory=constant position=0");
+  engine->publish(wheel());
+  cycles(10);
+  engine->estop();
+  cycle();
+  device.set_hand("mode=hold trajectory=ramp from=0 to=0.4 rate=2 at=0");
+  cycles(300);  // the device moved 0.4 rad while the output was held at zero
+  clearing.clear_next_read = true;
+  const TelemetrySample during = cycle();
+  EXPECT_EQ(during.applied, 0.0) << "the cycle that saw the clear mid-way stays at zero";
+  EXPECT_EQ(engine->fault(), FaultReason::none);
+  for (const auto& s : cycles(20)) EXPECT_NEAR(s.applied, 0.0, 1e-12) << "relaxed restart, no step";
+}
+
 TEST_F(EngineSafety, DeviceFaultZeroesAndLatches) {
   build();
   device.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");

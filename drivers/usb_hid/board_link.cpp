@@ -1,0 +1,336 @@
+#include "drivers/usb_hid/board_link.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include "drivers/usb_hid/link_budget.hpp"
+
+namespace hapticd::drivers::usb_hid {
+
+namespace {
+
+SessionLimits limits_for(const UsbHidConfig& config, double period_s) {
+  SessionLimits limits;
+  limits.timeout_periods = config.timeout_periods;
+  limits.period_s = period_s;
+  return limits;
+}
+
+template <class Done>
+bool wait_until(double timeout_s, Done done) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() >= give_up) return false;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  return true;
+}
+
+void store(std::atomic<std::uint64_t>& a, std::uint64_t v) noexcept { a.store(v, std::memory_order_relaxed); }
+
+}  // namespace
+
+BoardLink::BoardLink(const UsbHidConfig& config)
+    : config_(config), session_(config.layout, limits_for(config, 1e-3)) {}
+
+BoardLink::~BoardLink() { close(); }
+
+void BoardLink::configure(double period_s) {
+  if (configured_) throw std::logic_error("usb-hid: configure() twice");
+  try {
+    config_.validate(period_s);
+  } catch (const ConfigError& e) {
+    throw LinkError(e.what(), e.key());
+  }
+  period_s_ = period_s;
+  deadman_us_ = config_.layout.out.deadman.present() ? config_.deadman_us(period_s) : 0;
+  session_ = HostSession(config_.layout, limits_for(config_, period_s));
+  TransportOptions options;
+  options.events = config_.events;
+  options.in_transfers = config_.in_transfers;
+  options.out_transfers = config_.out_transfers;
+  options.out_size = config_.layout.out.size;
+  try {
+    transport_ =
+        std::make_unique<UsbTransport>(options, config_.selector.vendor_id, config_.selector.product_id);
+    board_ = transport_->open(config_.selector);
+  } catch (const TransportError& e) {
+    transport_.reset();
+    throw LinkError(e.what(), e.key());
+  }
+  reopen_checks();
+  set_description();
+  configured_ = true;
+  Reading first;
+  if (exchange_read(first) == IoResult::fault && session_.fault().reason != LinkFault::board_watchdog) {
+    const std::string why = session_.describe(session_.fault());
+    close();
+    throw LinkError("the board (" + board_.description + ") is in fault at start-up: " + why);
+  }
+}
+
+/// After open(): the endpoints carry the period, the IN transfers are queued
+/// and the board answers. Closes and throws LinkError otherwise.
+void BoardLink::reopen_checks() {
+  const std::string in = check_endpoint(board_.in, period_s_, config_.layout.in.size);
+  const std::string out = check_endpoint(board_.out, period_s_, config_.layout.out.size);
+  if (!in.empty() || !out.empty()) {
+    transport_->close();
+    throw LinkError(in.empty() ? out : in);
+  }
+  transport_->start();
+  const double wait_s = std::max(0.5, 50.0 * period_s_);
+  if (!transport_->wait_for_in(wait_s)) {
+    transport_->stop();
+    transport_->close();
+    throw LinkError("no IN report from the board (" + board_.description + ") within " +
+                    format_duration(wait_s) + " after it was claimed");
+  }
+}
+
+void BoardLink::enable() {
+  if (!configured_) throw std::logic_error("usb-hid: enable() before configure()");
+  if (session_.faulted()) {
+    // A tripped dead-man is what a previous hapticd leaves when it dies.
+    session_.begin_reset();
+    if (!run_reset_handshake(std::max(20, 4 * config_.timeout_periods)) || session_.faulted())
+      throw LinkError("the board (" + board_.description +
+                      ") did not clear its fault: " + session_.describe(session_.fault()));
+  }
+  enabled_.store(true, std::memory_order_release);
+}
+
+bool BoardLink::run_reset_handshake(int periods) {
+  const auto period = std::chrono::duration<double>(period_s_);
+  for (int p = 0; p < periods; ++p) {
+    exchange_write(0.0);
+    std::this_thread::sleep_for(period);
+    Reading r;
+    exchange_read(r);
+    if (session_.reset_done()) return !session_.faulted();
+  }
+  return false;
+}
+
+// The RT side announces itself (in_rt_) before it looks at the park request,
+// and the control side requests before it looks at in_rt_: with sequentially
+// consistent stores and loads at least one of them sees the other (Dekker),
+// so the RT side never touches the transport while the control side has it.
+IoResult BoardLink::read(Reading& out) noexcept {
+  if (!configured_) return IoResult::error;  // lifecycle order: the caller's bug, never a crash
+  in_rt_.store(true, std::memory_order_seq_cst);
+  rt_calls_.fetch_add(1, std::memory_order_relaxed);
+  const IoResult result =
+      park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange_read(out);
+  in_rt_.store(false, std::memory_order_release);
+  return result;
+}
+
+IoResult BoardLink::write(double force) noexcept {
+  if (!configured_) return IoResult::error;
+  in_rt_.store(true, std::memory_order_seq_cst);
+  const IoResult result =
+      park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange_write(force);
+  in_rt_.store(false, std::memory_order_release);
+  return result;
+}
+
+IoResult BoardLink::exchange_read(Reading& out) noexcept {
+  transport_->poll();
+  InCompletion in;
+  while (transport_->pop_in(in)) session_.on_in(in.outcome, {in.bytes, in.length}, board_.in.address);
+  TransferOutcome outcome;
+  while (transport_->pop_out(outcome)) session_.on_out(outcome, board_.out.address);
+  InReport latest;
+  const IoResult result = session_.end_read(latest);
+  if (result == IoResult::ok)
+    out.position = static_cast<double>(latest.position_counts) * config_.position_per_count();
+  if (result == IoResult::error) read_errors_.fetch_add(1, std::memory_order_relaxed);
+  publish();
+  return result;
+}
+
+IoResult BoardLink::exchange_write(double force) noexcept {
+  const double signed_force = config_.inverted ? -force : force;
+  const std::int64_t counts =
+      command_counts(signed_force, config_.command_full_scale, config_.layout.out.command);
+  const std::size_t n =
+      session_.make_out(counts, enabled_.load(std::memory_order_relaxed), deadman_us_, out_buffer_);
+  switch (transport_->submit_out({out_buffer_, n})) {
+    case SubmitResult::queued:
+      break;
+    case SubmitResult::busy:
+      session_.latch(LinkFault::out_queue_full, static_cast<std::uint32_t>(config_.out_transfers));
+      break;
+    case SubmitResult::no_device:
+      session_.latch(LinkFault::unplugged, 0);
+      break;
+    case SubmitResult::error:
+      write_errors_.fetch_add(1, std::memory_order_relaxed);
+      publish();
+      return IoResult::error;
+  }
+  publish();
+  return session_.faulted() ? IoResult::fault : IoResult::ok;
+}
+
+void BoardLink::publish() noexcept {
+  const SessionCounters& c = session_.counters();
+  store(in_reports_, c.in_reports);
+  store(stale_reports_, c.stale_reports);
+  store(missed_reports_, c.missed_reports);
+  store(short_reports_, c.short_reports + c.wrong_id_reports);
+  store(transfer_errors_, c.transfer_errors);
+  store(held_periods_, c.held_periods);
+  store(out_reports_, c.out_reports);
+  max_ack_lag_.store(c.max_ack_lag, std::memory_order_relaxed);
+  const bool faulted = session_.faulted();
+  if (faulted && !was_faulted_) faults_.fetch_add(1, std::memory_order_relaxed);
+  was_faulted_ = faulted;
+  fault_detail_.store(session_.fault().detail, std::memory_order_relaxed);
+  fault_reason_.store(static_cast<std::uint32_t>(session_.fault().reason), std::memory_order_release);
+  resetting_.store(!session_.reset_done(), std::memory_order_release);
+}
+
+bool BoardLink::park(double timeout_s) {
+  park_requested_.store(true, std::memory_order_seq_cst);
+  if (wait_until(timeout_s, [this] { return !in_rt_.load(std::memory_order_seq_cst); })) return true;
+  park_requested_.store(false, std::memory_order_release);
+  return false;
+}
+
+void BoardLink::unpark() noexcept { park_requested_.store(false, std::memory_order_release); }
+
+bool BoardLink::rt_loop_running() const {
+  const std::uint64_t before = rt_calls_.load(std::memory_order_relaxed);
+  const double window_s = std::max(0.02, 5.0 * period_s_);
+  return wait_until(window_s, [&] { return rt_calls_.load(std::memory_order_relaxed) != before; });
+}
+
+void BoardLink::set_description() {
+  const std::lock_guard lock(description_mutex_);
+  description_ = board_.description;
+}
+
+void BoardLink::drain_completions() noexcept {
+  InCompletion in;
+  while (transport_->pop_in(in)) {
+  }
+  TransferOutcome outcome;
+  while (transport_->pop_out(outcome)) {
+  }
+}
+
+void BoardLink::reopen() {
+  transport_->stop();
+  transport_->close();
+  drain_completions();
+  if (!transport_->present(config_.selector))
+    throw LinkError("the board (" + board_.description +
+                    ") is not on the bus: plug it in, then clear the fault again");
+  try {
+    board_ = transport_->open(config_.selector);
+  } catch (const TransportError& e) {
+    throw LinkError(e.what(), e.key());
+  }
+  reopen_checks();
+  set_description();
+  session_.restart();
+  reopens_.fetch_add(1, std::memory_order_relaxed);
+}
+
+std::string BoardLink::clear_fault() {
+  if (!configured_) throw std::logic_error("usb-hid: clear_fault() before configure()");
+  const auto reason = static_cast<LinkFault>(fault_reason_.load(std::memory_order_acquire));
+  if (reason == LinkFault::none) return {};
+  const bool rt_running = rt_loop_running();
+  const double handover_s = 0.2 + 20.0 * period_s_;
+  if (!park(handover_s))
+    throw LinkError("the RT loop did not hand the board over within " + format_duration(handover_s) +
+                    " (is it running?)");
+  const LatchedFault before = session_.fault();
+  std::string cleared = session_.describe(before);
+  try {
+    if (before.reason == LinkFault::unplugged) {
+      reopen();
+    } else if (before.reason == LinkFault::stalled) {
+      const std::string error = transport_->clear_halt(static_cast<std::uint8_t>(before.detail));
+      if (!error.empty()) throw LinkError(error);
+      drain_completions();
+      transport_->start();  // re-queues the IN transfers the stall gave back
+    }
+  } catch (...) {
+    unpark();
+    throw;
+  }
+  session_.begin_reset();
+  publish();
+  if (rt_running) {
+    unpark();
+    const double answer_s = 0.5 + 4.0 * config_.timeout_periods * period_s_;
+    if (!wait_until(answer_s, [this] { return !resetting_.load(std::memory_order_acquire); }))
+      throw LinkError("the board did not answer the fault reset within " + format_duration(answer_s));
+  } else {
+    // No RT loop calls read()/write() (stopped engine, a test): drive the
+    // handshake here, still holding the transport.
+    const bool decided = run_reset_handshake(std::max(20, 4 * config_.timeout_periods));
+    unpark();
+    if (!decided && session_.resetting()) throw LinkError("the board did not answer the fault reset");
+  }
+  const LinkStatus now = status();
+  if (now.fault.reason != LinkFault::none) throw LinkError("the board is still in fault: " + now.fault_text);
+  return cleared;
+}
+
+void BoardLink::disable() noexcept {
+  if (!configured_ || transport_ == nullptr) return;
+  const bool was_enabled = enabled_.exchange(false, std::memory_order_acq_rel);
+  if (!was_enabled || !transport_->is_open()) return;
+  // One report with the output off; let it go out. The IN transfers keep
+  // running: read() stays valid until close(), and enable() may follow.
+  exchange_write(0.0);
+  for (int p = 0; p < 3; ++p) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(period_s_));
+    Reading r;
+    exchange_read(r);
+  }
+}
+
+void BoardLink::close() noexcept {
+  if (transport_ == nullptr) return;
+  disable();
+  transport_->stop();
+  transport_->close();
+  transport_.reset();
+  configured_ = false;
+}
+
+LinkStatus BoardLink::status() const {
+  LinkStatus s;
+  s.configured = configured_;
+  s.enabled = enabled_.load(std::memory_order_acquire);
+  s.fault.reason = static_cast<LinkFault>(fault_reason_.load(std::memory_order_acquire));
+  s.fault.detail = fault_detail_.load(std::memory_order_relaxed);
+  s.fault_text = session_.describe(s.fault);
+  s.session.in_reports = in_reports_.load(std::memory_order_relaxed);
+  s.session.stale_reports = stale_reports_.load(std::memory_order_relaxed);
+  s.session.missed_reports = missed_reports_.load(std::memory_order_relaxed);
+  s.session.short_reports = short_reports_.load(std::memory_order_relaxed);
+  s.session.transfer_errors = transfer_errors_.load(std::memory_order_relaxed);
+  s.session.held_periods = held_periods_.load(std::memory_order_relaxed);
+  s.session.out_reports = out_reports_.load(std::memory_order_relaxed);
+  s.session.max_ack_lag = max_ack_lag_.load(std::memory_order_relaxed);
+  if (transport_ != nullptr) s.transport = transport_->counters();
+  s.read_errors = read_errors_.load(std::memory_order_relaxed);
+  s.write_errors = write_errors_.load(std::memory_order_relaxed);
+  s.faults = faults_.load(std::memory_order_relaxed);
+  s.reopens = reopens_.load(std::memory_order_relaxed);
+  {
+    const std::lock_guard lock(description_mutex_);
+    s.board = description_;
+  }
+  return s;
+}
+
+}  // namespace hapticd::drivers::usb_hid

@@ -1,0 +1,132 @@
+#pragma once
+/// \file
+/// The usb-hid driver's lifecycle and per-period exchange, over one
+/// UsbTransport and one HostSession: what the Device (usb_hid_device.hpp)
+/// delegates to. Lifecycle as in drivers/device.hpp: configure -> enable ->
+/// read/write per period (RT) -> disable -> close, and clear_fault() from
+/// the control thread while the RT thread runs.
+///
+/// Threads. read()/write(): the RT thread, no allocation, lock or text.
+/// clear_fault(): the control thread, while read()/write() go on: it asks
+/// the RT side to park (an atomic request; read()/write() then return fault
+/// without touching the transport or the session) and waits until the RT
+/// side is out of its current call, does the non-RT work (re-open after an
+/// unplug, CLEAR_HALT after a stall), starts the reset handshake, un-parks,
+/// and waits (bounded) for the board's answer. With no RT loop running it
+/// drives the handshake itself. status(): any
+/// thread (atomics published by the RT side). The rest: only while the RT
+/// thread is not calling read()/write().
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include "drivers/device.hpp"
+#include "drivers/usb_hid/host_session.hpp"
+#include "drivers/usb_hid/usb_hid_config.hpp"
+#include "drivers/usb_hid/usb_transport.hpp"
+
+namespace hapticd::drivers::usb_hid {
+
+/// A lifecycle step failed; `key` names the parameter to blame ("" if none).
+class LinkError : public std::runtime_error {
+ public:
+  LinkError(const std::string& message, std::string key = {})
+      : std::runtime_error(message), key_(std::move(key)) {}
+  const std::string& key() const noexcept { return key_; }
+
+ private:
+  std::string key_;
+};
+
+struct LinkStatus {
+  bool configured = false;
+  bool enabled = false;
+  LatchedFault fault;
+  std::string fault_text;  ///< the device's own words, "" if none
+  SessionCounters session;
+  TransportCounters transport;
+  std::uint64_t read_errors = 0, write_errors = 0, faults = 0;
+  std::uint64_t reopens = 0;  ///< re-opens after an unplug (fault clear)
+  std::string board;          ///< OpenedBoard::description
+};
+
+class BoardLink {
+ public:
+  explicit BoardLink(const UsbHidConfig& config);
+  ~BoardLink();
+  BoardLink(const BoardLink&) = delete;
+  BoardLink& operator=(const BoardLink&) = delete;
+
+  /// Opens and claims the board, checks the endpoints against the period,
+  /// queues the IN transfers and waits (bounded) for the first IN report.
+  /// Throws LinkError. read() is valid afterwards.
+  void configure(double period_s);
+  /// Arms the output: from the next write() on, OUT reports carry the enable
+  /// bit (the board's dead-man runs from the first one). A board whose
+  /// dead-man tripped (a previous hapticd died) is reset first. Throws LinkError.
+  void enable();
+  /// See the file comment. Returns what was cleared in words ("" if nothing);
+  /// throws LinkError if the board stays in fault or cannot be reached.
+  std::string clear_fault();
+  /// One OUT report with the output off (the IN transfers keep running:
+  /// read() stays valid, enable() may follow). Idempotent.
+  void disable() noexcept;
+  /// disable(), cancels the transfers, releases the interface (the kernel
+  /// driver gets it back) and closes. Idempotent.
+  void close() noexcept;
+
+  IoResult read(Reading& out) noexcept;
+  IoResult write(double force) noexcept;
+
+  LinkStatus status() const;
+  const OpenedBoard& board() const noexcept { return board_; }
+  double period_s() const noexcept { return period_s_; }
+  const UsbHidConfig& config() const noexcept { return config_; }
+
+ private:
+  IoResult exchange_read(Reading& out) noexcept;
+  IoResult exchange_write(double force) noexcept;
+  void publish() noexcept;
+  bool park(double timeout_s);
+  /// Does an RT loop call read() (watched for max(20 ms, 5 periods))?
+  bool rt_loop_running() const;
+  void unpark() noexcept;
+  void reopen();
+  void reopen_checks();
+  void drain_completions() noexcept;
+  void set_description();
+  /// Runs read/write(0) itself for up to `periods` periods (RT not running).
+  bool run_reset_handshake(int periods);
+
+  UsbHidConfig config_;
+  double period_s_ = 1e-3;
+  std::uint32_t deadman_us_ = 0;
+  std::unique_ptr<UsbTransport> transport_;
+  HostSession session_;
+  OpenedBoard board_;  ///< written only while the RT side is parked or not running
+  mutable std::mutex description_mutex_;
+  std::string description_;  ///< board_.description for status() (any thread)
+  bool configured_ = false;
+  std::atomic<bool> enabled_{false};
+  std::uint8_t out_buffer_[max_report_size]{};
+
+  // RT -> others (relaxed counters, release/acquire on the fault).
+  std::atomic<std::uint32_t> fault_reason_{0}, fault_detail_{0};
+  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0}, reopens_{0};
+  std::atomic<std::uint64_t> in_reports_{0}, stale_reports_{0}, missed_reports_{0}, short_reports_{0},
+      transfer_errors_{0}, held_periods_{0}, out_reports_{0};
+  std::atomic<std::uint32_t> max_ack_lag_{0};
+  std::atomic<bool> resetting_{false};
+  bool was_faulted_ = false;  // RT only
+
+  // Control -> RT parking.
+  std::atomic<bool> park_requested_{false};
+  std::atomic<bool> in_rt_{false};  ///< the RT side is inside read()/write()
+  std::atomic<std::uint64_t> rt_calls_{0};
+};
+
+}  // namespace hapticd::drivers::usb_hid

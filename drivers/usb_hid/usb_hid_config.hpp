@@ -1,0 +1,65 @@
+#pragma once
+/// \file
+/// Typed parameters of the usb-hid driver (README.md "Configuration"):
+/// which board, how its counts and commands become SI, the report layout,
+/// the dead-man and timeouts, the event handling, and the device model the
+/// stability gate uses. Non-RT.
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "drivers/device.hpp"
+#include "drivers/usb_hid/report_codec.hpp"
+#include "drivers/usb_hid/usb_transport.hpp"
+
+namespace hapticd::drivers::usb_hid {
+
+/// A bad parameter: `key` is the config key to blame (the daemon turns it
+/// into file:line:column).
+class ConfigError : public std::invalid_argument {
+ public:
+  ConfigError(std::string key, const std::string& message)
+      : std::invalid_argument(message), key_(std::move(key)) {}
+  const std::string& key() const noexcept { return key_; }
+
+ private:
+  std::string key_;
+};
+
+struct UsbHidConfig {
+  UsbSelector selector;  ///< vendor_id, product_id (required), serial, path, interface, endpoints
+  Motion motion = Motion::rotary;
+  /// Encoder counts per revolution (rotary) or per metre (linear), after any gearing.
+  double counts_per_unit = 16384.0;
+  /// Force or torque at the largest command (N m or N): the amplifier's scale.
+  double command_full_scale = 1.0;
+  bool inverted = false;  ///< direction = inverted: both the count and the command change sign
+  ReportLayout layout;
+  int deadman_periods = 3;  ///< the board zeroes its output after this many periods without a new OUT report
+  int timeout_periods = 5;  ///< the host latches a fault after this many periods without a new IN report
+  int in_transfers = 2;
+  int out_transfers = 4;
+  EventHandling events = EventHandling::loop;
+  // The device model for the stability gate (the board cannot know it).
+  double mass = 0.01;      ///< kg m^2 (rotary) or kg (linear)
+  double damping = 0.0;    ///< N m s/rad or N s/m
+  int delay_periods = -1;  ///< -1: from the endpoints' polling intervals (link_delay_periods)
+
+  /// rad or m per count (2 pi / counts or 1 / counts), with the direction's sign.
+  double position_per_count() const noexcept;
+  /// The OUT report's dead-man field for this period, in microseconds.
+  std::uint32_t deadman_us(double period_s) const noexcept;
+  /// Everything that can be checked without the board. Throws ConfigError.
+  void validate(double period_s) const;
+};
+
+/// Sets one key from its text form (TOML strings and numbers as written).
+/// Throws ConfigError naming the key and what is accepted.
+void set_parameter(UsbHidConfig& config, std::string_view key, std::string_view value);
+
+/// "0x1209" or "4617" -> 0x1209; throws std::invalid_argument.
+std::uint16_t parse_usb_id(std::string_view text);
+
+}  // namespace hapticd::drivers::usb_hid

@@ -1,0 +1,50 @@
+#pragma once
+/// \file
+/// The usb-hid Device: drivers/device.hpp's lifecycle over BoardLink (which
+/// holds the transport and the host session), and the driver's registry
+/// entry (typed parameters, README.md "Configuration").
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/device.hpp"
+#include "drivers/parameter.hpp"
+#include "drivers/registry.hpp"
+#include "drivers/usb_hid/board_link.hpp"
+#include "drivers/usb_hid/usb_hid_config.hpp"
+
+namespace hapticd::drivers::usb_hid {
+
+class UsbHidDevice final : public Device {
+ public:
+  explicit UsbHidDevice(const UsbHidConfig& config);
+  ~UsbHidDevice() override;
+
+  void configure(const LoopContext& loop) override;
+  void enable() override;
+  std::string clear_fault() override;
+  void disable() noexcept override;
+  void close() noexcept override;
+  IoResult read(Reading& out) noexcept override;
+  IoResult write(double force) noexcept override;
+  DeviceModel model() const override;
+  DeviceStatus status() const override;
+
+  const UsbHidConfig& config() const noexcept { return link_.config(); }
+  LinkStatus link_status() const { return link_.status(); }
+
+ private:
+  BoardLink link_;
+  std::atomic<DeviceState> state_{DeviceState::closed};
+  std::atomic<std::uint64_t> refused_reads_{0}, refused_writes_{0};
+};
+
+/// The typed values of [device.usb-hid] as a config. Throws ParameterError naming the key.
+UsbHidConfig usb_hid_config_from(const DriverParameters& parameters);
+
+/// The registry entry (drivers/registry.cpp).
+DriverDescription usb_hid_driver();
+
+}  // namespace hapticd::drivers::usb_hid

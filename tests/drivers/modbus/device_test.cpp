@@ -1,0 +1,413 @@
+// The modbus Device against the simulated amplifier, over TCP and RTU (pty):
+// lifecycle, the one-period delay (a run equals the loopback run with
+// delay = 1, sample by sample), every failure latched with the amplifier's
+// own reason and cleared on the amplifier, the watchdog, the budget
+// refusals, and an RT path without allocation.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "c_alloc_counter.hpp"
+#include "drivers/modbus/modbus_device.hpp"
+#include "drivers/modbus/sim/amplifier_server.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
+#include "loopback_plant.hpp"
+#include "tests/support/alloc_counter.hpp"
+
+namespace mb = hapticd::drivers::modbus;
+using hapticd::drivers::DeviceError;
+using hapticd::drivers::IoResult;
+using hapticd::drivers::LoopContext;
+using hapticd::drivers::Reading;
+using Values = std::map<std::string, mb::ParameterValue>;
+
+namespace {
+
+// A 50 ms period with most of it for the link, and a 1 s watchdog: the
+// transactions here never time out and the watchdog never expires unless a
+// test makes them (the VM's vCPU stalls for ms, more under load).
+constexpr double test_period_s = 50e-3;
+
+mb::sim::AmplifierSettings amplifier_settings(const mb::ModbusConfig& c) {
+  mb::sim::AmplifierSettings s;
+  s.map = c.map;
+  s.position_per_count = c.position_per_count();
+  s.torque_per_count = c.torque_per_count;
+  s.function_23 = true;
+  return s;
+}
+
+std::string text(const std::exception& e) { return e.what(); }
+
+class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
+ protected:
+  DeviceTest() : amplifier_config_(mb::build_modbus_config({})) {}
+  ~DeviceTest() override {
+    device_.reset();
+    if (server_) server_->stop();
+  }
+
+  bool rtu() const { return GetParam() == mb::Transport::rtu; }
+
+  void start_amplifier(mb::sim::AmplifierSettings settings) {
+    amplifier_ = std::make_unique<mb::sim::Amplifier>(settings, plant_);
+    server_ =
+        rtu() ? mb::sim::AmplifierServer::rtu_pty(*amplifier_) : mb::sim::AmplifierServer::tcp(*amplifier_);
+    server_->start();
+  }
+
+  mb::ModbusConfig device_config(Values values = {}) {
+    values.emplace("transport", std::string(rtu() ? "rtu" : "tcp"));
+    values.emplace("link_budget", 0.9);
+    values.emplace("rtt_samples", 20.0);
+    values.emplace("watchdog_value", 1000.0);
+    if (rtu()) {
+      values.emplace("device", server_->slave_path());
+      values.emplace("silence", std::string("characters"));
+      values.emplace("baud", 4000000.0);
+    } else {
+      values.emplace("port", static_cast<double>(server_->port()));
+    }
+    return mb::build_modbus_config(values);
+  }
+
+  mb::ModbusDevice& configure(Values values = {}) {
+    if (!amplifier_) start_amplifier(amplifier_settings(amplifier_config_));
+    device_ = std::make_unique<mb::ModbusDevice>(device_config(std::move(values)));
+    device_->configure(LoopContext{test_period_s});
+    return *device_;
+  }
+
+  mb::ModbusDevice& enabled(Values values = {}) {
+    configure(std::move(values)).enable();
+    return *device_;
+  }
+
+  mb::ModbusConfig amplifier_config_;
+  mb::testing::LoopbackPlant plant_;
+  std::unique_ptr<mb::sim::Amplifier> amplifier_;
+  std::unique_ptr<mb::sim::AmplifierServer> server_;
+  std::unique_ptr<mb::ModbusDevice> device_;
+};
+
+std::string name(const ::testing::TestParamInfo<mb::Transport>& info) {
+  return info.param == mb::Transport::tcp ? "Tcp" : "Rtu";
+}
+
+}  // namespace
+
+TEST_P(DeviceTest, LifecycleEnablesTheAmplifierAndDisableZeroesIt) {
+  mb::ModbusDevice& d = configure();
+  EXPECT_TRUE(amplifier_->state().watchdog_armed);  // armed at configure
+  Reading r;
+  EXPECT_EQ(d.read(r), IoResult::ok);        // valid from configure
+  EXPECT_EQ(d.write(0.1), IoResult::error);  // refused until enable
+  EXPECT_FALSE(amplifier_->state().enabled);
+  d.enable();
+  EXPECT_TRUE(amplifier_->state().enabled);
+  EXPECT_EQ(d.write(0.5), IoResult::ok);
+  EXPECT_EQ(amplifier_->state().applied_torque, 0.0);  // nothing on the wire until the next read()
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  EXPECT_DOUBLE_EQ(amplifier_->state().applied_torque, 0.5);
+  d.disable();
+  EXPECT_FALSE(amplifier_->state().enabled);
+  EXPECT_EQ(amplifier_->state().torque_counts, 0);
+  EXPECT_EQ(amplifier_->state().applied_torque, 0.0);
+  d.close();
+  EXPECT_FALSE(amplifier_->state().watchdog_armed);  // a clean exit disarms it
+  d.close();                                         // idempotent
+  EXPECT_EQ(d.read(r), IoResult::error);
+}
+
+TEST_P(DeviceTest, OutOfOrderCallsAreLogicErrors) {
+  start_amplifier(amplifier_settings(amplifier_config_));
+  mb::ModbusDevice d(device_config());
+  EXPECT_THROW(d.enable(), std::logic_error);
+  d.configure(LoopContext{test_period_s});
+  EXPECT_THROW(d.configure(LoopContext{test_period_s}), std::logic_error);
+}
+
+// The model the stability gate gets says delay 1: the run must be the
+// loopback run of the same plant with delay = 1, sample by sample.
+TEST_P(DeviceTest, ARunEqualsTheLoopbackRunWithOnePeriodOfDelay) {
+  mb::ModbusDevice& d = enabled();
+  EXPECT_EQ(d.model().delay_periods, 1);
+  // The loopback device's plant with one period of output delay.
+  hapticd::drivers::simulation::PlantConfig lc;
+  lc.delay = 1;
+  hapticd::drivers::simulation::PlantSimulator loop(lc);
+  // A spring to a moving set point, rounded to the 1 mN m command count so
+  // both see the same torque.
+  auto command = [](int n, double x) {
+    const double f = 0.3 * std::sin(0.02 * n) - 2.0 * x;
+    return std::round(f / 0.001) * 0.001;
+  };
+  double worst = 0.0;
+  for (int n = 0; n < 400; ++n) {
+    Reading a, b;
+    ASSERT_EQ(d.read(a), IoResult::ok) << n;
+    ASSERT_EQ(loop.sense(b.position), IoResult::ok);
+    worst = std::max(worst, std::abs(a.position - b.position));
+    ASSERT_EQ(d.write(command(n, a.position)), IoResult::ok);
+    loop.step(command(n, b.position));
+  }
+  Reading last;
+  loop.sense(last.position);
+  EXPECT_GT(std::abs(last.position), 0.05);  // it moved
+  EXPECT_LT(worst, 1e-12);
+}
+
+TEST_P(DeviceTest, AnExceptionLatchesAFaultWithItsCodeAndClears) {
+  mb::ModbusDevice& d = enabled();
+  Reading r;
+  ASSERT_EQ(d.write(0.2), IoResult::ok);
+  ASSERT_EQ(d.read(r), IoResult::ok);
+  server_->inject(mb::sim::Injection::exception, 1, mb::exception_code::server_device_failure);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_EQ(d.write(0.2), IoResult::fault);
+  EXPECT_EQ(d.status().state, hapticd::drivers::DeviceState::fault);
+  EXPECT_EQ(d.status().fault_reason, "exception 0x04 (server device failure) in reply to function 0x17");
+  EXPECT_EQ(d.read(r), IoResult::fault);            // latched, though the amplifier answers again ...
+  EXPECT_EQ(amplifier_->state().torque_counts, 0);  // ... with torque 0
+  const std::string cleared = d.clear_fault();
+  EXPECT_EQ(cleared, "exception 0x04 (server device failure) in reply to function 0x17");
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  EXPECT_EQ(d.write(0.2), IoResult::ok);
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  EXPECT_DOUBLE_EQ(amplifier_->state().applied_torque, 0.2);
+}
+
+TEST_P(DeviceTest, BusyIsTransientButAStreakOfTimeoutsLatches) {
+  mb::ModbusDevice& d = enabled({{"response_timeout", 20e-3}});
+  Reading r;
+  server_->inject(mb::sim::Injection::exception, 1, mb::exception_code::server_device_busy);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  server_->inject(mb::sim::Injection::timeout, 3);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::fault);  // failure_streak = 3
+  EXPECT_EQ(
+      d.status().fault_reason,
+      "3 failed transactions in a row, the last: no response within the response timeout to function 0x17");
+  EXPECT_FALSE(d.clear_fault().empty());
+  EXPECT_EQ(d.read(r), IoResult::ok);
+}
+
+TEST_P(DeviceTest, AnAmplifierFaultIsReportedInItsOwnWordsAndResetOnTheAmplifier) {
+  mb::ModbusDevice& d = enabled();
+  Reading r;
+  amplifier_->inject_fault(0x0001);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_EQ(d.status().fault_reason, "amplifier fault: over-current (fault register 0x0001), status 0x0002");
+  EXPECT_FALSE(amplifier_->state().enabled);
+  const std::string cleared = d.clear_fault();
+  EXPECT_NE(cleared.find("amplifier reset from over-current"), std::string::npos) << cleared;
+  EXPECT_EQ(amplifier_->state().resets, 1u);
+  EXPECT_TRUE(amplifier_->state().enabled);
+  EXPECT_EQ(d.read(r), IoResult::ok);
+}
+
+TEST_P(DeviceTest, TheWatchdogDisablesTheAmplifierWhenThePeriodsStop) {
+  mb::ModbusDevice& d = enabled({{"watchdog_value", 50.0}});
+  Reading r;
+  ASSERT_EQ(d.write(0.3), IoResult::ok);
+  ASSERT_EQ(d.read(r), IoResult::ok);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // watchdog 50 ms: hapticd "died"
+  EXPECT_FALSE(amplifier_->state().enabled);
+  EXPECT_EQ(amplifier_->state().applied_torque, 0.0);
+  EXPECT_EQ(amplifier_->state().watchdog_trips, 1u);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_EQ(d.status().fault_reason, "amplifier fault: watchdog (fault register 0x0004), status 0x0002");
+  EXPECT_FALSE(d.clear_fault().empty());
+  EXPECT_TRUE(amplifier_->state().enabled);
+  EXPECT_TRUE(amplifier_->state().watchdog_armed);  // every period's write re-arms it
+}
+
+TEST_P(DeviceTest, ASilentAmplifierLatchesAfterTheStreak) {
+  mb::ModbusDevice& d = enabled({{"response_timeout", 20e-3}});
+  Reading r;
+  server_->stop();  // the amplifier answers nothing any more
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_NE(d.status().fault_reason.find("no response"), std::string::npos);
+  EXPECT_THROW(d.clear_fault(), DeviceError);  // still silent
+  server_->start();
+  EXPECT_FALSE(d.clear_fault().empty());
+  EXPECT_EQ(d.read(r), IoResult::ok);
+}
+
+TEST_P(DeviceTest, ReadAndWriteAllocateNothing) {
+  mb::ModbusDevice& d = enabled();
+  ASSERT_TRUE(hapticd::testing::allocation_counting_active());
+  ASSERT_TRUE(mb::testing::c_allocation_counting_active());
+  server_->inject(mb::sim::Injection::exception, 2, mb::exception_code::server_device_busy);
+  std::size_t cpp = 0, c = 0;
+  {
+    hapticd::testing::AllocationGuard cpp_guard;
+    mb::testing::CAllocationGuard c_guard;
+    Reading r;
+    for (int i = 0; i < 1000; ++i) {
+      (void)d.read(r);
+      (void)d.write(0.001 * (i % 7));
+    }
+    cpp = cpp_guard.count();
+    c = c_guard.count();
+  }
+  EXPECT_EQ(cpp, 0u);
+  EXPECT_EQ(c, 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(ModbusDevice, DeviceTest, ::testing::Values(mb::Transport::tcp, mb::Transport::rtu),
+                         name);
+
+class TcpDeviceTest : public DeviceTest {};
+TEST_P(TcpDeviceTest, ADroppedConnectionLatchesAndFaultClearReconnects) {
+  mb::ModbusDevice& d = enabled();
+  Reading r;
+  server_->inject(mb::sim::Injection::drop);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_EQ(d.status().fault_reason, "connection closed (Connection reset by peer)");
+  const auto requests = d.status().counters[0].value;
+  EXPECT_EQ(d.read(r), IoResult::fault);  // no I/O on a closed link
+  EXPECT_EQ(d.status().counters[0].value, requests);
+  const std::string cleared = d.clear_fault();
+  EXPECT_NE(cleared.find("reconnected to tcp 127.0.0.1:"), std::string::npos) << cleared;
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  EXPECT_EQ(server_->connections(), 2u);
+}
+TEST_P(TcpDeviceTest, TheMeasuredRoundTripIsInTheBudget) {
+  mb::ModbusDevice& d = configure();
+  const mb::LinkBudget b = d.budget();
+  EXPECT_EQ(b.rtt_samples, 20);
+  EXPECT_GT(b.rtt_p50_s, 0.0);
+  EXPECT_LE(b.rtt_p50_s, b.rtt_p99_s);
+  EXPECT_LE(b.rtt_p99_s, b.rtt_max_s);
+  EXPECT_NE(b.summary.find("fc 23 round trip to 127.0.0.1:"), std::string::npos) << b.summary;
+}
+TEST_P(TcpDeviceTest, ALinkSlowerThanTheResponseTimeoutIsRefusedWithTheFigure) {
+  start_amplifier(amplifier_settings(amplifier_config_));
+  server_->inject(mb::sim::Injection::late, 1000, 0, 3);  // every reply 3 ms late
+  mb::ModbusDevice d(device_config({{"response_timeout", 1e-3}}));
+  try {
+    d.configure(LoopContext{test_period_s});
+    FAIL() << "a 3 ms round trip passed a 1 ms response timeout";
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.key(), "response_timeout");
+    EXPECT_NE(text(e).find("round trip to 127.0.0.1"), std::string::npos) << e.what();
+    EXPECT_NE(text(e).find("exceeds the response timeout 1 ms"), std::string::npos) << e.what();
+  }
+}
+INSTANTIATE_TEST_SUITE_P(ModbusDevice, TcpDeviceTest, ::testing::Values(mb::Transport::tcp), name);
+
+class RtuDeviceTest : public DeviceTest {};
+TEST_P(RtuDeviceTest, AWrongSlaveIdTimesOutNamingTheKey) {
+  start_amplifier(amplifier_settings(amplifier_config_));
+  mb::ModbusDevice d(device_config({{"slave_id", 7.0}, {"response_timeout", 20e-3}}));
+  try {
+    d.configure(LoopContext{test_period_s});
+    FAIL();
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.key(), "slave_id");
+    EXPECT_NE(text(e).find("check slave_id, the wiring, baud rate and parity"), std::string::npos)
+        << e.what();
+  }
+}
+INSTANTIATE_TEST_SUITE_P(ModbusDevice, RtuDeviceTest, ::testing::Values(mb::Transport::rtu), name);
+
+TEST_P(DeviceTest, AnAmplifierWithoutFunction23IsRefusedUnlessConfiguredSo) {
+  auto settings = amplifier_settings(amplifier_config_);
+  settings.function_23 = false;
+  start_amplifier(settings);
+  try {
+    mb::ModbusDevice d(device_config());
+    d.configure(LoopContext{test_period_s});
+    FAIL();
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.key(), "function_23");
+    EXPECT_NE(text(e).find("set function_23 = false"), std::string::npos) << e.what();
+  }
+  mb::ModbusDevice d(device_config({{"function_23", false}}));
+  d.configure(LoopContext{test_period_s});
+  d.enable();
+  const auto before = d.status().counters[0].value;
+  Reading r;
+  ASSERT_EQ(d.write(0.1), IoResult::ok);
+  ASSERT_EQ(d.read(r), IoResult::ok);
+  EXPECT_EQ(d.status().counters[0].value - before, 2u);  // fc 16 + fc 3: two requests a period
+  EXPECT_DOUBLE_EQ(amplifier_->state().applied_torque, 0.1);
+}
+
+TEST_P(DeviceTest, AnAmplifierInFaultAtStartIsRefusedUnlessResetOnStart) {
+  start_amplifier(amplifier_settings(amplifier_config_));
+  amplifier_->inject_fault(0x0004);
+  amplifier_->tick(0.0);
+  try {
+    mb::ModbusDevice d(device_config());
+    d.configure(LoopContext{test_period_s});
+    FAIL();
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.key(), "reset_on_start");
+    EXPECT_NE(text(e).find("is in fault: watchdog (fault register 0x0004)"), std::string::npos) << e.what();
+  }
+  mb::ModbusDevice d(device_config({{"reset_on_start", true}}));
+  d.configure(LoopContext{test_period_s});
+  EXPECT_EQ(amplifier_->state().fault, 0);
+}
+
+TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
+  mb::ModbusDevice d(
+      mb::build_modbus_config({{"transport", std::string("rtu")}, {"device", std::string("/dev/null")}}));
+  try {
+    d.configure(LoopContext{1e-3});
+    FAIL();
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.key(), "baud");
+    // Default map at 115200 8E1, spec silences: 6.75 ms (rtu_timing_test works it out).
+    EXPECT_EQ(
+        text(e),
+        "modbus: one exchange (fc 23, 34 bytes of 11-bit characters at 115200 baud, 2 x 1.75 ms silence, "
+        "0 us turnaround) takes 6.75 ms; link_budget 0.50 x period 1 ms = 500 us; it needs a period of at "
+        "least 13.5 ms, or TCP: no baud rate carries it with the spec's 1.75 ms silences above 19200 baud "
+        "(silence = \"characters\" if the amplifier keeps 3.5 characters)");
+  }
+  mb::ModbusDevice fast(mb::build_modbus_config({{"transport", std::string("rtu")},
+                                                 {"device", std::string("/dev/null")},
+                                                 {"silence", std::string("characters")}}));
+  try {
+    fast.configure(LoopContext{1e-3});
+    FAIL();
+  } catch (const DeviceError& e) {
+    EXPECT_NE(text(e).find("or 921600 baud, or TCP"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ModbusDeviceBudget, AResponseTimeoutBeyondTheBudgetIsRefused) {
+  mb::ModbusDevice d(mb::build_modbus_config({{"response_timeout", 0.8e-3}}));
+  try {
+    d.configure(LoopContext{1e-3});
+    FAIL();
+  } catch (const DeviceError& e) {
+    EXPECT_EQ(e.key(), "response_timeout");
+    EXPECT_NE(text(e).find("accepted: up to 500 us"), std::string::npos) << e.what();
+  }
+}
+
+TEST_P(RtuDeviceTest, ACrcErrorIsATransientReadError) {
+  mb::ModbusDevice& d = enabled();
+  Reading r;
+  server_->inject(mb::sim::Injection::crc_error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::ok);
+  server_->inject(mb::sim::Injection::crc_error, 3);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  EXPECT_EQ(d.status().fault_reason,
+            "3 failed transactions in a row, the last: CRC error in reply to function 0x17");
+}
