@@ -1,0 +1,269 @@
+// The real hapticd binary against the simulated gpio-pwm board. The board
+// lives inside hapticd's own process (libhapticd-gpio-board.so, loaded with
+// LD_PRELOAD after libumockdev-preload.so.0: the line and event request fds
+// libgpiod gets must be made in the process that uses them, board_preload.cpp
+// says why); this test only starts it, talks to it through a FIFO and reads
+// the log of its periods that it writes when hapticd exits.
+//  - Freudenberg's 45-degree step held on spring-wheel gives the torque of
+//    the loopback run of the same plant within 1 % of the peak (position
+//    from the kernel counter); the board's PWM duty and direction line give
+//    the commanded torque in every period, and the charge pump toggles
+//    every period;
+//  - the amplifier's fault output zeroes the duty from the period after the
+//    edge (the period hapticd reads it), latches a fault naming the line,
+//    and `fault clear` pulses the reset line and resumes without a step.
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include "drivers/simulation/plant_config.hpp"
+#include "support.hpp"
+
+namespace {
+
+using namespace hapticd::e2e;
+using namespace std::chrono_literals;
+using json = nlohmann::json;
+namespace simulation = hapticd::drivers::simulation;
+
+const char* const step_hand = "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5";
+constexpr double full_duty_torque = 1.2;  // N m: the board's amplifier and the driver's force_at_full_duty
+constexpr double pwm_period_ns = 50'000.0;
+constexpr unsigned flag_fault_latched = 1;
+
+simulation::PlantConfig wheel() {
+  simulation::PlantConfig c = simulation::PlantConfig::defaults(hapticd::drivers::Motion::rotary);
+  c.damping = 0.002;
+  c.max_force = 1.2;
+  return c;
+}
+
+std::string scene_and_loop(const std::string& loop) {
+  return "[loop]\n" + loop + "\n[scene]\nname = \"spring-wheel\"\n";
+}
+
+// The board's wiring (board_preload.cpp): lines by name on its chip.
+std::string gpio_device() {
+  const simulation::PlantConfig c = wheel();
+  return "[device]\ndriver = \"gpio-pwm\"\ntorque_limit = 1.0\n[device.gpio-pwm]\nmass = " +
+         std::to_string(c.mass) + "\ndamping = " + std::to_string(c.damping) +
+         "\nchip = \"/dev/gpiochip0\"\nenable_line = \"MOTOR_EN\"\ndirection_line = \"MOTOR_DIR\"\n"
+         "fault_line = \"MOTOR_NFAULT\"\nfault_active_low = true\nreset_line = \"MOTOR_RESET\"\n"
+         "charge_pump_line = \"PUMP\"\nbrake_line = \"BRAKE\"\npwm_chip = \"/sys/class/pwm/pwmchip0\"\n"
+         "pwm_period = \"50us\"\nforce_at_full_duty = " +
+         std::to_string(full_duty_torque) +
+         "\nmax_duty = 1.0\ncounter = \"/sys/bus/counter/devices/counter0\"\ncounts_per_unit = " +
+         std::to_string(c.counts) + "\n";
+}
+
+// `env` with the board's preloads and options, then hapticd.
+std::vector<std::string> board_launcher(const std::string& options, const std::string& hand) {
+  return {"/usr/bin/env", std::string("LD_PRELOAD=libumockdev-preload.so.0 ") + GPIO_BOARD_LIBRARY,
+          "HAPTICD_GPIO_BOARD=" + options,
+          "HAPTICD_GPIO_BOARD_PLANT=motion=rotary damping=0.002 max_force=1.2",
+          "HAPTICD_GPIO_BOARD_HAND=" + hand};
+}
+
+/// The board's log: one row per period it stepped.
+struct BoardLog {
+  std::vector<int> enable, direction_positive, charge_pump, powered;
+  std::vector<double> pwm_fraction, motor_force;
+};
+
+BoardLog read_board_log(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(
+      line,
+      "period,enable,direction_positive,brake,charge_pump,pwm_fraction,motor_force,powered,position,counts");
+  BoardLog log;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::vector<double> v;
+    for (std::string f; std::getline(fields, f, ',');) v.push_back(std::stod(f));
+    if (v.size() != 10) {
+      ADD_FAILURE() << "board log row: " << line;
+      break;
+    }
+    log.enable.push_back(static_cast<int>(v[1]));
+    log.direction_positive.push_back(static_cast<int>(v[2]));
+    log.charge_pump.push_back(static_cast<int>(v[4]));
+    log.pwm_fraction.push_back(v[5]);
+    log.motor_force.push_back(v[6]);
+    log.powered.push_back(static_cast<int>(v[7]));
+  }
+  return log;
+}
+
+Recording run_virtual(const TempDir& dir, const std::string& config,
+                      const std::vector<std::string>& launcher) {
+  Daemon daemon(dir, config, {"--record", "run.csv"}, launcher);
+  EXPECT_EQ(daemon.wait(std::chrono::seconds(300)), 0) << daemon.log();
+  return read_recording(dir.path / "run.csv");
+}
+
+TEST(GpioPwmEndToEnd, SpringWheelStepMatchesTheLoopbackRunAndTheLinesFollowTheTorque) {
+  const std::string loop = "clock = \"virtual\"\nduration = \"3s\"";
+  TempDir loopback_dir;
+  const Recording loopback = run_virtual(
+      loopback_dir,
+      "[device]\ndriver = \"loopback\"\ntorque_limit = 1.0\n[device.loopback]\nmotion = \"rotary\"\n"
+      "damping = 0.002\nmax_force = 1.2\nhand = \"" +
+          std::string(step_hand) + "\"\n" + scene_and_loop(loop),
+      {});
+  TempDir gpio_dir;
+  const auto board_log = gpio_dir.path / "board.csv";
+  const Recording gpio = run_virtual(
+      gpio_dir, gpio_device() + scene_and_loop(loop),
+      board_launcher("position=counter force_at_full_duty=1.2 log=" + board_log.string(), step_hand));
+
+  const auto expected = loopback.values("applied_n_m");
+  const auto got = gpio.values("applied_n_m");
+  ASSERT_EQ(got.size(), expected.size());
+  ASSERT_GT(expected.size(), 2900U);
+  double peak = 0.0, worst = 0.0;
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    peak = std::max(peak, std::abs(expected[i]));
+    worst = std::max(worst, std::abs(got[i] - expected[i]));
+  }
+  EXPECT_NEAR(peak, 0.8, 0.01) << "Freudenberg: k z0 = 800 N mm";
+  EXPECT_LE(worst, 0.01 * peak) << "largest torque difference " << worst << " N m, peak " << peak;
+  std::printf(
+      "gpio-pwm vs loopback: %zu samples, peak %.6f N m, largest difference %.3g N m (%.3g %% of peak)\n",
+      expected.size(), peak, worst, 100.0 * worst / peak);
+
+  // One board period per write(), and one more for disable() at exit.
+  const BoardLog board = read_board_log(board_log);
+  ASSERT_EQ(board.pwm_fraction.size(), got.size() + 1);
+  const double duty_step = full_duty_torque / pwm_period_ns;  // N m per ns of duty
+  double worst_line = 0.0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    SCOPED_TRACE("period " + std::to_string(i));
+    ASSERT_EQ(board.enable[i], 1);
+    const double sign = board.direction_positive[i] != 0 ? 1.0 : -1.0;
+    const double from_lines = sign * board.pwm_fraction[i] * full_duty_torque;
+    worst_line = std::max(worst_line, std::abs(from_lines - got[i]));
+    if (std::abs(got[i]) > duty_step) {
+      ASSERT_EQ(board.direction_positive[i] != 0, got[i] > 0.0);
+    }
+    if (i > 0) {
+      ASSERT_NE(board.charge_pump[i], board.charge_pump[i - 1]) << "the charge pump toggles every period";
+    }
+  }
+  EXPECT_LE(worst_line, duty_step) << "duty x direction gives the commanded torque to one ns of duty";
+  EXPECT_EQ(board.enable.back(), 0) << "disable() at exit";
+  EXPECT_EQ(board.pwm_fraction.back(), 0.0);
+  EXPECT_EQ(board.charge_pump.back(), board.charge_pump[got.size() - 1]) << "the pump stops with hapticd";
+}
+
+json status_of(const Daemon& d) {
+  const auto r = d.ctl({"status", "--json"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  return r.exit_code == 0 ? json::parse(r.out) : json{};
+}
+
+template <class Done>
+bool within(std::chrono::milliseconds limit, Done done) {
+  const auto give_up = std::chrono::steady_clock::now() + limit;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > give_up) return false;
+    std::this_thread::sleep_for(20ms);
+  }
+  return true;
+}
+
+TEST(GpioPwmEndToEnd, FaultLineZeroesTheDutyLatchesWithItsNameAndFaultClearResumes) {
+  TempDir dir;
+  const auto fifo = dir.path / "board-control";
+  const auto board_log = dir.path / "board.csv";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  {
+    Daemon d(dir, gpio_device() + scene_and_loop("period = \"1ms\"\nclock = \"real\"\noverrun_limit = 0"), {},
+             board_launcher("position=counter force_at_full_duty=1.2 control=" + fifo.string() +
+                                " log=" + board_log.string(),
+                            "mode=hold trajectory=step amplitude=0.3 at=0.05"));
+    ASSERT_TRUE(d.running()) << d.log();
+    const auto start = d.ctl({"record", "start", "--path", "g.csv", "--json"});
+    ASSERT_EQ(start.exit_code, 0) << start.err << d.log();
+    const std::string csv = json::parse(start.out).value("path", "");
+    std::this_thread::sleep_for(400ms);
+    ASSERT_EQ(status_of(d).value("state", ""), "running") << d.log();
+
+    const int control = ::open(fifo.c_str(), O_WRONLY | O_CLOEXEC);
+    ASSERT_GE(control, 0);
+    const std::string trip = "trip overcurrent\n";
+    ASSERT_EQ(::write(control, trip.data(), trip.size()), static_cast<ssize_t>(trip.size()));
+    ASSERT_TRUE(within(5000ms, [&] { return status_of(d).value("state", "") == "fault"; })) << d.log();
+    const json during = status_of(d);
+    EXPECT_EQ(during["device"]["state"], "fault") << during.dump();
+    const std::string reason = during["device"].value("fault_reason", "");
+    EXPECT_NE(reason.find("MOTOR_NFAULT"), std::string::npos) << during.dump();
+    EXPECT_NE(reason.find("active"), std::string::npos) << during.dump();
+    std::printf("fault reason: %s\n", reason.c_str());
+    std::this_thread::sleep_for(200ms);
+
+    const auto cleared = d.ctl({"fault", "clear", "--json"});
+    ASSERT_EQ(cleared.exit_code, 0) << cleared.err << cleared.out << d.log();
+    EXPECT_NE(cleared.out.find("reset pulse"), std::string::npos) << cleared.out;
+    std::printf("fault clear: %s\n", cleared.out.c_str());
+    ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "running"; })) << d.log();
+    std::this_thread::sleep_for(300ms);
+    ASSERT_EQ(d.ctl({"record", "stop"}).exit_code, 0);
+    ::close(control);
+    EXPECT_EQ(d.stop(), 0) << d.log();
+
+    const Recording rec = read_recording(csv);
+    const auto flags = rec.values("flags");
+    const auto applied = rec.values("applied_n_m");
+    std::size_t first = flags.size();
+    for (std::size_t i = 0; i < flags.size(); ++i)
+      if ((static_cast<unsigned>(flags[i]) & flag_fault_latched) != 0) {
+        first = i;
+        break;
+      }
+    ASSERT_LT(first, flags.size()) << "the fault never reached the recording";
+    ASSERT_GT(first, 100U);
+    double before = 0.0;
+    for (std::size_t i = first - 100; i < first; ++i) before = std::max(before, std::abs(applied[i]));
+    EXPECT_GT(before, 0.05) << "the hand held the wheel off centre: a torque before the trip";
+    std::size_t resume = first;
+    while (resume < flags.size() && (static_cast<unsigned>(flags[resume]) & flag_fault_latched) != 0) {
+      EXPECT_EQ(applied[resume], 0.0) << "row " << resume << ": output zero while latched";
+      ++resume;
+    }
+    ASSERT_LT(resume, flags.size()) << "never resumed in the recording";
+    EXPECT_LT(std::abs(applied[resume]), 0.02) << "torque step at the resume";
+  }
+  // The board's side: the amplifier trips in period n (its duty was already
+  // written); hapticd reads the edge in period n + 1 and writes duty 0 with
+  // enable off and the brake on, until the clear.
+  const BoardLog board = read_board_log(board_log);
+  std::size_t trip = 0;
+  while (trip < board.powered.size() && !(board.enable[trip] == 1 && board.powered[trip] == 0)) ++trip;
+  ASSERT_LT(trip + 1, board.powered.size()) << "no period with the amplifier tripped";
+  EXPECT_GT(board.pwm_fraction[trip], 0.0) << "hapticd was driving when the amplifier tripped";
+  EXPECT_EQ(board.pwm_fraction[trip + 1], 0.0) << "duty zero in the period the edge is read";
+  EXPECT_EQ(board.enable[trip + 1], 0);
+  std::size_t back = trip + 1;
+  while (back < board.enable.size() && board.enable[back] == 0) {
+    EXPECT_EQ(board.pwm_fraction[back], 0.0);
+    ++back;
+  }
+  ASSERT_LT(back, board.enable.size()) << "never enabled again";
+  EXPECT_EQ(board.powered[back], 1) << "the reset pulse cleared the amplifier";
+}
+
+}  // namespace
