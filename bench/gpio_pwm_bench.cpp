@@ -10,6 +10,12 @@
 //     umockdev chip: each is a round trip to umockdev's handler thread, so
 //     this is the emulation's cost, far above a kernel ioctl;
 //   BM_DecodeEdge: the quadrature decoder's cost per edge (pure);
+//   BM_DevicePeriod/<counter>: GpioPwmDevice::read() + write() against the
+//     simulated board, the whole per-period work of the driver (fault poll,
+//     count pread or the decoded count, duty pwrite, outputs ioctl); the
+//     board steps the shared plant simulator inside that ioctl (lockstep),
+//     so this is an upper bound with the emulation's round trips in it.
+//     period_fraction: the mean cost as a fraction of a 1 ms period;
 //   BM_QuadratureEdgeRate: edges injected on the emulated A/B lines at a
 //     paced real-time rate while the reader thread decodes; reports
 //     lost=1 when any edge was dropped or mis-decoded. Every read of an
@@ -27,10 +33,13 @@
 #include <thread>
 
 #include "drivers/gpio_pwm/gpio_lines.hpp"
+#include "drivers/gpio_pwm/gpio_pwm_device.hpp"
 #include "drivers/gpio_pwm/quadrature_decoder.hpp"
+#include "drivers/gpio_pwm/sim/board.hpp"
 #include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
 #include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 
 namespace gp = hapticd::drivers::gpio_pwm;
 namespace fs = std::filesystem;
@@ -127,6 +136,72 @@ void BM_DecodeEdge(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(edges.size()));
 }
 BENCHMARK(BM_DecodeEdge);
+
+// The driver's read() + write() for one period against the board: counter
+// (range 1) or quadrature edges decoded by the reader thread (range 0).
+void BM_DevicePeriod(benchmark::State& state) {
+  constexpr double period_s = 1e-3;
+  const bool counter = state.range(0) != 0;
+  gp::sim::GpioChipSpec spec;
+  spec.line_names = {"MOTOR_EN", "MOTOR_DIR", "MOTOR_NFAULT", "ENC_A",
+                     "ENC_B",    "PUMP",      "BRAKE",        "MOTOR_RESET"};
+  gp::sim::UmockdevGpioTestbed gpio(spec);
+  gp::sim::SimulatedPwmChip pwm(gpio.root_dir(), "/sys/class/pwm/pwmchip0", 1);
+  gp::sim::SimulatedCounter count(gpio.root_dir(), "/sys/bus/counter/devices/counter0", 0, 0xFFFFFFFF);
+  gp::sim::BoardConfig board_config;
+  board_config.wiring.fault = 2;
+  board_config.wiring.fault_active_low = true;
+  board_config.wiring.charge_pump = 5;
+  board_config.wiring.brake = 6;
+  board_config.wiring.reset = 7;
+  if (!counter) {
+    board_config.wiring.encoder_a = 3;
+    board_config.wiring.encoder_b = 4;
+  }
+  board_config.amplifier = {1.2, 0};
+  board_config.period_s = period_s;
+  auto plant = hapticd::drivers::simulation::PlantConfig::defaults(hapticd::drivers::Motion::rotary);
+  plant.damping = 0.002;
+  plant.period_s = period_s;
+  gp::sim::SimulatedBoard board(gpio, pwm, counter ? &count : nullptr, board_config,
+                                std::make_unique<gp::sim::SimulatorPlant>(
+                                    std::make_unique<hapticd::drivers::simulation::PlantSimulator>(plant)));
+  gp::GpioPwmConfig c;
+  c.chip = "gpiochip0";
+  c.enable_line = gp::parse_line_spec("enable_line", "MOTOR_EN");
+  c.direction_line = gp::parse_line_spec("direction_line", "MOTOR_DIR");
+  c.fault_line = gp::parse_line_spec("fault_line", "MOTOR_NFAULT", true);
+  c.charge_pump_line = gp::parse_line_spec("charge_pump_line", "PUMP");
+  c.brake_line = gp::parse_line_spec("brake_line", "BRAKE");
+  c.reset_line = gp::parse_line_spec("reset_line", "MOTOR_RESET");
+  c.force_at_full_duty = 1.2;
+  c.max_duty = 1.0;
+  c.pwm_period_ns = 50'000;
+  c.counts_per_unit = plant.counts;
+  c.mass = plant.mass;
+  if (counter) {
+    c.counter = "/sys/bus/counter/devices/counter0";
+  } else {
+    c.encoder_a_line = gp::parse_line_spec("encoder_a_line", "ENC_A");
+    c.encoder_b_line = gp::parse_line_spec("encoder_b_line", "ENC_B");
+  }
+  gp::GpioPwmDevice device(c);
+  device.configure({period_s});
+  device.enable();
+  hapticd::drivers::Reading reading;
+  double torque = 0.1;
+  const auto start = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(device.read(reading));
+    torque = -torque;  // a new duty and a direction change every period
+    benchmark::DoNotOptimize(device.write(torque));
+  }
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  device.disable();
+  device.close();
+  state.counters["period_fraction"] = elapsed / (static_cast<double>(state.iterations()) * period_s);
+}
+BENCHMARK(BM_DevicePeriod)->ArgName("counter")->Arg(1)->Arg(0)->UseRealTime();
 
 // Edges at state.range(0) edges per second (both lines together), for
 // 20 ms of real time (at least 64 edges), paced by sleeping to each edge's
