@@ -287,15 +287,27 @@ void QuadratureReader::publish(const QuadratureDecoder& decoder) noexcept {
   count_.store(decoder.count(), std::memory_order_release);
 }
 
+namespace {
+
+// How many of the first n events are at or before `horizon`.
+std::size_t count_until(const std::array<EdgeEvent, QuadratureReader::batch_capacity>& events, std::size_t n,
+                        std::uint64_t horizon) {
+  std::size_t k = 0;
+  while (k < n && events[k].timestamp_ns <= horizon) ++k;
+  return k;
+}
+
+}  // namespace
+
 void QuadratureReader::run() noexcept {
-  // Everything pending on each line, in its order. The kernel queues at
-  // most 16 per line; a few passes can gather more.
-  constexpr std::size_t capacity = std::size_t{4} * kernel_event_queue_depth;
+  constexpr std::size_t capacity = batch_capacity;
   constexpr int max_passes = 8;
   std::array<EdgeEvent, capacity> a_events, b_events;
-  // Appends what one line has queued now; returns how many. A read that
-  // returns less than it asked for has emptied the queue.
-  const auto drain = [this](EdgeInput& line, std::array<EdgeEvent, capacity>& events, std::size_t& n) {
+  // Appends what one line has queued now, in the decoder's sense (active
+  // low applied once, here); returns how many. A read that returns less
+  // than it asked for has emptied the queue.
+  const auto drain = [this](EdgeInput& line, bool invert, std::array<EdgeEvent, capacity>& events,
+                            std::size_t& n) {
     std::size_t got_total = 0;
     while (n < events.size()) {
       const int queued = line.pending();
@@ -311,6 +323,10 @@ void QuadratureReader::run() noexcept {
       }
       if (static_cast<unsigned>(got) == kernel_event_queue_depth)
         full_.fetch_add(1, std::memory_order_relaxed);
+      if (invert) {
+        for (std::size_t i = n; i < n + static_cast<std::size_t>(got); ++i)
+          events[i].rising = !events[i].rising;
+      }
       n += static_cast<std::size_t>(got);
       got_total += static_cast<std::size_t>(got);
       if (static_cast<std::size_t>(got) < room) break;
@@ -318,9 +334,12 @@ void QuadratureReader::run() noexcept {
     return got_total;
   };
   publish(decoder_);
+  std::size_t na = 0, nb = 0;  // events taken and not decoded yet (carried over)
   for (;;) {
     std::array<pollfd, 3> fds{{{a_.fd(), POLLIN, 0}, {b_.fd(), POLLIN, 0}, {stop_fd_, POLLIN, 0}}};
-    const int ready = ::poll(fds.data(), fds.size(), -1);
+    // With events carried over, a quiet pass within 1 ms decodes them (no
+    // busy loop: this thread must not take the CPU from the RT loop).
+    const int ready = ::poll(fds.data(), fds.size(), na + nb > 0 ? 1 : -1);
     if (ready < 0) {
       if (errno == EINTR) continue;
       read_errors_.fetch_add(1, std::memory_order_relaxed);
@@ -333,19 +352,30 @@ void QuadratureReader::run() noexcept {
     // So both are read again until one pass finds both empty; merged by
     // timestamp, the batch then holds every edge older than the last one
     // taken, in order.
-    std::size_t na = 0, nb = 0;
-    for (int pass = 0; pass < max_passes; ++pass) {
-      const std::size_t got = drain(a_, a_events, na) + drain(b_, b_events, nb);
-      if (got == 0) break;
+    bool quiet = false;
+    for (int pass = 0; pass < max_passes && !quiet; ++pass) {
+      quiet = drain(a_, a_invert_, a_events, na) + drain(b_, b_invert_, b_events, nb) == 0;
     }
-    if (a_invert_) {
-      for (std::size_t i = 0; i < na; ++i) a_events[i].rising = !a_events[i].rising;
+    // Edges faster than the passes (no quiet pass): an edge still queued on
+    // a line is newer than the last one taken from it, so only the edges up
+    // to the older of the two lines' last ones are complete; the rest waits
+    // for the next batch. A full batch is decoded whole (an overload: the
+    // kernel's queues overflow too).
+    std::size_t ka = na, kb = nb;
+    if (!quiet && na < capacity && nb < capacity) {
+      const std::uint64_t horizon =
+          na == 0 || nb == 0 ? 0 : std::min(a_events[na - 1].timestamp_ns, b_events[nb - 1].timestamp_ns);
+      ka = na == 0 || nb == 0 ? 0 : count_until(a_events, na, horizon);
+      kb = na == 0 || nb == 0 ? 0 : count_until(b_events, nb, horizon);
     }
-    if (b_invert_) {
-      for (std::size_t i = 0; i < nb; ++i) b_events[i].rising = !b_events[i].rising;
-    }
-    decoder_.edges(std::span<const EdgeEvent>(a_events.data(), na),
-                   std::span<const EdgeEvent>(b_events.data(), nb));
+    decoder_.edges(std::span<const EdgeEvent>(a_events.data(), ka),
+                   std::span<const EdgeEvent>(b_events.data(), kb));
+    std::copy(a_events.begin() + static_cast<std::ptrdiff_t>(ka),
+              a_events.begin() + static_cast<std::ptrdiff_t>(na), a_events.begin());
+    std::copy(b_events.begin() + static_cast<std::ptrdiff_t>(kb),
+              b_events.begin() + static_cast<std::ptrdiff_t>(nb), b_events.begin());
+    na -= ka;
+    nb -= kb;
     publish(decoder_);
   }
 }

@@ -135,6 +135,10 @@ class QuadratureReader {
     std::uint64_t read_errors = 0;
   };
 
+  /// Events one batch holds per line (the kernel queues 16; a few passes
+  /// can gather more).
+  static constexpr std::size_t batch_capacity = std::size_t{4} * kernel_event_queue_depth;
+
   /// Reads both lines' levels as the initial state. `a_active_low` and
   /// `b_active_low` invert a line's level before decoding.
   QuadratureReader(EdgeInput& a, EdgeInput& b, bool a_active_low, bool b_active_low, bool reverse);
