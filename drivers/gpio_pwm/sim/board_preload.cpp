@@ -82,9 +82,10 @@ BoardOptions parse_options(const char* text) {
     } else if (key == "program") {
       o.program = value;
     } else {
-      throw std::invalid_argument("unknown key " + key +
-                                  "; accepted: position, period, force_at_full_duty, watchdog_periods, log, control, "
-                                  "program");
+      throw std::invalid_argument(
+          "unknown key " + key +
+          "; accepted: position, period, force_at_full_duty, watchdog_periods, log, control, "
+          "program");
     }
   }
   return o;
@@ -95,12 +96,13 @@ class InjectedBoard {
   explicit InjectedBoard(const BoardOptions& options) : options_(options) {
     sim::GpioChipSpec spec;
     spec.label = "hapticd-devsim";
-    spec.line_names = {"MOTOR_EN", "MOTOR_DIR", "MOTOR_NFAULT", "ENC_A", "ENC_B", "PUMP", "BRAKE", "MOTOR_RESET"};
+    spec.line_names = {"MOTOR_EN", "MOTOR_DIR", "MOTOR_NFAULT", "ENC_A",
+                       "ENC_B",    "PUMP",      "BRAKE",        "MOTOR_RESET"};
     gpio_ = std::make_unique<sim::UmockdevGpioTestbed>(spec);
     pwm_ = std::make_unique<sim::SimulatedPwmChip>(gpio_->root_dir(), "/sys/class/pwm/pwmchip0", 1);
     if (!options.quadrature) {
-      counter_ = std::make_unique<sim::SimulatedCounter>(gpio_->root_dir(), "/sys/bus/counter/devices/counter0", 0,
-                                                         0xFFFFFFFF);
+      counter_ = std::make_unique<sim::SimulatedCounter>(gpio_->root_dir(),
+                                                         "/sys/bus/counter/devices/counter0", 0, 0xFFFFFFFF);
     }
     auto plant = hapticd::drivers::loopback::parse_loopback_config(
         environment("HAPTICD_GPIO_BOARD_PLANT") != nullptr ? environment("HAPTICD_GPIO_BOARD_PLANT") : "");
@@ -122,8 +124,8 @@ class InjectedBoard {
     }
     config.amplifier = {options.force_at_full_duty, options.watchdog_periods};
     config.period_s = options.period_s;
-    board_ = std::make_unique<sim::SimulatedBoard>(*gpio_, *pwm_, counter_.get(), config,
-                                                   std::make_unique<sim::SimulatorPlant>(std::move(simulator)));
+    board_ = std::make_unique<sim::SimulatedBoard>(
+        *gpio_, *pwm_, counter_.get(), config, std::make_unique<sim::SimulatorPlant>(std::move(simulator)));
     if (!options.control.empty()) {
       control_fd_ = ::open(options.control.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
       if (control_fd_ < 0) throw std::runtime_error("cannot open control " + options.control);
@@ -154,11 +156,12 @@ class InjectedBoard {
   void write_log() const {
     if (options_.log.empty() || !board_) return;
     std::ofstream out(options_.log);
-    out << "period,enable,direction_positive,brake,charge_pump,pwm_fraction,motor_force,powered,position,counts\n";
+    out << "period,enable,direction_positive,brake,charge_pump,pwm_fraction,motor_force,powered,position,"
+           "counts\n";
     for (const auto& p : board_->history()) {
-      out << p.index << ',' << p.enable << ',' << p.direction_positive << ',' << p.brake << ',' << p.charge_pump
-          << ',' << p.pwm_fraction << ',' << p.motor_force << ',' << p.powered << ',' << p.position << ','
-          << p.counts << '\n';
+      out << p.index << ',' << p.enable << ',' << p.direction_positive << ',' << p.brake << ','
+          << p.charge_pump << ',' << p.pwm_fraction << ',' << p.motor_force << ',' << p.powered << ','
+          << p.position << ',' << p.counts << '\n';
     }
   }
 
