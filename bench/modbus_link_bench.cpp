@@ -121,16 +121,17 @@ bool make_realtime() {
   return fifo;
 }
 
-void print_rtu_table(const mb::ModbusConfig& c, const mb::LayoutResult& layout) {
+void print_rtu_table(const mb::ModbusConfig& c, const mb::LayoutResult& layout, double period_s) {
   const int w = layout.layout.write_count, r = layout.layout.read_count;
   std::printf(
-      "RTU budget, fc 23 (write %d, read %d registers: %d + %d bytes), 8E1, turnaround 0, link_budget %.2f\n",
+      "RTU budget, fc 23 (write %d, read %d registers: %d + %d bytes), 8E1, turnaround 0, link_budget %.2f, "
+      "T = %.3f ms\n",
       w, r, mb::rtu_bytes::write_and_read_request(w), mb::rtu_bytes::write_and_read_response(r),
-      c.link_budget);
+      c.link_budget, period_s * 1e3);
   std::printf(
-      "| baud | char | t3.5 spec | cycle (spec) | shortest period (spec) | t3.5 chars | cycle (chars) | "
-      "shortest period (chars) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|\n");
+      "| baud | char | t3.5 spec | cycle (spec) | cycle/T (spec) | shortest period (spec) | t3.5 chars | "
+      "cycle (chars) | cycle/T (chars) | shortest period (chars) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   int n = 0;
   const int* bauds = mb::supported_bauds(n);
   for (int i = 0; i < n; ++i) {
@@ -139,10 +140,12 @@ void print_rtu_table(const mb::ModbusConfig& c, const mb::LayoutResult& layout) 
     f.baud = bauds[i];
     const auto spec = mb::cycle_time(f, mb::SilenceRule::spec, 0.0, true, w, r);
     const auto chars = mb::cycle_time(f, mb::SilenceRule::characters, 0.0, true, w, r);
-    std::printf("| %d | %.2f us | %.3f ms | %.3f ms | %.3f ms | %.3f ms | %.3f ms | %.3f ms |\n", bauds[i],
-                mb::character_time_s(f) * 1e6, spec.first.silence_s * 1e3, spec.total_s() * 1e3,
-                mb::shortest_period_s(spec, c.link_budget) * 1e3, chars.first.silence_s * 1e3,
-                chars.total_s() * 1e3, mb::shortest_period_s(chars, c.link_budget) * 1e3);
+    std::printf(
+        "| %d | %.2f us | %.3f ms | %.3f ms | %.3f | %.3f ms | %.3f ms | %.3f ms | %.3f | %.3f ms |\n",
+        bauds[i], mb::character_time_s(f) * 1e6, spec.first.silence_s * 1e3, spec.total_s() * 1e3,
+        spec.total_s() / period_s, mb::shortest_period_s(spec, c.link_budget) * 1e3,
+        chars.first.silence_s * 1e3, chars.total_s() * 1e3, chars.total_s() / period_s,
+        mb::shortest_period_s(chars, c.link_budget) * 1e3);
   }
 }
 
@@ -153,7 +156,7 @@ int main(int argc, char** argv) {
   const std::int64_t period_ns = (argc > 2 ? std::atoll(argv[2]) : 1000) * 1000;
   const mb::ModbusConfig config = mb::build_modbus_config({});
   const mb::LayoutResult layout = mb::plan_blocks(config.map);
-  print_rtu_table(config, layout);
+  print_rtu_table(config, layout, static_cast<double>(period_ns) * 1e-9);
 
   int port = 0;
   const pid_t amplifier = start_amplifier(config, port);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "cli/analyze.hpp"
+#include "cli/experiment.hpp"
 #include "cli/report.hpp"
 #include "cli/usage_error.hpp"
 #include "cli/verbs.hpp"
@@ -18,6 +19,8 @@ int main(int argc, char** argv) {
   hapticctl::add_daemon_commands(app, options);
   hapticd::cli::add_analyze_command(app);
   hapticd::cli::add_report_command(app);
+  hapticd::cli::add_tune_command(app, options);
+  hapticd::cli::add_identify_command(app, options);
   try {
     return hapticctl::run(app, argc, argv);
   } catch (const hapticd::cli::CannotAssess& e) {

@@ -201,7 +201,7 @@ std::string FigureWriter::script(const Figure& f) {
     s << "# " << f.title.substr(at, end - at) << "\n";
     at = end + 1;
   }
-  s << "# Written by `hapticctl report`. Redraw in this directory with: gnuplot " << f.name << ".gp\n"
+  s << "# Written by `" << f.command << "`. Redraw in this directory with: gnuplot " << f.name << ".gp\n"
     << "# Data: " << f.name << ".csv (the same rows, with units, in " << f.name << ".json).\n"
     << "if (!exists(\"data\")) data = " << gnuplot_quote(f.name + ".csv") << "\n"
     << "if (!exists(\"output\")) output = " << gnuplot_quote(f.name + ".png") << "\n"

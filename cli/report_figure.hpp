@@ -66,6 +66,7 @@ struct Figure {
   std::vector<std::string> decorations;            ///< gnuplot commands before `plot` (limits, labels)
   nlohmann::json meta = nlohmann::json::object();  ///< written into NAME.json beside the data
   std::string key = "outside below center horizontal maxcols 3";
+  std::string command = "hapticctl report";  ///< what wrote it (named in the .gp script)
 };
 
 /// A colour per method or series name, the same in every figure.

@@ -3,13 +3,15 @@ add_library(hapticd_daemon_core STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/engine/engine.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/engine/safety.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/planner.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/device_model.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/device_factory.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/service.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/status_methods.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/scene_methods.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/record_methods.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/fault_methods.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/methods/device_methods.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/methods/device_methods.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/methods/model_methods.cpp)
 target_include_directories(hapticd_daemon_core PUBLIC ${PROJECT_SOURCE_DIR})
 target_compile_definitions(hapticd_daemon_core PUBLIC HAPTICD_VERSION="${PROJECT_VERSION}")
 target_link_libraries(hapticd_daemon_core

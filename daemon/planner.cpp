@@ -21,8 +21,12 @@ analysis::GateDevice DeviceModel::gate() const {
 }
 
 DeviceModel make_device_model(const drivers::Device& device, double period_s) {
+  return make_device_model(device.model(), period_s);
+}
+
+DeviceModel make_device_model(drivers::DeviceModel info, double period_s) {
   DeviceModel model;
-  model.info = device.model();
+  model.info = std::move(info);
   model.period_s = period_s;
   if (model.info.plant) {
     model.plant = *model.info.plant;

@@ -37,6 +37,8 @@ struct DeviceModel {
 
 /// The model of a configured device for the gate.
 DeviceModel make_device_model(const drivers::Device& device, double period_s);
+/// The same from a model given as it is (an identified one, daemon/device_model.hpp).
+DeviceModel make_device_model(drivers::DeviceModel info, double period_s);
 
 /// The verdict that goes with a plan, reported to clients and recordings.
 using StabilityVerdict = analysis::SceneStability;

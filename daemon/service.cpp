@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "daemon/config/host_checks.hpp"
+#include "daemon/device_model.hpp"
 #include "daemon/methods/method_support.hpp"
 #include "daemon/system/systemd_notify.hpp"
 #include "daemon/version.hpp"
@@ -90,6 +91,14 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
     throw device_config_error(cfg.device, e);
   }
   model_ = make_device_model(*device_.device, cfg.loop.period_s);
+  if (!cfg.device.model.empty()) {
+    // An identified model named by the config replaces the driver's for the gate.
+    const auto keys = config::load_model_file(cfg.device.model, cfg.device.model_where);
+    model_ = make_device_model(
+        model_from_keys(keys, model_.info, cfg.loop.period_s, "identified: " + cfg.device.model,
+                        config::SourcePosition{cfg.device.model, 0, 0}),
+        cfg.loop.period_s);
+  }
   initial_requested_ = to_parameter_set(cfg.scene.parameters);
   // `force = true` in [scene] is the config's explicit override for showing
   // an instability on purpose (Freudenberg Fig. 8); it is not a scene parameter.
@@ -221,6 +230,7 @@ void Service::register_methods(control::ControlServer& server) {
   register_record_methods(server);
   register_fault_methods(server);
   register_device_methods(server);
+  register_model_methods(server);
 }
 
 // ---- run(), step by step ----------------------------------------------------

@@ -88,6 +88,11 @@ class Service {
   void register_record_methods(control::ControlServer& server);
   void register_fault_methods(control::ControlServer& server);
   void register_device_methods(control::ControlServer& server);
+  void register_model_methods(control::ControlServer& server);
+  /// Makes `next` the gate's device model if the loaded scene stays stable
+  /// on it (else refused, naming the scene and its limit); the scene's verdict
+  /// is redone on it. Control thread only (model_ is read there).
+  nlohmann::json replace_model(DeviceModel next);
   nlohmann::json status() const;
   nlohmann::json stats() const;
   nlohmann::json sample_json(const TelemetrySample& sample, const std::vector<std::string>& wanted) const;

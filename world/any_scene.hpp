@@ -6,6 +6,7 @@
 #include <span>
 #include <variant>
 
+#include "world/chirp_scene.hpp"
 #include "world/free_scene.hpp"
 #include "world/relay_scene.hpp"
 #include "world/spring_scene.hpp"
@@ -22,7 +23,10 @@ using AnyScene = std::variant<FreeScene,                                      //
                               WallScene<WallDamping::backward_difference, WallDelay::none>,
                               WallScene<WallDamping::backward_difference, WallDelay::samples>,
                               RelayScene<RelayHysteresis::none>,  //
-                              RelayScene<RelayHysteresis::band>>;
+                              RelayScene<RelayHysteresis::band>,  //
+                              RelayScene<RelayHysteresis::none, RelayDelay::samples>,
+                              RelayScene<RelayHysteresis::band, RelayDelay::samples>,  //
+                              ChirpScene>;
 
 inline void reset(AnyScene& scene, double measured_position) noexcept {
   std::visit([measured_position](auto& s) noexcept { s.reset(measured_position); }, scene);

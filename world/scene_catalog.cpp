@@ -1,6 +1,7 @@
 #include "world/scene_catalog.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <sstream>
 
@@ -69,6 +70,18 @@ std::vector<ParameterDescription> spring_parameters(bool rotary) {
   return out;
 }
 
+ParameterDescription samples(std::string name, double def, std::string help, double maximum) {
+  ParameterDescription p;
+  p.name = std::move(name);
+  p.type = ParameterType::integer;
+  p.unit = p.rotary_unit = "samples";
+  p.default_value = def;
+  p.help = std::move(help);
+  p.minimum = 0.0;
+  p.maximum = maximum;
+  return p;
+}
+
 std::vector<SceneDescription> build_catalog() {
   namespace d = scene_defaults;
   namespace r = parameter_range;
@@ -92,15 +105,9 @@ std::vector<SceneDescription> build_catalog() {
         number("position", "m", "rad", 0.0, "wall surface x_w", -r::max_position, r::max_position));
     wall.parameters.push_back(
         enumeration("side", "upper", {"upper", "lower"}, "upper: the wall occupies y > x_w; lower: y < x_w"));
-    ParameterDescription delay;
-    delay.name = "delay";
-    delay.type = ParameterType::integer;
-    delay.unit = delay.rotary_unit = "samples";
-    delay.default_value = static_cast<double>(d::hulin_delay_samples);
-    delay.help = "output delay d in periods (Hulin d)";
-    delay.minimum = 0.0;
-    delay.maximum = static_cast<double>(max_wall_delay_samples);
-    wall.parameters.push_back(std::move(delay));
+    wall.parameters.push_back(samples("delay", static_cast<double>(d::hulin_delay_samples),
+                                      "output delay d in periods (Hulin d)",
+                                      static_cast<double>(max_wall_delay_samples)));
     out.push_back(std::move(wall));
   }
   {
@@ -114,7 +121,37 @@ std::vector<SceneDescription> build_catalog() {
         number("hysteresis", "m", "rad", 0.0, "hysteresis half-width eps", 0.0, r::max_position));
     relay.parameters.push_back(
         number("reference", "m", "rad", 0.0, "reference position", -r::max_position, r::max_position));
+    relay.parameters.push_back(samples("delay", 0.0, "extra loop delay t_d in periods (Diaz & Gil eq. 25)",
+                                       static_cast<double>(max_relay_delay_samples)));
+    relay.parameters.push_back(number("duration", "s", "s", 0.0,
+                                      "stop by itself (output 0) after this long; 0: run until replaced", 0.0,
+                                      r::max_duration_s));
     out.push_back(std::move(relay));
+  }
+  {
+    SceneDescription chirp{"chirp",
+                           "Diaz & Gil II, Fig. 4 (swept sine for identification)",
+                           "F = A sin(phi(t)): exponential sweep f0 -> f1 every `sweep` seconds, repeated",
+                           {}};
+    const ChirpParameters c;
+    chirp.parameters.push_back(
+        number("amplitude", "N", "N m", c.amplitude, "force amplitude A (|F| <= A)", 0.0, r::max_force));
+    chirp.parameters.back().minimum_exclusive = true;
+    chirp.parameters.push_back(number("start_frequency", "Hz", "Hz", c.start_frequency,
+                                      "sweep start frequency f0", 0.0, r::max_frequency_hz));
+    chirp.parameters.back().minimum_exclusive = true;
+    chirp.parameters.push_back(number("end_frequency", "Hz", "Hz", c.end_frequency,
+                                      "sweep end frequency f1 (> f0, at most 1/(2T))", 0.0,
+                                      r::max_frequency_hz));
+    chirp.parameters.back().minimum_exclusive = true;
+    chirp.parameters.push_back(number("sweep", "s", "s", c.sweep_s,
+                                      "one sweep f0 -> f1 (the excitation's period)", 0.0,
+                                      r::max_duration_s));
+    chirp.parameters.back().minimum_exclusive = true;
+    chirp.parameters.push_back(
+        number("duration", "s", "s", c.duration_s, "then output 0 for good", 0.0, r::max_duration_s));
+    chirp.parameters.back().minimum_exclusive = true;
+    out.push_back(std::move(chirp));
   }
   out.push_back({"free", "Freudenberg 3 (released device)", "zero output", {}});
   return out;
@@ -297,14 +334,29 @@ void build_wall(ScenePlan& plan, double period_s, Motion motion) {
   }
 }
 
-void build_relay(ScenePlan& plan, Motion motion) {
+void build_relay(ScenePlan& plan, double period_s, Motion motion) {
   const ParameterSet& p = plan.parameters;
-  const RelayParameters rp{num(p, "amplitude"), num(p, "hysteresis"), num(p, "reference")};
-  if (rp.hysteresis == 0.0) {
-    finish(plan, RelayScene<RelayHysteresis::none>(rp), motion);
+  RelayParameters rp{num(p, "amplitude"), num(p, "hysteresis"), num(p, "reference")};
+  rp.delay_samples = static_cast<int>(num(p, "delay"));
+  rp.duration_steps = static_cast<std::int64_t>(std::llround(num(p, "duration") / period_s));
+  if (num(p, "duration") > 0.0 && rp.duration_steps < 1) rp.duration_steps = 1;
+  const bool band = rp.hysteresis != 0.0;
+  using H = RelayHysteresis;
+  using D = RelayDelay;
+  if (rp.delay_samples == 0) {
+    band ? finish(plan, RelayScene<H::band>(rp), motion) : finish(plan, RelayScene<H::none>(rp), motion);
+  } else if (band) {
+    finish(plan, RelayScene<H::band, D::samples>(rp), motion);
   } else {
-    finish(plan, RelayScene<RelayHysteresis::band>(rp), motion);
+    finish(plan, RelayScene<H::none, D::samples>(rp), motion);
   }
+}
+
+void build_chirp(ScenePlan& plan, double period_s, Motion motion) {
+  const ParameterSet& p = plan.parameters;
+  const ChirpParameters cp{num(p, "amplitude"), num(p, "start_frequency"), num(p, "end_frequency"),
+                           num(p, "sweep"), num(p, "duration")};
+  finish(plan, ChirpScene(cp, period_s), motion);
 }
 
 }  // namespace
@@ -387,7 +439,9 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
     } else if (plan.scene == "wall") {
       build_wall(plan, period_s, motion);
     } else if (plan.scene == "relay") {
-      build_relay(plan, motion);
+      build_relay(plan, period_s, motion);
+    } else if (plan.scene == "chirp") {
+      build_chirp(plan, period_s, motion);
     } else {
       finish(plan, FreeScene{}, motion);
     }

@@ -83,7 +83,7 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
 const std::vector<SceneDescription>& scene_catalog();
 /// nullptr if unknown.
 const SceneDescription* find_scene(std::string_view name) noexcept;
-/// "spring-wheel, spring-mass, wall, relay, free"
+/// "spring-wheel, spring-mass, wall, relay, chirp, free"
 std::string scene_names();
 
 /// Accepted ranges of physical parameters: generous but finite, so that a
@@ -92,12 +92,14 @@ std::string scene_names();
 /// loopback driver and `hapticctl analyze`; docs/scenes.md and docs/config.md
 /// list them. Linear units; the same numbers on a rotary device (N m/rad, ...).
 namespace parameter_range {
-inline constexpr double max_stiffness = 1e9;  ///< N/m: a steel bar 1 cm^2 x 2 cm is 1e9 N/m
-inline constexpr double min_mass = 1e-9;      ///< kg (kg m^2): a microgram
-inline constexpr double max_mass = 1e6;       ///< kg (kg m^2): a thousand tonnes
-inline constexpr double max_damping = 1e6;    ///< N s/m
-inline constexpr double max_force = 1e6;      ///< N (N m)
-inline constexpr double max_position = 1e6;   ///< |x| in m (rad: ~160000 turns)
+inline constexpr double max_stiffness = 1e9;     ///< N/m: a steel bar 1 cm^2 x 2 cm is 1e9 N/m
+inline constexpr double min_mass = 1e-9;         ///< kg (kg m^2): a microgram
+inline constexpr double max_mass = 1e6;          ///< kg (kg m^2): a thousand tonnes
+inline constexpr double max_damping = 1e6;       ///< N s/m
+inline constexpr double max_force = 1e6;         ///< N (N m)
+inline constexpr double max_position = 1e6;      ///< |x| in m (rad: ~160000 turns)
+inline constexpr double max_duration_s = 1e6;    ///< s: eleven days of an experiment
+inline constexpr double max_frequency_hz = 1e6;  ///< Hz (a scene also checks it against 1/(2T))
 }  // namespace parameter_range
 
 /// Named defaults, derived from the papers (computed, not typed in).

@@ -284,7 +284,7 @@ class Parser {
 
   void parse_device(const toml::table& table, DeviceConfig& device) const {
     static const std::string accepted =
-        "driver, torque_limit, and a table [device.<driver>] for the selected driver";
+        "driver, torque_limit, model, and a table [device.<driver>] for the selected driver";
     const std::string drivers = driver_list();
     // The driver first: the driver table's name is checked against it.
     if (const auto* node = table.get("driver")) {
@@ -304,6 +304,14 @@ class Parser {
         const std::string range = "a number greater than 0 (N or N m)";
         device.torque_limit = get_number(*node, dotted, range);
         if (!(device.torque_limit > 0.0)) out_of_range(*node, dotted, range);
+      } else if (name == "model") {
+        const std::string accepted_model =
+            "the path of a model file written by `hapticctl identify` (relative to this file), or \"\"";
+        const std::string path = get_string(*node, dotted, accepted_model);
+        device.model = path.empty() || file_ == builtin_source
+                           ? path
+                           : (std::filesystem::path(file_).parent_path() / path).lexically_normal().string();
+        device.model_where = position(node->source());
       } else if (const auto* sub = node->as_table(); sub && is_driver_kind(name)) {
         if (name != device.driver) {
           fail(key->source(), dotted,
@@ -380,13 +388,34 @@ class Parser {
     }
   }
 
-  DaemonConfig parse(std::string_view text) const {
-    toml::table root;
+  toml::table parse_toml(std::string_view text) const {
     try {
-      root = toml::parse(text, file_);
+      return toml::parse(text, file_);
     } catch (const toml::parse_error& error) {
       fail(error.source(), "", "TOML syntax error: " + std::string(error.description()));
     }
+  }
+
+  /// A model file: one [model] table, flattened with positions.
+  ParameterList parse_model(std::string_view text) const {
+    const toml::table root = parse_toml(text);
+    ParameterList out;
+    bool found = false;
+    for (const auto& [key, node] : in_file_order(root)) {
+      if (key->str() != "model" || !node->is_table()) {
+        fail(key->source(), std::string(key->str()),
+             "unknown " + std::string(node->is_table() ? "section [" : "key '") + std::string(key->str()) +
+                 (node->is_table() ? "]" : "'") + " in a model file; accepted: [model]");
+      }
+      collect(*node->as_table(), "", "model", out);
+      found = true;
+    }
+    if (!found) fail(toml::source_region{}, "[model]", "a model file needs a [model] section");
+    return out;
+  }
+
+  DaemonConfig parse(std::string_view text) const {
+    const toml::table root = parse_toml(text);
     DaemonConfig config;
     config.source = file_;
     // Until a key says otherwise, what the file leaves out is blamed on the file.
@@ -472,6 +501,22 @@ DaemonConfig load_config(const std::filesystem::path& path) {
   if (in.bad())
     throw ConfigError(SourcePosition{path.string(), 0, 0}, "", "error reading the configuration file");
   return parse_config(text.str(), path.string());
+}
+
+ParameterList load_model_file(const std::filesystem::path& path, const SourcePosition& named_at) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::error_code ec;
+    const bool regular = std::filesystem::is_regular_file(path, ec);
+    const std::string reason = ec ? ec.message() : regular ? "not readable" : "not a regular file";
+    throw ConfigError(named_at.file.empty() ? SourcePosition{path.string(), 0, 0} : named_at, "device.model",
+                      "cannot read the model file " + path.string() + " (" + reason +
+                          "); device.model names a file written by `hapticctl identify`, relative to the "
+                          "config file");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return Parser(path.string()).parse_model(text.str());
 }
 
 DaemonConfig default_config() {

@@ -70,8 +70,12 @@ struct LoopConfig {
 
 struct DeviceConfig {
   std::string driver = "loopback";
-  double torque_limit = 1.0;    ///< N (linear) or N m (rotary), > 0
-  ParameterList parameters;     ///< the [device.<driver>] table, unvalidated
+  double torque_limit = 1.0;  ///< N (linear) or N m (rotary), > 0
+  ParameterList parameters;   ///< the [device.<driver>] table, unvalidated
+  /// A model file (`hapticctl identify --apply`) replacing the driver's model
+  /// for the stability gate; resolved against the config file's directory. Empty: none.
+  std::string model;
+  SourcePosition model_where;   ///< position of device.model's value
   SourcePosition driver_where;  ///< position of device.driver's value, else of the [device] key
   SourcePosition table_where;   ///< position of the [device.<driver>] key, else driver_where
   bool operator==(const DeviceConfig&) const = default;
@@ -133,6 +137,12 @@ class ConfigError : public std::runtime_error {
 DaemonConfig load_config(const std::filesystem::path& path);
 /// Parses TOML text; source_name is used in messages.
 DaemonConfig parse_config(std::string_view text, std::string_view source_name);
+/// A device model file's [model] table (docs/config.md, "Device model
+/// files"), flattened in file order with positions; unvalidated. Throws
+/// ConfigError when it cannot be read (at `named_at`, the device.model key
+/// that names it, with the reason), is not TOML, or holds anything but [model].
+ParameterList load_model_file(const std::filesystem::path& path, const SourcePosition& named_at = {});
+
 /// The built-in default: loopback rotary wheel, scene spring-wheel with the
 /// exact integrator, 1 ms period. Identical to config/hapticd.toml.
 DaemonConfig default_config();

@@ -1,5 +1,7 @@
 #include "daemon/service.hpp"
 
+#include <filesystem>
+
 #include "daemon/methods/method_support.hpp"
 
 namespace hapticd::daemon {
@@ -10,6 +12,18 @@ namespace code = rpc::code;
 using control::Access;
 using control::PeerInfo;
 
+namespace {
+
+/// The recording's path for a client on this host: the recorder's own is
+/// relative to the daemon's working directory when [recorder] directory is.
+std::string full_path(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto full = std::filesystem::absolute(path, ec);
+  return ec ? path.string() : full.lexically_normal().string();
+}
+
+}  // namespace
+
 void Service::register_record_methods(control::ControlServer& server) {
   server.register_method(
       "record.start",
@@ -19,7 +33,7 @@ void Service::register_record_methods(control::ControlServer& server) {
         const CurrentScene scene = current_scene();
         try {
           const auto path = recorder_->start(name, header_for(scene));
-          return json{{"path", path.string()}, {"cycle", engine_->cycle()}};
+          return json{{"path", path.string()}, {"file", full_path(path)}, {"cycle", engine_->cycle()}};
         } catch (const recorder::RecorderError& e) {
           throw RpcError(code::refused, e.what());
         }
@@ -36,6 +50,8 @@ void Service::register_record_methods(control::ControlServer& server) {
           throw RpcError(code::refused, e.what());
         }
         return json{{"path", status.path.string()},
+                    {"file", full_path(status.path)},
+                    {"cycle", engine_->cycle()},
                     {"samples", status.samples_written},
                     {"samples_received", status.samples_received},
                     {"sections", status.sections},

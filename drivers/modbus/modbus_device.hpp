@@ -106,7 +106,7 @@ class ModbusDevice final : public Device {
 
   // Owner of the context only.
   IoResult exchange(Reading& out) noexcept;
-  LinkResult transact(std::int16_t torque) noexcept;
+  LinkResult transact(std::int16_t torque, std::uint16_t watchdog) noexcept;
   IoResult latch(FaultCause cause, const LinkResult& last, const AmplifierSample& s) noexcept;
   void publish_sample(const AmplifierSample& s) noexcept;
   AmplifierSample read_state(const char* doing, int retries = 0);  ///< non-RT, throws DeviceError
@@ -118,8 +118,12 @@ class ModbusDevice final : public Device {
   [[noreturn]] void fail(const std::string& doing, const LinkResult& r, const std::string& key = {}) const;
 
   // Control thread: take and give back the context.
+  // Control-thread exchanges wait up to control_timeout_s() (connect_timeout,
+  // at least the response timeout): they have no period to fit.
   void acquire_control(const char* doing);
   void release_control() noexcept;
+  double control_timeout_s() const noexcept;
+  void set_timeout(double seconds) noexcept;
 
   void check_period(double period_s);
   void measure_round_trip();
@@ -144,6 +148,7 @@ class ModbusDevice final : public Device {
 
   // Owner-of-the-context state.
   bool link_down_ = false;
+  double transact_round_trip_s_ = 0.0;  ///< of the last transact(): the link's round trip(s)
   int streak_ = 0;
   std::uint64_t period_ = 0;
   std::array<std::uint16_t, 2> write_block_{};

@@ -1,5 +1,7 @@
 #include "drivers/modbus/modbus_frame.hpp"
 
+#include <algorithm>
+
 namespace hapticd::drivers::modbus {
 
 namespace {
@@ -204,6 +206,18 @@ Adu parse_tcp_adu(std::span<const std::uint8_t> frame) noexcept {
   return adu;
 }
 
+std::size_t tcp_adu_length(std::span<const std::uint8_t> stream, bool& invalid) noexcept {
+  invalid = false;
+  if (stream.size() < 7) return 0;
+  const std::uint16_t length = get16(stream, 4);  // unit id + PDU
+  if (get16(stream, 2) != 0 || length < 2 || length > limits::max_pdu + 1) {
+    invalid = true;
+    return 0;
+  }
+  const std::size_t size = std::size_t{6} + length;
+  return stream.size() >= size ? size : 0;
+}
+
 std::uint16_t RegisterRequest::write_value(std::size_t i) const noexcept { return get16(write_data, 2 * i); }
 
 PduStatus parse_request(std::span<const std::uint8_t> pdu, RegisterRequest& out) noexcept {
@@ -285,6 +299,20 @@ PduStatus parse_write_multiple_response(std::span<const std::uint8_t> pdu, std::
   }
   if (pdu[0] != function_code::write_multiple_registers) return PduStatus::wrong_function;
   if (pdu.size() != 5 || get16(pdu, 1) != address || get16(pdu, 3) != count) return PduStatus::malformed;
+  return PduStatus::ok;
+}
+
+PduStatus parse_echo_response(std::span<const std::uint8_t> pdu, std::span<const std::uint8_t> request,
+                              std::uint8_t& exception) noexcept {
+  exception = 0;
+  if (pdu.size() < 2 || request.empty()) return PduStatus::malformed;
+  if (pdu[0] == (request[0] | function_code::exception_flag)) {
+    if (pdu.size() != 2) return PduStatus::malformed;
+    exception = pdu[1];
+    return PduStatus::exception;
+  }
+  if (pdu[0] != request[0]) return PduStatus::wrong_function;
+  if (!std::equal(pdu.begin(), pdu.end(), request.begin(), request.end())) return PduStatus::malformed;
   return PduStatus::ok;
 }
 

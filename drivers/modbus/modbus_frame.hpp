@@ -12,9 +12,12 @@
 /// bytes written (0 when the request is out of the spec's range or the
 /// buffer is too small).
 ///
-/// libmodbus does the framing on the wire; these let the tests check its
-/// frames against the standard, let the simulated amplifier read a request's
-/// fields and inject a reply with a wrong CRC, and size the RTU budget.
+/// libmodbus does the RTU framing on the wire; over TCP the link frames the
+/// transactions with these (libmodbus 3.1.6 cannot pair a reply with its
+/// request by transaction id, modbus_link.hpp). They also let the tests
+/// check libmodbus's frames against the standard, let the simulated
+/// amplifier read a request's fields and inject a reply with a wrong CRC,
+/// and size the RTU budget.
 
 #include <cstddef>
 #include <cstdint>
@@ -108,6 +111,12 @@ struct Adu {
 Adu parse_rtu_adu(std::span<const std::uint8_t> frame) noexcept;
 Adu parse_tcp_adu(std::span<const std::uint8_t> frame) noexcept;
 
+/// Modbus TCP stream framing (TCP 3.1.3: the MBAP length counts the unit id
+/// and the PDU): the size of the first ADU in `stream`, 0 while it is
+/// incomplete. `invalid` when the first 7 bytes cannot start a Modbus ADU
+/// (protocol id not 0, length outside 2..254): the stream is out of step.
+std::size_t tcp_adu_length(std::span<const std::uint8_t> stream, bool& invalid) noexcept;
+
 // ---- PDU parsing ----
 
 enum class PduStatus : std::uint8_t {
@@ -135,5 +144,8 @@ PduStatus parse_read_response(std::span<const std::uint8_t> pdu, std::uint8_t fu
 /// A write-multiple response (fc 16) echoing address and count.
 PduStatus parse_write_multiple_response(std::span<const std::uint8_t> pdu, std::uint16_t address,
                                         std::uint16_t count, std::uint8_t& exception) noexcept;
+/// A write-single response (fc 5, 6): the request echoed (6.5, 6.6).
+PduStatus parse_echo_response(std::span<const std::uint8_t> pdu, std::span<const std::uint8_t> request,
+                              std::uint8_t& exception) noexcept;
 
 }  // namespace hapticd::drivers::modbus

@@ -243,11 +243,12 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
   EXPECT_EQ(error_of("[recorder]\ndir = \"x\""),
             "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
-            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, and a table "
+            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, model, and a table "
             "[device.<driver>] for the selected driver");
-  EXPECT_EQ(error_of("[device.serial]\nx = 1"),
-            "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, and a table "
-            "[device.<driver>] for the selected driver");
+  EXPECT_EQ(
+      error_of("[device.serial]\nx = 1"),
+      "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, model, and a table "
+      "[device.<driver>] for the selected driver");
 }
 
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {

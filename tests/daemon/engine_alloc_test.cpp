@@ -104,7 +104,18 @@ std::vector<NamedPlan> every_scene_plan() {
   for (const double hysteresis : {0.0, 0.01}) {
     out.push_back({"relay eps=" + std::to_string(hysteresis),
                    make_plan("relay", {{"amplitude", 0.3}, {"hysteresis", hysteresis}}, 0.5)});
+    // The relay experiment's extra delay t_d (Diaz & Gil eq. 25) is its own alternative.
+    out.push_back(
+        {"relay eps=" + std::to_string(hysteresis) + " delay=3",
+         make_plan("relay", {{"amplitude", 0.3}, {"hysteresis", hysteresis}, {"delay", 3.0}}, 0.5)});
   }
+  out.push_back({"chirp", make_plan("chirp",
+                                    {{"amplitude", 0.3},
+                                     {"start_frequency", 1.0},
+                                     {"end_frequency", 50.0},
+                                     {"sweep", 2.0},
+                                     {"duration", 10.0}},
+                                    0.5)});
   out.push_back({"free", make_plan("free", {}, 0.5)});
   return out;
 }
@@ -229,7 +240,7 @@ TEST(EngineAlloc, EverySceneAlternativeRunsAndInstallsWithoutAllocating) {
   rig.device.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=3");
   std::vector<TelemetrySample> buffer(4096);
   auto plans = every_scene_plan();
-  ASSERT_EQ(plans.size(), 22u);
+  ASSERT_EQ(plans.size(), 25u);
   std::set<std::size_t> alternatives;
   for (auto& named : plans) {
     ASSERT_NE(named.plan, nullptr);

@@ -1,6 +1,7 @@
 // relay (Diaz & Gil V) and free.
 
 #include <array>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -61,6 +62,60 @@ TEST(RelayScene, RelayOscillatesAgainstARigidMass) {
     v += f / m * t;
   }
   EXPECT_GT(switches, 4);
+}
+
+using DelayedPlain = RelayScene<RelayHysteresis::none, RelayDelay::samples>;
+using DelayedBand = RelayScene<RelayHysteresis::band, RelayDelay::samples>;
+
+// Only a delayed relay carries the delay line.
+static_assert(sizeof(DelayedPlain) >= sizeof(Plain) + max_relay_delay_samples * sizeof(double));
+static_assert(sizeof(Plain) < 8 * sizeof(double));
+
+TEST(RelayScene, DelayLineAppliesTheDecisionDSamplesLater) {
+  // Diaz & Gil eq. (25): C(z) = K z^-d. The decision at n is applied at n + d;
+  // the first d outputs after reset are 0.
+  RelayParameters p{2.0, 0.0, 0.0};
+  p.delay_samples = 3;
+  DelayedPlain relay(p);
+  EXPECT_EQ(relay.delay_samples(), 3u);
+  relay.reset(0.5);
+  const double positions[] = {0.5, -0.5, 0.5, 0.5, -0.5, -0.5, 0.5};
+  std::vector<double> out;
+  for (const double y : positions) out.push_back(relay.step(y));
+  EXPECT_EQ(out, (std::vector<double>{0.0, 0.0, 0.0, -2.0, 2.0, -2.0, -2.0}));
+}
+
+TEST(RelayScene, DelayedBandKeepsItsMemoryBehindTheLine) {
+  RelayParameters p{1.0, 0.1, 0.0};
+  p.delay_samples = 1;
+  DelayedBand relay(p);
+  relay.reset(0.0);
+  EXPECT_EQ(relay.step(0.2), 0.0);    // decision -1, still in the line
+  EXPECT_EQ(relay.step(0.05), -1.0);  // decision keeps -1
+  EXPECT_EQ(relay.step(-0.2), -1.0);  // decision +1
+  EXPECT_EQ(relay.step(0.0), 1.0);
+}
+
+TEST(RelayScene, StopsByItselfAfterItsDurationAndAResetDoesNotRestartIt) {
+  RelayParameters p{1.0, 0.0, 0.0};
+  p.duration_steps = 4;
+  Plain relay(p);
+  relay.reset(1.0);
+  for (int n = 0; n < 4; ++n) EXPECT_EQ(relay.step(n % 2 == 0 ? 1.0 : -1.0), n % 2 == 0 ? -1.0 : 1.0) << n;
+  EXPECT_TRUE(relay.finished());
+  for (int n = 0; n < 10; ++n) EXPECT_EQ(relay.step(1.0), 0.0);
+  relay.reset(1.0);  // a cleared fault resets the scene: the experiment stays over
+  EXPECT_EQ(relay.step(1.0), 0.0);
+  std::array<double, 1> ch{};
+  relay.channels(ch);
+  EXPECT_EQ(ch[0], 1.0);  // the error is still reported
+}
+
+TEST(RelayScene, WithoutDurationItNeverStops) {
+  Plain relay(RelayParameters{1.0, 0.0, 0.0});
+  relay.reset(1.0);
+  for (int n = 0; n < 100000; ++n) ASSERT_EQ(relay.step(1.0), -1.0);
+  EXPECT_FALSE(relay.finished());
 }
 
 TEST(FreeScene, AlwaysZero) {

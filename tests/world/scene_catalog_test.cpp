@@ -28,7 +28,8 @@ ScenePlan plan_of(std::string_view name, const ParameterSet& given, double perio
 TEST(SceneCatalog, ListsTheFiveScenes) {
   std::vector<std::string> names;
   for (const auto& s : scene_catalog()) names.push_back(s.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"spring-wheel", "spring-mass", "wall", "relay", "free"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"spring-wheel", "spring-mass", "wall", "relay", "chirp", "free"}));
   EXPECT_TRUE(find_scene("free")->parameters.empty());
   const auto* wall = find_scene("wall");
   ASSERT_NE(wall, nullptr);
@@ -101,7 +102,7 @@ TEST(SceneCatalog, AcceptsNumericTextAndIntegratorAliases) {
 
 TEST(SceneCatalog, ErrorMessages) {
   EXPECT_EQ(error_of("walll", {}),
-            "unknown scene 'walll'; accepted: spring-wheel, spring-mass, wall, relay, free");
+            "unknown scene 'walll'; accepted: spring-wheel, spring-mass, wall, relay, chirp, free");
   EXPECT_EQ(
       error_of("wall", {{"stifness", 1.0}}),
       "unknown parameter 'stifness' for scene wall; accepted: stiffness, damping, position, side, delay");

@@ -48,6 +48,7 @@ AmplifierState Amplifier::state() const noexcept {
   s.requests = pub_requests_.load(std::memory_order_relaxed);
   s.watchdog_trips = pub_trips_.load(std::memory_order_relaxed);
   s.resets = pub_resets_.load(std::memory_order_relaxed);
+  s.trip_silence_s = pub_trip_silence_.load(std::memory_order_relaxed);
   return s;
 }
 
@@ -60,6 +61,7 @@ void Amplifier::publish() noexcept {
   pub_requests_.store(requests_, std::memory_order_relaxed);
   pub_trips_.store(trips_, std::memory_order_relaxed);
   pub_resets_.store(resets_, std::memory_order_relaxed);
+  pub_trip_silence_.store(trip_silence_s_, std::memory_order_relaxed);
   pub_enabled_.store(enabled_, std::memory_order_release);
 }
 
@@ -68,7 +70,8 @@ void Amplifier::set_enable(bool on) noexcept {
   enabled_ = on && fault_ == 0;
 }
 
-void Amplifier::trip_watchdog() noexcept {
+void Amplifier::trip_watchdog(double now_s) noexcept {
+  trip_silence_s_ = now_s - (watchdog_deadline_s_ - watchdog_period_s_);
   fault_ = static_cast<std::uint16_t>(fault_ | (1u << settings_.watchdog_fault_bit));
   enabled_ = false;
   watchdog_armed_ = false;
@@ -78,7 +81,7 @@ void Amplifier::trip_watchdog() noexcept {
 
 void Amplifier::tick(double now_s) noexcept {
   if (watchdog_armed_ && now_s > watchdog_deadline_s_) {
-    trip_watchdog();
+    trip_watchdog(now_s);
     refresh_state_registers();
   }
   if (const std::uint16_t bits = pending_fault_.exchange(0, std::memory_order_acq_rel)) {

@@ -89,6 +89,9 @@ struct AmplifierState {
   std::uint64_t requests = 0;
   std::uint64_t watchdog_trips = 0;
   std::uint64_t resets = 0;
+  /// At the last watchdog trip: wall time since the last refresh, s (what
+  /// the amplifier saw of the silence; >= the watchdog time by design).
+  double trip_silence_s = 0.0;
 };
 
 class Amplifier {
@@ -120,7 +123,7 @@ class Amplifier {
   std::uint16_t* state_register(std::uint16_t address) noexcept;  ///< the read table
   void apply_write(std::uint16_t address, std::uint16_t value, double now_s) noexcept;
   void set_enable(bool on) noexcept;
-  void trip_watchdog() noexcept;
+  void trip_watchdog(double now_s) noexcept;
   void refresh_state_registers() noexcept;
   void publish() noexcept;
 
@@ -138,6 +141,7 @@ class Amplifier {
   std::int16_t torque_counts_ = 0;
   double applied_ = 0.0;
   std::uint64_t steps_ = 0, requests_ = 0, trips_ = 0, resets_ = 0;
+  double trip_silence_s_ = 0.0;
 
   // Switches.
   std::atomic<Injection> injection_{Injection::none};
@@ -150,7 +154,7 @@ class Amplifier {
   std::atomic<bool> pub_enabled_{false}, pub_armed_{false};
   std::atomic<std::uint16_t> pub_fault_{0};
   std::atomic<std::int16_t> pub_counts_{0};
-  std::atomic<double> pub_applied_{0.0};
+  std::atomic<double> pub_applied_{0.0}, pub_trip_silence_{0.0};
   std::atomic<std::uint64_t> pub_steps_{0}, pub_requests_{0}, pub_trips_{0}, pub_resets_{0};
 };
 

@@ -5,7 +5,9 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <pthread.h>
 #include <pty.h>
+#include <sched.h>
 #include <sys/socket.h>
 #include <termios.h>
 #include <unistd.h>
@@ -97,6 +99,13 @@ void AmplifierServer::start() {
   stop_.store(false);
   modbus_set_indication_timeout(ctx_, 0, idle_wake_us);
   thread_ = std::thread([this] { run(); });
+}
+
+int AmplifierServer::make_realtime(int priority) noexcept {
+  if (!thread_.joinable()) return ESRCH;
+  sched_param p{};
+  p.sched_priority = priority;
+  return pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &p);
 }
 
 void AmplifierServer::stop() noexcept {

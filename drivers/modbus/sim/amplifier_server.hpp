@@ -40,6 +40,10 @@ class AmplifierServer {
 
   void start();
   void stop() noexcept;
+  /// Runs the server thread SCHED_FIFO at `priority` (after start()): an
+  /// amplifier is its own hardware and answers whatever else the host does.
+  /// Returns 0, or the errno (EPERM without the privilege).
+  int make_realtime(int priority) noexcept;
 
   int port() const noexcept { return port_; }                             ///< TCP
   const std::string& slave_path() const noexcept { return slave_path_; }  ///< RTU

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -27,6 +28,7 @@ struct Options {
   std::string hand;
   std::string map;
   bool no_function_23 = false;
+  int priority = 0;
 };
 
 // "key=value key=value" as [device.modbus] values: true/false, numbers, text.
@@ -73,6 +75,12 @@ int run(const Options& o) {
     auto server = o.transport == "rtu" ? AmplifierServer::rtu_pty(amplifier)
                                        : AmplifierServer::tcp(amplifier, o.host, o.port);
     server->start();
+    if (o.priority > 0) {
+      if (const int e = server->make_realtime(o.priority); e != 0)
+        std::cerr << "hapticd-devsim modbus: cannot run SCHED_FIFO " << o.priority << " ("
+                  << (e == EPERM ? "not permitted" : "errno " + std::to_string(e))
+                  << "): answering at normal priority" << std::endl;
+    }
     if (server->is_rtu())
       std::cout << "modbus amplifier: rtu " << server->slave_path() << " slave " << s.slave_id << std::endl;
     else
@@ -106,6 +114,10 @@ devsim::SimulatedPeer modbus_peer() {
             cmd->add_option("--map", options->map,
                             "register map, as [device.modbus] keys: \"torque_register=10 ...\"");
             cmd->add_flag("--no-function-23", options->no_function_23, "answer fc 23 with exception 01");
+            cmd->add_option("--priority", options->priority,
+                            "SCHED_FIFO priority of the server thread, as an amplifier is its own hardware "
+                            "(0: none; without the privilege it says so and runs plain)")
+                ->check(CLI::Range(0, 99));
             cmd->callback([options, &exit_code] { exit_code = run(*options); });
           }};
 }

@@ -133,8 +133,9 @@ TEST_F(AmplifierTest, WatchdogExpiresInWallTime) {
   amplifier_.tick(10.100);  // 51 ms after the last refresh
   EXPECT_FALSE(amplifier_.state().enabled);
   EXPECT_EQ(amplifier_.state().watchdog_trips, 1u);
-  EXPECT_EQ(amplifier_.state().fault, 1u << 2);  // the watchdog bit
-  request(write_register(11, 0));                // disarm, then reset and enable
+  EXPECT_EQ(amplifier_.state().fault, 1u << 2);                 // the watchdog bit
+  EXPECT_NEAR(amplifier_.state().trip_silence_s, 0.051, 1e-9);  // what it saw of the silence
+  request(write_register(11, 0));                               // disarm, then reset and enable
   request(write_register(13, 1));
   request(write_register(12, 0x0001));
   EXPECT_TRUE(amplifier_.state().enabled);

@@ -58,6 +58,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(*amplifier_) : mb::sim::AmplifierServer::tcp(*amplifier_);
     server_->start();
+    (void)server_->make_realtime(70);  // as an amplifier is its own hardware, when permitted
   }
 
   mb::ModbusConfig device_config(Values values = {}) {
@@ -302,6 +303,29 @@ TEST_P(TcpDeviceTest, ALinkSlowerThanTheResponseTimeoutIsRefusedWithTheFigure) {
     EXPECT_NE(text(e).find("round trip to 127.0.0.1"), std::string::npos) << e.what();
     EXPECT_NE(text(e).find("exceeds the response timeout 1 ms"), std::string::npos) << e.what();
   }
+}
+// The round trip is measured with the watchdog off and the watchdog armed
+// only when everything else passed: a refused start leaves no armed
+// watchdog behind to trip 50 ms later and refuse the next start (with the
+// amplifier "in fault: watchdog").
+TEST_P(TcpDeviceTest, ARefusedStartLeavesTheWatchdogDisarmed) {
+  start_amplifier(amplifier_settings(amplifier_config_));
+  server_->inject(mb::sim::Injection::late, 30, 0, 3);  // the measurement's replies 3 ms late
+  {
+    mb::ModbusDevice d(device_config({{"response_timeout", 1e-3}, {"watchdog_value", 30.0}}));
+    EXPECT_THROW(d.configure(LoopContext{test_period_s}), DeviceError);
+  }
+  EXPECT_FALSE(amplifier_->state().watchdog_armed);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // 30 ms watchdog: it would have tripped
+  EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
+  EXPECT_EQ(amplifier_->state().fault, 0);
+  mb::ModbusDevice next(device_config({{"watchdog_value", 30.0}}));
+  next.configure(LoopContext{test_period_s});
+  EXPECT_TRUE(amplifier_->state().watchdog_armed);  // armed at the end of configure, fed by the keep-alive
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
+  next.close();
+  EXPECT_FALSE(amplifier_->state().watchdog_armed);  // a clean stop disarms it
 }
 INSTANTIATE_TEST_SUITE_P(ModbusDevice, TcpDeviceTest, ::testing::Values(mb::Transport::tcp), name);
 

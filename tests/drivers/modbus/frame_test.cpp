@@ -196,3 +196,43 @@ TEST(ModbusFrame, MalformedRequestsAreClassified) {
   EXPECT_EQ(mb::parse_read_response(hex("04 06 02 2B 00 00 00 64"), 0x03, values, exception),
             mb::PduStatus::wrong_function);
 }
+
+// TCP 3.1.3: a TCP stream carries ADUs back to back; the MBAP length field
+// (unit id + PDU) says where each ends. Two replies in one read, split
+// anywhere, are framed one at a time.
+TEST(ModbusFrame, TcpStreamIsFramedByTheMbapLength) {
+  // Transaction 1: fc 3 reply with one register; transaction 2: exception.
+  const Bytes stream = hex("00 01 00 00 00 05 11 03 02 00 0A  00 02 00 00 00 03 11 83 02");
+  bool invalid = true;
+  for (std::size_t cut = 0; cut < 11; ++cut) {
+    EXPECT_EQ(mb::tcp_adu_length(std::span(stream).first(cut), invalid), 0u) << cut;
+    EXPECT_FALSE(invalid) << cut;
+  }
+  EXPECT_EQ(mb::tcp_adu_length(stream, invalid), 11u);
+  const auto second = std::span(stream).subspan(11);
+  EXPECT_EQ(mb::tcp_adu_length(second.first(8), invalid), 0u);
+  EXPECT_EQ(mb::tcp_adu_length(second, invalid), 9u);
+  const mb::Adu adu = mb::parse_tcp_adu(second);
+  EXPECT_EQ(adu.transaction, 2);
+  EXPECT_EQ(Bytes(adu.pdu.begin(), adu.pdu.end()), hex("83 02"));
+  // Not Modbus (protocol id 1), or a length no ADU has: out of step.
+  EXPECT_EQ(mb::tcp_adu_length(hex("00 01 00 01 00 05 11 03"), invalid), 0u);
+  EXPECT_TRUE(invalid);
+  EXPECT_EQ(mb::tcp_adu_length(hex("00 01 00 00 00 01 11 03"), invalid), 0u);
+  EXPECT_TRUE(invalid);
+  EXPECT_EQ(mb::tcp_adu_length(hex("00 01 00 00 00 FF 11 03"), invalid), 0u);  // 255 > 1 + 253
+  EXPECT_TRUE(invalid);
+}
+
+// 6.5, 6.6: a write-single reply echoes the request.
+TEST(ModbusFrame, WriteSingleRepliesEchoTheRequest) {
+  const Bytes request = hex("06 00 01 00 03");
+  std::uint8_t exception = 0xFF;
+  EXPECT_EQ(mb::parse_echo_response(hex("06 00 01 00 03"), request, exception), mb::PduStatus::ok);
+  EXPECT_EQ(exception, 0);
+  EXPECT_EQ(mb::parse_echo_response(hex("06 00 01 00 04"), request, exception), mb::PduStatus::malformed);
+  EXPECT_EQ(mb::parse_echo_response(hex("05 00 01 00 03"), request, exception),
+            mb::PduStatus::wrong_function);
+  EXPECT_EQ(mb::parse_echo_response(hex("86 02"), request, exception), mb::PduStatus::exception);
+  EXPECT_EQ(exception, 0x02);
+}

@@ -52,6 +52,7 @@ class LinkTest : public ::testing::TestWithParam<mb::Transport> {
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(amplifier_) : mb::sim::AmplifierServer::tcp(amplifier_);
     server_->start();
+    (void)server_->make_realtime(70);  // as an amplifier is its own hardware, when permitted
   }
   ~LinkTest() override { server_->stop(); }
 
@@ -402,12 +403,12 @@ TEST(ModbusLinkErrors, LibmodbusErrnosMapToOutcomes) {
 // A reply that arrives after its transaction timed out must not be taken
 // for the next transaction's (on RTU it would look valid: no transaction id).
 TEST_P(LinkTest, ALateReplyIsDroppedBeforeTheNextRequest) {
-  mb::ModbusLink link(settings(0.03));
+  mb::ModbusLink link(settings(0.02));
   link.open();
-  server_->inject(mb::sim::Injection::late, 1, 0, 100);
+  server_->inject(mb::sim::Injection::late, 1, 0, 300);
   std::array<std::uint16_t, 6> state{};
   EXPECT_EQ(exchange(link, 100, state).outcome, LinkOutcome::timeout);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the late reply is in the buffer now
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the late reply is in the buffer now
   ASSERT_TRUE(amplifier_.state().steps == 1u);
   link.set_response_timeout(test_response_timeout_s);
   const mb::LinkResult next = exchange(link, 200, state);
@@ -416,4 +417,107 @@ TEST_P(LinkTest, ALateReplyIsDroppedBeforeTheNextRequest) {
   // The reply is this transaction's: the amplifier now holds the new command.
   EXPECT_EQ(amplifier_.state().torque_counts, 200);
   EXPECT_EQ(amplifier_.state().steps, 2u);
+}
+
+// The reply a transaction gets is its own, even when the previous request's
+// reply comes late, after the next request has left. Here the amplifier
+// answers request A 150 ms late, after A timed out (20 ms) and B was sent:
+// A's reply arrives first. The read block covers the torque register, so
+// each reply shows which command it answers (fc 23 writes, then reads).
+// TCP pairs by transaction id: B gets B's reply and A's is dropped as late.
+// RTU frames carry no id: B may take A's reply, but the flush before every
+// request keeps it to that one (before, every reply was read one
+// transaction late from then on, silently: an extra period of delay).
+TEST_P(LinkTest, AReplyLaterThanTheNextRequestIsNotTakenForTheNextReplies) {
+  mb::ModbusLink link(settings(0.02));
+  link.open();
+  ASSERT_TRUE(link.write_register(12, 0x0001).ok());
+  std::array<std::uint16_t, 12> state{};  // position ... fault, 6-9, torque at 10, watchdog at 11
+  auto exchange_echo = [&](std::int16_t torque) {
+    const std::array<std::uint16_t, 2> command{static_cast<std::uint16_t>(torque), 50};
+    return link.write_and_read(10, command, 0, state);
+  };
+  server_->inject(mb::sim::Injection::late, 1, 0, 150);
+  EXPECT_EQ(exchange_echo(100).outcome, LinkOutcome::timeout);
+  link.set_response_timeout(2.0);
+  const mb::LinkResult b = exchange_echo(200);
+  ASSERT_TRUE(b.ok()) << mb::describe(b);
+  if (!rtu()) {
+    EXPECT_EQ(static_cast<std::int16_t>(state[10]), 200) << "B took A's reply";
+    EXPECT_EQ(link.counters().late_replies.load(), 1u);
+  }
+  for (std::int16_t torque = 300; torque < 310; ++torque) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));  // paced as a loop is
+    const mb::LinkResult r = exchange_echo(torque);
+    ASSERT_TRUE(r.ok()) << mb::describe(r);
+    EXPECT_EQ(static_cast<std::int16_t>(state[10]), torque) << "a reply read one transaction late";
+  }
+  EXPECT_EQ(link.counters().bad_frames.load(), 0u);
+  EXPECT_EQ(amplifier_.state().steps, 12u);  // every request was applied once
+}
+
+// Over TCP the link frames the stream itself: a reply split across
+// segments, behind a late reply to an earlier request, is this request's;
+// a stream that is not Modbus is a malformed reply, and the link starts
+// afresh after it.
+TEST(ModbusLinkTcp, RepliesArePairedByTransactionIdAcrossSegments) {
+  const int listener = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof addr;
+  ASSERT_EQ(bind(listener, reinterpret_cast<sockaddr*>(&addr), len), 0);
+  ASSERT_EQ(listen(listener, 1), 0);
+  ASSERT_EQ(getsockname(listener, reinterpret_cast<sockaddr*>(&addr), &len), 0);
+  mb::LinkSettings s;
+  s.transport = mb::Transport::tcp;
+  s.port = ntohs(addr.sin_port);
+  s.slave_id = 0x11;
+  s.response_timeout_s = 5.0;  // only the peer below decides
+  mb::ModbusLink link(s);
+  link.open();
+  const int peer = accept(listener, nullptr, nullptr);
+  ASSERT_GE(peer, 0);
+  std::array<std::uint16_t, 1> out{};
+  auto answer = [&](auto reply) {
+    mb::LinkResult result;
+    std::thread t([&] { result = link.read_registers(mb::ReadTable::holding, 0x0008, out); });
+    const Bytes request = read_bytes(peer, 12);
+    EXPECT_EQ(request.size(), 12u);
+    reply(static_cast<std::uint16_t>((request[0] << 8) | request[1]));
+    t.join();
+    return result;
+  };
+  const Bytes value = pdu([](auto o) {
+    const std::array<std::uint16_t, 1> v{0x000A};
+    return mb::build_read_registers_response(o, 0x03, v);
+  });
+  mb::LinkResult r = answer([&](std::uint16_t id) {
+    Bytes bytes = tcp(static_cast<std::uint16_t>(id - 1), 0x11, value);  // late
+    const Bytes mine = tcp(id, 0x11, value);
+    bytes.insert(bytes.end(), mine.begin(), mine.begin() + 5);
+    ASSERT_EQ(::write(peer, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_EQ(::write(peer, mine.data() + 5, mine.size() - 5), static_cast<ssize_t>(mine.size() - 5));
+  });
+  EXPECT_TRUE(r.ok()) << mb::describe(r);
+  EXPECT_EQ(out[0], 0x000A);
+  EXPECT_EQ(link.counters().late_replies.load(), 1u);
+  r = answer([&](std::uint16_t id) {
+    Bytes bytes = tcp(id, 0x11, value);
+    bytes[3] = 0x01;  // protocol id 1: not Modbus
+    ASSERT_EQ(::write(peer, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+  });
+  EXPECT_EQ(r.outcome, LinkOutcome::bad_frame);
+  EXPECT_EQ(mb::describe(r), "malformed reply in reply to function 0x03 (Invalid data)");
+  r = answer([&](std::uint16_t id) {
+    const Bytes bytes = tcp(id, 0x11, value);
+    ASSERT_EQ(::write(peer, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+  });
+  EXPECT_TRUE(r.ok()) << mb::describe(r);
+  EXPECT_EQ(link.counters().requests.load(), 3u);
+  EXPECT_EQ(link.counters().responses.load(), 3u);
+  link.close();
+  close(peer);
+  close(listener);
 }

@@ -1,0 +1,70 @@
+#include "daemon/device_model.hpp"
+#include "daemon/methods/method_support.hpp"
+#include "daemon/service.hpp"
+
+namespace hapticd::daemon {
+
+using nlohmann::json;
+using rpc::RpcError;
+namespace code = rpc::code;
+using control::Access;
+using control::PeerInfo;
+
+// The device model the stability gate uses: read it whole (device.model), or
+// replace it with an identified one (device.model.set, `hapticctl identify
+// --apply`). Both run on the control thread, the only reader of model_.
+
+json Service::replace_model(DeviceModel next) {
+  const CurrentScene scene = current_scene();
+  auto outcome = plan_on_device(scene.name, scene.requested, next, scene.forced);
+  if (const auto* refusal = std::get_if<PlanRefusal>(&outcome)) {
+    throw RpcError(code::refused,
+                   "the loaded scene " + scene.name + " would not be stable on this model (" +
+                       next.describe() + "): " + refusal->message +
+                       "; load a stable scene first, then set the model",
+                   refusal->data);
+  }
+  const auto& planned = std::get<PlannedScene>(outcome);
+  model_ = std::move(next);
+  {
+    std::lock_guard lock(scene_mutex_);
+    scene_.stability = planned.stability;
+  }
+  return json{{"model", to_json(model_)},
+              {"scene", {{"name", scene.name}, {"stability", to_json(planned.stability)}}}};
+}
+
+void Service::register_model_methods(control::ControlServer& server) {
+  server.register_method(
+      "device.model", [this](const json&, const PeerInfo&) { return to_json(model_); }, Access::read);
+
+  server.register_method(
+      "device.model.set",
+      [this](const json& params, const PeerInfo&) {
+        methods::reject_unknown_keys("device.model.set", params, {"model", "file"});
+        if (!params.contains("model")) {
+          throw RpcError(code::invalid_params,
+                         "device.model.set needs \"model\": {plant, motion, period, ...} (docs/config.md, "
+                         "\"Device model files\")");
+        }
+        if (params.contains("file") && !params["file"].is_string()) {
+          throw RpcError(code::invalid_params, "file must be the path of the model file, a string");
+        }
+        const std::string file = params.value("file", std::string());
+        const std::string source = file.empty() ? "identified" : "identified: " + file;
+        DeviceModel next;
+        try {
+          const auto info = model_from_keys(keys_from_json(params["model"]), device_.device->model(),
+                                            options_.config.loop.period_s, source, {});
+          next = make_device_model(info, options_.config.loop.period_s);
+        } catch (const std::invalid_argument& e) {
+          throw RpcError(code::invalid_params, e.what());
+        } catch (const config::ConfigError& e) {
+          throw RpcError(code::invalid_params, e.what());
+        }
+        return replace_model(std::move(next));
+      },
+      Access::write);
+}
+
+}  // namespace hapticd::daemon
