@@ -18,7 +18,9 @@
 //     period_fraction: the mean cost as a fraction of a 1 ms period;
 //   BM_QuadratureEdgeRate: edges injected on the emulated A/B lines at a
 //     paced real-time rate while the reader thread decodes; reports
-//     lost=1 when any edge was dropped or mis-decoded. Every read of an
+//     lost=1 when any edge was dropped or mis-decoded; dropped: edges the
+//     full 16-event queues dropped (the reader was kept away too long);
+//     count_error: the largest final count error. Every read of an
 //     event fd is a round trip to umockdev's handler thread, so this is the
 //     emulation's limit on this machine, not the kernel's (see README:
 //     32 counts per longest read gap).
@@ -210,6 +212,8 @@ void BM_QuadratureEdgeRate(benchmark::State& state) {
   const double rate = static_cast<double>(state.range(0));
   bool lost = false;
   double achieved = 0.0;
+  std::uint64_t dropped = 0;  // edges the emulated kernel queue dropped (full)
+  std::int64_t count_error = 0;
   for (auto _ : state) {
     gp::sim::UmockdevGpioTestbed bed(chip_spec());
     gp::GpioChip chip(bed.chip_path());
@@ -239,9 +243,13 @@ void BM_QuadratureEdgeRate(benchmark::State& state) {
     const auto s = reader.stats();
     lost = lost || reader.count() != edges_total || bed.dropped_events() != 0 || s.full_reads != 0 ||
            s.lost_edges != 0 || s.invalid_transitions != 0;
+    dropped += bed.dropped_events();
+    count_error = std::max(count_error, std::abs(reader.count() - edges_total));
   }
   state.counters["lost"] = lost ? 1.0 : 0.0;
   state.counters["edges_per_s"] = achieved;
+  state.counters["dropped"] = static_cast<double>(dropped);
+  state.counters["count_error"] = static_cast<double>(count_error);
 }
 BENCHMARK(BM_QuadratureEdgeRate)
     ->Arg(1'000)
