@@ -6,7 +6,7 @@
 // descriptor exists only in the process that opened it. So the board must
 // live in hapticd's own process. Loaded with
 //   LD_PRELOAD="libumockdev-preload.so.0 <dir>/libhapticd-gpio-board.so"
-// (hapticd-devsim gpio-pwm sets it up), it builds the testbed and the board
+// (tests/drivers/gpio_pwm/e2e sets it up), it builds the testbed and the board
 // before hapticd's main() runs, and tears them down after main() returns.
 // hapticd itself links nothing of it.
 //
