@@ -109,7 +109,8 @@ class InjectedBoard {
     plant.period_s = options.period_s;
     const char* hand = environment("HAPTICD_GPIO_BOARD_HAND");
     auto simulator = std::make_unique<simulation::PlantSimulator>(
-        plant, hand != nullptr ? simulation::parse_hand_script(hand) : simulation::HandScript{});
+        plant,
+        hand != nullptr && hand[0] != '\0' ? simulation::parse_hand_script(hand) : simulation::HandScript{});
     sim::BoardConfig config;
     config.wiring.enable = 0;
     config.wiring.direction = 1;

@@ -194,6 +194,18 @@ TEST(GpioPwmEndToEnd, SpringWheelStepMatchesTheLoopbackRunAndTheLinesFollowTheTo
 // both queues empty, so an A edge still queued was decoded after a later B
 // edge (counted the wrong way, no error counted): 116 to 184 counts short
 // here, for good.
+// hapticd-devsim gpio-pwm runs hapticd with the board inside it; the
+// shipped example configures against it and passes the stability gate.
+TEST(GpioPwmEndToEnd, DevsimRunsTheShippedConfigAgainstTheBoard) {
+  const auto devsim = std::filesystem::path(HAPTICD_BINARY_DIR) / "drivers/devsim/hapticd-devsim";
+  const auto r =
+      run(devsim, {"gpio-pwm", "--plant", "damping=0.002", "--", hapticd_binary().string(), "--config",
+                   std::string(HAPTICD_SOURCE_DIR) + "/config/gpio-pwm.toml", "--check-config"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("config OK"), std::string::npos) << r.out << r.err;
+  EXPECT_NE(r.err.find("counts_per_unit = 16384"), std::string::npos) << r.err;
+}
+
 json status_of(const Daemon& d) {
   const auto r = d.ctl({"status", "--json"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
