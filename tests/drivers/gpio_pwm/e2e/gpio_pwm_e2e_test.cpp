@@ -256,7 +256,8 @@ TEST(GpioPwmEndToEnd, FaultLineZeroesTheDutyLatchesWithItsNameAndFaultClearResum
     ASSERT_EQ(cleared.exit_code, 0) << cleared.err << cleared.out << d.log();
     EXPECT_NE(cleared.out.find("reset pulse"), std::string::npos) << cleared.out;
     std::printf("fault clear: %s\n", cleared.out.c_str());
-    ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "running"; })) << d.log();
+    ASSERT_TRUE(within(10000ms, [&] { return status_of(d).value("state", "") == "running"; }))
+        << status_of(d).dump() << d.log();
     std::this_thread::sleep_for(300ms);
     ASSERT_EQ(d.ctl({"record", "stop"}).exit_code, 0);
     ::close(control);
