@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "drivers/canopen/canopen_device.hpp"
 #include "drivers/gpio_pwm/gpio_pwm_config.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/modbus/modbus_driver.hpp"
@@ -15,7 +16,7 @@ const std::vector<DriverDescription>& driver_registry() {
   static const std::vector<DriverDescription> drivers{
       loopback::loopback_driver(),  // drivers/loopback
       usb_hid::usb_hid_driver(),    // drivers/usb_hid
-      planned::canopen_driver(),    // issue 8
+      canopen::canopen_driver(),    // drivers/canopen
       modbus::modbus_driver(),      // drivers/modbus
       gpio_pwm::gpio_pwm_driver(),  // drivers/gpio_pwm
   };

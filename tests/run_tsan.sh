@@ -13,7 +13,7 @@ build="${BUILD_DIR:-$here/build-tsan}"
 
 cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF >/dev/null
-ninja -C "$build" rt_tests daemon_tests usb_hid_umockdev_tests
+ninja -C "$build" rt_tests daemon_tests usb_hid_umockdev_tests canopen_tests
 
 run=()
 if setarch "$(uname -m)" -R true 2>/dev/null; then
@@ -33,3 +33,7 @@ export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1 second_deadlock_stack=1}"
 LD_PRELOAD=libumockdev-preload.so.0 \
   TSAN_OPTIONS="$TSAN_OPTIONS suppressions=$here/tests/drivers/usb_hid/tsan.supp" \
   "${run[@]}" "$build/tests/drivers/usb_hid/usb_hid_umockdev_tests"
+# The canopen driver's session: its RT loop thread against clear_fault(),
+# commissioning SDO through the ring and status() on other threads, the
+# simulated drive's bus thread; and the conformance suite over the socket.
+"${run[@]}" "$build/tests/drivers/canopen/canopen_tests" --gtest_filter='SessionTest.*:Canopen/*'

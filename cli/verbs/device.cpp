@@ -1,9 +1,13 @@
 // hapticctl device [describe] | device call METHOD [key=value ...]
+//          | device sdo read INDEX SUB [--type T] | device sdo write INDEX SUB VALUE [--type T]
 //
 // What the device is (its driver, the parameters in force from the driver's
-// own description, its state and model) and the methods its driver adds.
+// own description, its state and model) and the methods its driver adds;
+// `sdo` is the canopen driver's commissioning access (device.sdo.read/write).
 
+#include <iomanip>
 #include <iostream>
+#include <memory>
 
 #include "cli/verbs.hpp"
 
@@ -39,6 +43,53 @@ void print_description(const nlohmann::json& result) {
   }
 }
 
+/// "0x6041:00 statusword = 567 (raw 0x00000237, u16)"
+void print_sdo(const nlohmann::json& r) {
+  std::cout << r["index"].get<std::string>() << ":" << std::setw(2) << std::setfill('0') << std::hex
+            << r["sub"].get<int>() << std::dec << std::setfill(' ');
+  if (!r["name"].get<std::string>().empty()) std::cout << " " << r["name"].get<std::string>();
+  std::cout << " = " << r["value"].get<std::int64_t>() << " (raw " << r["raw"].get<std::string>();
+  if (!r["type"].is_null()) std::cout << ", " << r["type"].get<std::string>();
+  std::cout << ")\n";
+}
+
+void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
+  struct Args {
+    std::string index, sub, value, type;
+  };
+  auto args = std::make_shared<Args>();
+  auto* sdo =
+      device.add_subcommand("sdo", "canopen: read or write an object of the drive by SDO (commissioning)");
+  sdo->require_subcommand(1);
+  auto params = [args](bool with_value) {
+    nlohmann::json p = {{"index", args->index}, {"sub", args->sub}};
+    if (with_value) p["value"] = args->value;
+    if (!args->type.empty()) p["type"] = args->type;
+    return p;
+  };
+  auto* read = sdo->add_subcommand("read", "INDEX SUB: e.g. sdo read 0x6041 0");
+  auto* write = sdo->add_subcommand("write", "INDEX SUB VALUE: e.g. sdo write 0x6072 0 1500");
+  for (auto* c : {read, write}) {
+    add_common_options(*c, opts);
+    c->add_option("index", args->index, "object index, e.g. 0x6041")->required();
+    c->add_option("sub", args->sub, "sub-index, e.g. 0")->required();
+  }
+  write->add_option("value", args->value, "the value, decimal or 0x hex")->required();
+  for (auto* c : {read, write})
+    c->add_option("--type", args->type,
+                  "u8, u16, u32, i8, i16, i32 or bool: needed for objects the driver does not know");
+  read->callback([&opts, params] {
+    auto result = detail::call(opts, "device.sdo.read", params(false));
+    if (opts.json) return detail::print_json(result);
+    print_sdo(result);
+  });
+  write->callback([&opts, params] {
+    auto result = detail::call(opts, "device.sdo.write", params(true));
+    if (opts.json) return detail::print_json(result);
+    print_sdo(result);
+  });
+}
+
 }  // namespace
 
 void add_device_command(CLI::App& app, CommonOptions& opts) {
@@ -66,6 +117,7 @@ void add_device_command(CLI::App& app, CommonOptions& opts) {
     if (opts.json) return detail::print_json(result);
     detail::print_fields(std::cout, result);
   });
+  add_sdo_commands(*cmd, opts);
   cmd->callback([cmd, show] {
     if (cmd->get_subcommands().empty()) show();
   });

@@ -315,8 +315,8 @@ TEST(ConfigErrors, DriversAndDriverTables) {
             "[device.loopback]");
   // Drivers not built yet still parse: the daemon refuses them, not the config.
   const DaemonConfig config =
-      parse_config("[device]\ndriver = \"canopen\"\n[device.canopen]\nnode_id = 5\n", "t");
-  EXPECT_EQ(config.device.driver, "canopen");
+      parse_config("[device]\ndriver = \"modbus\"\n[device.modbus]\nslave_id = 5\n", "t");
+  EXPECT_EQ(config.device.driver, "modbus");
   ASSERT_EQ(config.device.parameters.size(), 1u);
   EXPECT_EQ(config.device.parameters[0].value, ParameterValue{5.0});
 }

@@ -1,0 +1,76 @@
+#include "drivers/canopen/canopen_config.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "drivers/canopen/301/cob_id.hpp"
+
+namespace hapticd::drivers::canopen {
+
+namespace {
+
+void require(bool ok, const std::string& message, const std::string& key) {
+  if (!ok) throw ConfigError(message, key);
+}
+
+bool positive(double v) { return std::isfinite(v) && v > 0.0; }
+
+}  // namespace
+
+void validate(const CanopenConfig& c) {
+  require(!c.interface.empty(),
+          "interface is required: a CAN interface (\"can0\") or \"unix:/path\" of the simulated drive",
+          "interface");
+  require(c.interface != "unix:",
+          "interface \"unix:\" needs the path of the simulated bus, e.g. \"unix:/run/hapticd/canbus\"",
+          "interface");
+  require(cia301::valid_node_id(c.node_id), "node_id must be 1..127", "node_id");
+  require(cia301::valid_node_id(c.master_node_id), "master_node_id must be 1..127", "master_node_id");
+  require(c.master_node_id != c.node_id,
+          "master_node_id " + std::to_string(c.master_node_id) +
+              " is the drive's node_id: hapticd's heartbeat needs its own",
+          "master_node_id");
+  require(c.bitrate >= 10000 && c.bitrate <= 1000000, "bitrate must be 10000..1000000 bit/s (classic CAN)",
+          "bitrate");
+  require(positive(c.counts_per_unit),
+          "counts_per_unit must be > 0 (0x6064 increments per output revolution or metre)",
+          "counts_per_unit");
+  require(std::isfinite(c.velocity_counts_per_unit) && c.velocity_counts_per_unit >= 0.0,
+          "velocity_counts_per_unit must be >= 0 (0: the same as counts_per_unit, increments per second)",
+          "velocity_counts_per_unit");
+  require(positive(c.gear_ratio), "gear_ratio must be > 0", "gear_ratio");
+  require(std::isfinite(c.rated_torque) && c.rated_torque >= 0.0,
+          "rated_torque must be >= 0 (0: read 0x6076 from the drive)", "rated_torque");
+  require(c.rated_torque * 1e3 <= 4294967295.0, "rated_torque is beyond 0x6076's range (UNSIGNED32 mN m)",
+          "rated_torque");
+  require(
+      positive(c.heartbeat_period) && c.heartbeat_period * 1e3 >= 1.0 && c.heartbeat_period * 1e3 <= 65535.0,
+      "heartbeat_period must be 1 ms..65.535 s (0x1017 is in whole ms)", "heartbeat_period");
+  require(positive(c.heartbeat_timeout) && c.heartbeat_timeout * 1e3 <= 65535.0,
+          "heartbeat_timeout must be > 0 and at most 65.535 s (0x1016 is in whole ms)", "heartbeat_timeout");
+  require(c.heartbeat_timeout > c.heartbeat_period,
+          "heartbeat_timeout (" + std::to_string(c.heartbeat_timeout * 1e3) +
+              " ms) must exceed heartbeat_period (" + std::to_string(c.heartbeat_period * 1e3) +
+              " ms), or every heartbeat would arrive late",
+          "heartbeat_timeout");
+  require(c.tpdo_timeout_periods >= 1 && c.tpdo_timeout_periods <= 100000,
+          "tpdo_timeout_periods must be 1..100000", "tpdo_timeout_periods");
+  require(positive(c.sdo_timeout) && c.sdo_timeout <= 10.0, "sdo_timeout must be > 0 and at most 10 s",
+          "sdo_timeout");
+  require(positive(c.mass), "mass must be > 0", "mass");
+  require(std::isfinite(c.damping) && c.damping >= 0.0, "damping must be >= 0", "damping");
+}
+
+Scaling scaling(const CanopenConfig& c, std::uint32_t rated_torque_mnm) {
+  const double sign = c.reversed ? -1.0 : 1.0;
+  const double unit = c.motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0;  // rad per rev, m per m
+  Scaling s;
+  s.si_per_count = sign * unit / c.counts_per_unit;
+  s.si_per_velocity_unit =
+      sign * unit / (c.velocity_counts_per_unit > 0.0 ? c.velocity_counts_per_unit : c.counts_per_unit);
+  const double rated = c.rated_torque > 0.0 ? c.rated_torque : rated_torque_mnm * 1e-3;
+  s.force_per_permille = sign * rated * 1e-3 * c.gear_ratio;
+  return s;
+}
+
+}  // namespace hapticd::drivers::canopen

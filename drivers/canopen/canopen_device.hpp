@@ -1,0 +1,58 @@
+#pragma once
+/// \file
+/// The canopen driver behind drivers::Device: a CiA 402 drive in cyclic
+/// synchronous torque over SocketCAN (or the unix: seam of the simulated
+/// drive). The work is the session's (canopen_session.hpp); this file maps
+/// it onto the lifecycle, the status, the device model and the commissioning
+/// methods device.sdo.read / device.sdo.write. See README.md.
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "drivers/canopen/canopen_config.hpp"
+#include "drivers/canopen/canopen_session.hpp"
+#include "drivers/device.hpp"
+#include "drivers/registry.hpp"
+
+namespace hapticd::drivers::canopen {
+
+class CanopenDevice final : public Device {
+ public:
+  /// Validates the config (throws ConfigError naming the key).
+  explicit CanopenDevice(CanopenConfig config);
+  ~CanopenDevice() override;
+
+  void configure(const LoopContext& loop) override;
+  void enable() override;
+  std::string clear_fault() override;
+  void disable() noexcept override;
+  void close() noexcept override;
+
+  IoResult read(Reading& out) noexcept override;
+  IoResult write(double force) noexcept override;
+
+  DeviceModel model() const override;
+  DeviceStatus status() const override;
+  std::vector<DeviceMethod> methods() override;
+
+  const CanopenConfig& config() const noexcept { return config_; }
+
+ private:
+  CanopenConfig config_;
+  std::unique_ptr<CanopenSession> session_;  ///< from configure() to close()
+  std::atomic<DeviceState> state_{DeviceState::closed};
+  std::atomic<bool> output_enabled_{false};  ///< write() sends only between enable() and disable()
+  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0};
+  mutable std::mutex error_mutex_;  // last_error_ (non-RT)
+  std::string last_error_;
+};
+
+/// The registry entry: parameters, summary, factory.
+DriverDescription canopen_driver();
+/// The typed config from a checked [device.canopen] table; throws ParameterError naming the key.
+CanopenConfig canopen_config_from(const DriverParameters& parameters);
+
+}  // namespace hapticd::drivers::canopen

@@ -1,0 +1,125 @@
+// The canopen driver's self-description for the registry (parameters with
+// types, units, ranges, help) and its factory.
+
+#include <cmath>
+
+#include "drivers/canopen/canopen_device.hpp"
+
+namespace hapticd::drivers::canopen {
+
+namespace {
+
+using P = ParameterSpec;
+
+std::vector<ParameterSpec> make_parameters() {
+  const CanopenConfig d;
+  return {
+      P::choice("motion", {"rotary", "linear"},
+                "rotary (rad, N m, kg m^2) or linear (m, N, kg): the units of everything below")
+          .defaults_to("rotary"),
+      P::number("mass", "kg m^2 | kg",
+                "moving inertia (rotary) or mass (linear) the stability gate uses: the drive cannot know it")
+          .above(0.0)
+          .at_most(1e6),
+      P::number("damping", "N m s/rad | N s/m", "viscous damping to ground the stability gate uses")
+          .defaults_to(0.0)
+          .at_least(0.0)
+          .at_most(1e6),
+      P::text("interface", "SocketCAN interface (can0), or unix:/path of the simulated drive's bus")
+          .defaults_to("can0"),
+      P::integer("node_id", "", "the drive's CANopen node-ID").defaults_to(1.0).at_least(1).at_most(127),
+      P::integer("bitrate", "bit/s", "the bus bit rate (as set with ip link), for the bus budget")
+          .defaults_to(static_cast<double>(d.bitrate))
+          .at_least(10e3)
+          .at_most(1e6),
+      P::number("counts_per_unit", "1/rev | 1/m",
+                "0x6064 position increments per output revolution (rotary) or metre (linear)")
+          .above(0.0)
+          .at_most(1e12),
+      P::number("velocity_counts_per_unit", "1/rev | 1/m",
+                "0x606C units per output rev/s or m/s (with velocity_pdo)")
+          .defaults_to(0.0, "0: counts_per_unit, i.e. increments per second")
+          .at_least(0.0)
+          .at_most(1e12),
+      P::number("gear_ratio", "",
+                "output N m (N) per motor N m: gearbox N:1 -> N; screw of lead L -> 2 pi / L")
+          .defaults_to(1.0)
+          .above(0.0)
+          .at_most(1e6),
+      P::boolean("reversed", "flip the sign of position and force").defaults_to(false),
+      P::number("rated_torque", "N m | N", "motor rated torque: the unit of 0x6071 (per mille of it)")
+          .defaults_to(0.0, "0: read 0x6076 from the drive")
+          .at_least(0.0)
+          .at_most(4e6),
+      P::duration("heartbeat_period", "hapticd's heartbeat and the drive's (0x1017), whole ms")
+          .defaults_to(d.heartbeat_period)
+          .at_least(1e-3)
+          .at_most(65.535),
+      P::duration(
+          "heartbeat_timeout",
+          "the drive faults when hapticd's heartbeat is older (0x1016), and hapticd when the drive's is")
+          .defaults_to(d.heartbeat_timeout)
+          .at_least(2e-3)
+          .at_most(65.535),
+      P::integer("tpdo_timeout_periods", "periods", "a TPDO missing this many periods in a row is a fault")
+          .defaults_to(static_cast<double>(d.tpdo_timeout_periods))
+          .at_least(1)
+          .at_most(100000),
+      P::duration("sdo_timeout", "per SDO transfer (configuration, commissioning)")
+          .defaults_to(d.sdo_timeout)
+          .at_least(1e-3)
+          .at_most(10.0),
+      P::integer("master_node_id", "", "the node-ID hapticd's heartbeat carries")
+          .defaults_to(static_cast<double>(d.master_node_id))
+          .at_least(1)
+          .at_most(127),
+      P::boolean("velocity_pdo", "map 0x606C velocity actual in TPDO2 (one more frame per period)")
+          .defaults_to(false),
+  };
+}
+
+}  // namespace
+
+CanopenConfig canopen_config_from(const DriverParameters& p) {
+  CanopenConfig c;
+  c.motion = p.text("motion") == "linear" ? Motion::linear : Motion::rotary;
+  c.mass = p.number("mass");
+  c.damping = p.number("damping");
+  c.interface = p.text("interface");
+  c.node_id = static_cast<std::uint8_t>(p.integer("node_id"));
+  c.bitrate = static_cast<std::uint32_t>(p.integer("bitrate"));
+  c.counts_per_unit = p.number("counts_per_unit");
+  c.velocity_counts_per_unit = p.number("velocity_counts_per_unit");
+  c.gear_ratio = p.number("gear_ratio");
+  c.reversed = p.boolean("reversed");
+  c.rated_torque = p.number("rated_torque");
+  c.heartbeat_period = p.duration_s("heartbeat_period");
+  c.heartbeat_timeout = p.duration_s("heartbeat_timeout");
+  c.tpdo_timeout_periods = static_cast<std::uint32_t>(p.integer("tpdo_timeout_periods"));
+  c.sdo_timeout = p.duration_s("sdo_timeout");
+  c.master_node_id = static_cast<std::uint8_t>(p.integer("master_node_id"));
+  c.velocity_pdo = p.boolean("velocity_pdo");
+  try {
+    validate(c);
+  } catch (const ConfigError& e) {
+    throw ParameterError(e.key(), "device.canopen." + std::string(e.what()));
+  }
+  // 0x1017 and 0x1016 carry whole milliseconds.
+  for (const auto& [key, seconds] : {std::pair{"heartbeat_period", c.heartbeat_period},
+                                     std::pair{"heartbeat_timeout", c.heartbeat_timeout}}) {
+    if (std::abs(seconds * 1e3 - std::round(seconds * 1e3)) > 1e-9)
+      throw ParameterError(
+          key, "device.canopen." + std::string(key) + " must be whole milliseconds (0x1016/0x1017)");
+  }
+  return c;
+}
+
+DriverDescription canopen_driver() {
+  static const std::vector<ParameterSpec> parameters = make_parameters();
+  return {"canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)", true,
+          parameters, [](const DriverParameters& p) -> std::unique_ptr<Device> {
+            return std::make_unique<CanopenDevice>(canopen_config_from(p));
+          }};
+}
+
+}  // namespace hapticd::drivers::canopen

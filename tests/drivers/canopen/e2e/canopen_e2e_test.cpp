@@ -1,0 +1,470 @@
+// The canopen driver end to end: the real hapticd with `driver = "canopen"`
+// against the simulated CiA 402 drive running as its own process
+// (hapticd-devsim canopen, on the unix seam), driven by the real hapticctl.
+//   - the 45-degree step on spring-wheel matches the loopback run of the same
+//     plant with one period of device delay, within 1 % of the peak;
+//   - an EMCY, missing TPDOs and a killed drive each zero the output in the
+//     period they are seen and show the drive's reason in `hapticctl status`;
+//     `fault clear` recovers without a torque step;
+//   - a drive that stops answering (its heartbeat lost) zeroes and latches
+//     with the drive's reason, and `fault clear` re-enables it through the
+//     CiA 402 state machine once it answers again;
+//   - hapticctl device sdo reads and writes objects of the running drive,
+//     refusing the mapping while enabled and decoding the drive's aborts;
+//   - a killed hapticd lets the drive's heartbeat consumer disable it.
+// The canopen runs use the real clock (the drive answers in its own process);
+// the loopback reference runs on the virtual clock.
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "tests/e2e/support.hpp"
+
+namespace hapticd::e2e {
+namespace {
+
+using namespace std::chrono_literals;
+using nlohmann::json;
+
+const std::string step_hand = "mode=hold trajectory=step amplitude=0.785398163397448 at=0.5";
+// The hand lets go after 0.5 s of hold: the wheel then swings on the virtual
+// spring through the device, so the device's delay shows in the torque.
+const std::string releasing_hand = step_hand + " release_at=1.0";
+// A hand that keeps turning the wheel, so torque flows again after each clear.
+const std::string turning_hand = "mode=hold trajectory=sine amplitude=0.3 frequency=1";
+const std::string plant = "damping=0.002 max_force=1.2";  // the loopback's rigid wheel, J = 0.01 kg m^2
+
+std::filesystem::path devsim_binary() {
+  return std::filesystem::path(HAPTICD_BINARY_DIR) / "drivers" / "devsim" / "hapticd-devsim";
+}
+
+/// hapticd-devsim canopen in its own process: commands on its stdin, replies in its log.
+class SimulatedDrive {
+ public:
+  SimulatedDrive(const TempDir& dir, const std::string& hand)
+      : bus_(dir.path / "bus.sock"), log_(dir.path / "devsim.log") {
+    int pipe_fds[2];
+    if (pipe(pipe_fds) != 0) throw std::runtime_error("pipe failed");
+    pid_ = fork();
+    if (pid_ == 0) {
+      const int out = open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      dup2(pipe_fds[0], 0);
+      dup2(out, 1);
+      dup2(out, 2);
+      close(pipe_fds[1]);
+      const std::string program = devsim_binary().string();
+      std::vector<std::string> args = {program,   "canopen", "--listen", "unix:" + bus_.string(),
+                                       "--plant", plant,     "--hand",   hand};
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(program.c_str(), argv.data());
+      _exit(127);
+    }
+    close(pipe_fds[0]);
+    commands_ = pipe_fds[1];
+    const auto deadline = std::chrono::steady_clock::now() + 10s;
+    while (log().find("listening on") == std::string::npos) {
+      if (std::chrono::steady_clock::now() > deadline)
+        throw std::runtime_error("devsim did not start: " + log());
+      std::this_thread::sleep_for(10ms);
+    }
+  }
+  ~SimulatedDrive() {
+    if (commands_ >= 0) close(commands_);
+    if (pid_ > 0) {
+      kill(pid_, SIGTERM);
+      int status = 0;
+      waitpid(pid_, &status, 0);
+    }
+  }
+  std::string interface() const { return "unix:" + bus_.string(); }
+  std::string log() const {
+    std::ifstream in(log_);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+  /// Sends one command line and returns its reply line.
+  std::string command(const std::string& line) {
+    const std::size_t before = replies().size();
+    const std::string text = line + "\n";
+    if (write(commands_, text.data(), text.size()) != static_cast<ssize_t>(text.size()))
+      return "<write failed>";
+    const auto deadline = std::chrono::steady_clock::now() + 5s;
+    while (std::chrono::steady_clock::now() < deadline) {
+      const auto r = replies();
+      if (r.size() > before) return r.back();
+      std::this_thread::sleep_for(2ms);
+    }
+    return "<no reply>";
+  }
+  void kill_now() {
+    kill(pid_, SIGKILL);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+  }
+
+ private:
+  std::vector<std::string> replies() const {
+    std::vector<std::string> lines;
+    std::istringstream in(log());
+    for (std::string l; std::getline(in, l);)
+      if (l.rfind("ok ", 0) == 0 || l.rfind("error:", 0) == 0) lines.push_back(l);
+    return lines;
+  }
+  std::filesystem::path bus_;
+  std::filesystem::path log_;
+  pid_t pid_ = -1;
+  int commands_ = -1;
+};
+
+const std::string scene =
+    "[scene]\nname = \"spring-wheel\"\nstiffness = 1.0186\ninertia = 0.0258\nintegrator = \"exact\"\n"
+    "damping = \"auto\"\n";
+
+/// heartbeat_timeout: both ways (the drive's 0x1016 on hapticd, hapticd on the
+/// drive's 0x1017). 1 s unless the test is about it: on this shared VM at load
+/// 10 a drive process went unscheduled for 100 ms, and once for 500 ms (so
+/// the SDO timeout of the configuration is 1 s too, not the default 100 ms).
+std::string canopen_config(const std::string& interface, const std::string& loop, int tpdo_timeout,
+                           const std::string& heartbeat_timeout = "1s") {
+  // overrun_limit = 0: this VM stalls the loop for tens of ms now and then.
+  return "[loop]\nperiod = \"1ms\"\noverrun_limit = 0\n" + loop +
+         "[device]\ndriver = \"canopen\"\ntorque_limit = 1.0\n"
+         "[device.canopen]\ninterface = \"" +
+         interface + "\"\ncounts_per_unit = 16384\nmass = 0.01\ndamping = 0.002\ntpdo_timeout_periods = " +
+         std::to_string(tpdo_timeout) + "\nheartbeat_timeout = \"" + heartbeat_timeout +
+         "\"\nsdo_timeout = \"1s\"\n" + scene;
+}
+
+std::string loopback_config(const std::string& hand, int delay) {
+  return "[loop]\nclock = \"virtual\"\nduration = \"3s\"\n[device]\ndriver = \"loopback\"\ntorque_limit = "
+         "1.0\n"
+         "[device.loopback]\nmotion = \"rotary\"\ndamping = 0.002\nmax_force = 1.2\ndelay = " +
+         std::to_string(delay) + "\nhand = \"" + hand + "\"\n" + scene;
+}
+
+std::size_t first_at_least(const std::vector<double>& v, double x) {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (v[i] >= x) return i;
+  return v.size();
+}
+
+/// The canopen run against a loopback run, each from its step, over n samples.
+struct Comparison {
+  double worst = INFINITY;        ///< largest |command difference| over the samples compared
+  std::size_t stale = 0;          ///< samples whose position repeated the last while the reference moved
+  std::size_t longest_stale = 0;  ///< the longest run of such samples in a row
+  std::size_t set_aside = 0;
+};
+
+/// A TPDO that came late (this VM stalls the drive's process now and then)
+/// leaves the scene the last position for a period: the sample shows it as a
+/// repeated position while the reference moved. That sample and the three
+/// after it (the velocity estimate's memory, the plant catching up) are set
+/// aside; everything else is compared.
+Comparison compare(const Recording& drive, const Recording& reference, std::size_t n) {
+  const auto pa = drive.values("position_rad"), pb = reference.values("position_rad");
+  const auto ca = drive.values("command_n_m"), cb = reference.values("command_n_m");
+  const std::size_t ia = first_at_least(pa, 0.1), ib = first_at_least(pb, 0.1);
+  Comparison c;
+  if (ia + n > ca.size() || ib + n > cb.size()) return c;
+  std::vector<bool> aside(n, false);
+  std::size_t streak = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    if (pa[ia + i] != pa[ia + i - 1] || pb[ib + i] == pb[ib + i - 1]) {
+      streak = 0;
+      continue;
+    }
+    ++c.stale;
+    c.longest_stale = std::max(c.longest_stale, ++streak);
+    for (std::size_t j = i; j < std::min(n, i + 4); ++j) aside[j] = true;
+  }
+  c.worst = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (aside[i]) {
+      ++c.set_aside;
+      continue;
+    }
+    c.worst = std::max(c.worst, std::abs(ca[ia + i] - cb[ib + i]));
+  }
+  return c;
+}
+
+double peak(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+
+Recording loopback_reference(const std::string& hand, int delay) {
+  TempDir dir;
+  Daemon d(dir, loopback_config(hand, delay), {"--record", "run.csv"});
+  EXPECT_EQ(d.wait(120s), 0) << d.log();
+  return read_recording(dir.path / "run.csv");
+}
+
+json status_of(const Daemon& d) { return json::parse(d.ctl({"status", "--json"}).out); }
+
+template <class Condition>
+bool eventually(Condition&& condition, std::chrono::milliseconds limit = 10s) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (condition()) return true;
+    std::this_thread::sleep_for(5ms);
+  }
+  return condition();
+}
+
+/// In the recording: every latched period has zero output, from the period
+/// the fault was seen; torque flowed just before each latch; after each clear
+/// the scene starts again at equilibrium (no step). Returns the latches seen.
+/// A fault seen by read() (EMCY, statusword, missing TPDO or heartbeat) zeroes
+/// that period's output. Only a dead link can be seen by write() instead (the
+/// RPDO's send fails): that row's output was computed already, and went to no
+/// one; zero from the next row. `write_seen_latch` is that latch's number.
+int check_latches_zero_and_clears_without_a_step(const Recording& rec, int write_seen_latch = 0) {
+  const auto flags = rec.values("flags"), applied = rec.values("applied_n_m");
+  int latches = 0;
+  for (std::size_t i = 1; i < flags.size(); ++i) {
+    const bool latched = (static_cast<unsigned>(flags[i]) & 1u) != 0;
+    const bool was = (static_cast<unsigned>(flags[i - 1]) & 1u) != 0;
+    if (latched && !was) {
+      ++latches;
+      EXPECT_GT(std::abs(applied[i - 1]), 0.01) << "torque was flowing before latch " << latches;
+    }
+    if (latched && !(latches == write_seen_latch && !was)) {
+      EXPECT_EQ(applied[i], 0.0) << "row " << i << ", latch " << latches;
+    }
+    if (!latched && was) {
+      EXPECT_LT(std::abs(applied[i]), 0.01) << "torque step after the clear at row " << i;
+    }
+  }
+  return latches;
+}
+
+Recording canopen_step_run() {
+  TempDir dir;
+  SimulatedDrive drive(dir, releasing_hand);
+  // tpdo_timeout: this VM stalls the drive's process for tens of ms now and then.
+  Daemon d(dir, canopen_config(drive.interface(), "duration = \"3s\"\n", 1000), {"--record", "run.csv"});
+  EXPECT_EQ(d.wait(60s), 0) << d.log();
+  Recording run = read_recording(dir.path / "run.csv");
+  EXPECT_NE(run.header.at("device").find("canopen"), std::string::npos);
+  EXPECT_NE(run.header.at("device").find("d = 1"), std::string::npos) << "the device delay the gate used";
+  return run;
+}
+
+TEST(Canopen, StepMatchesTheLoopbackRunWithOnePeriodOfDeviceDelay) {
+  const Recording one = loopback_reference(releasing_hand, 1);
+  const double peak_torque = peak(one.values("command_n_m"));
+  ASSERT_GT(peak_torque, 0.5);
+  // A drive process the VM leaves unscheduled for long (quiet runs show up
+  // to 80 late TPDOs in 3000 periods, a few in a row; one at load 10 under
+  // ctest -j2 showed 260) answers a burst of SYNCs late, the scene sees stale
+  // positions for that long and the runs part: such a run is repeated, at
+  // most twice, and said so; the last one is judged whatever it shows.
+  constexpr std::size_t disturbed_run = 120, disturbed_streak = 10;  // 120 late: about 480 set aside
+  Recording drive_run;
+  Comparison with_one;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    drive_run = canopen_step_run();
+    with_one = compare(drive_run, one, 2000);
+    if (with_one.stale <= disturbed_run && with_one.longest_stale <= disturbed_streak) break;
+    std::cout << "run " << attempt << " disturbed by the VM: " << with_one.stale << " late TPDOs, "
+              << with_one.longest_stale << " in a row"
+              << (attempt < 3 ? ", repeated\n" : ", judged anyway\n");
+  }
+  EXPECT_LT(with_one.worst, 0.01 * peak_torque)
+      << "worst difference " << with_one.worst << " N m, peak " << peak_torque << " N m";
+  EXPECT_LT(with_one.set_aside, 500U) << "too many late TPDOs to compare: " << with_one.stale;
+  // The comparison tells the delays apart: without the device's period the run is off by more.
+  const Recording none = loopback_reference(releasing_hand, 0);
+  const Comparison with_none = compare(drive_run, none, 2000);
+  EXPECT_GT(with_none.worst, 0.01 * peak_torque) << "delay 0: " << with_none.worst << " N m";
+  std::cout << "worst torque difference over 2 s from the step, peak " << peak_torque
+            << " N m: " << with_one.worst << " N m against the loopback with one period of delay ("
+            << with_one.stale << " late TPDOs, at most " << with_one.longest_stale << " in a row, "
+            << with_one.set_aside << " samples set aside), " << with_none.worst << " N m with none\n";
+}
+
+TEST(Canopen, FaultsZeroTheOutputWithTheDrivesReasonAndClearWithoutATorqueStep) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  // tpdo_timeout 1000 periods: with 20, and even 200, a drive process the
+  // VM left unscheduled (load 10, ctest -j2) latched a missing TPDO before the
+  // EMCY came.
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000), {"--record", "run.csv"});
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(
+      eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows since 0.5 s
+  ASSERT_TRUE(status_of(d)["fault"].is_null()) << status_of(d)["device"].dump();
+
+  // An EMCY from the drive.
+  EXPECT_EQ(drive.command("fault 0x2310"), "ok EMCY 0x2310: continuous over current (motor side)");
+  ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
+  json s = status_of(d);
+  EXPECT_EQ(s["device"]["state"], "fault");
+  EXPECT_EQ(
+      s["device"]["fault_reason"],
+      "node 1 EMCY 0x2310: continuous over current (motor side); error register 0x03 (generic, current); "
+      "manufacturer bytes 00 00 00 00 00");
+  EXPECT_NE(drive.command("status").find(" force=0 "), std::string::npos);
+  auto r = d.ctl({"fault", "clear", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(json::parse(r.out)["device"], s["device"]["fault_reason"]);
+  EXPECT_TRUE(status_of(d)["fault"].is_null());
+  EXPECT_NE(drive.command("status").find("state=\"Operation Enabled\""), std::string::npos);
+
+  // TPDOs stop coming.
+  std::this_thread::sleep_for(300ms);
+  EXPECT_EQ(drive.command("drop-tpdo all"), "ok dropping every TPDO");
+  ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
+  EXPECT_EQ(status_of(d)["device"]["fault_reason"], "no TPDO1 (0x181) from node 1 for 1000 periods");
+  drive.command("clear");
+  r = d.ctl({"fault", "clear"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  // The drive dies.
+  std::this_thread::sleep_for(300ms);
+  drive.kill_now();
+  ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
+  EXPECT_EQ(status_of(d)["device"]["fault_reason"],
+            "the bus connection closed (the simulated drive's bus program ended?)");
+  r = d.ctl({"fault", "clear"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("the drive stays in fault: the bus connection closed"), std::string::npos) << r.err;
+  EXPECT_EQ(d.stop(), 0) << d.log();
+
+  // The third, the killed drive, may be seen by read() or by write().
+  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv"), 3), 3);
+}
+
+TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  // TPDOs may be missing for 3 s: the drive's heartbeat (timeout 1 s) is what is missed first.
+  Daemon d(dir, canopen_config(drive.interface(), "", 3000), {"--record", "run.csv"});
+  ASSERT_TRUE(d.running()) << d.log();
+  // Enabled through the CiA 402 state machine, torque reaching the drive.
+  ASSERT_TRUE(eventually(
+      [&] { return drive.command("status").find("state=\"Operation Enabled\"") != std::string::npos; }));
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));
+  EXPECT_EQ(status_of(d)["device"]["state"], "enabled");
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque reaches the drive";
+
+  EXPECT_EQ(drive.command("mute"), "ok muted");
+  ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
+  json s = status_of(d);
+  EXPECT_EQ(s["device"]["state"], "fault");
+  const std::string reason = s["device"]["fault_reason"];
+  EXPECT_EQ(reason.rfind("no heartbeat from node 1 for ", 0), 0U) << reason;
+  std::cout << "silent drive: hapticd latched \"" << reason << "\" (heartbeat_timeout 1 s)\n";
+  // A second `fault clear` while the drive is still silent cannot enable it.
+  auto r = d.ctl({"fault", "clear"});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_FALSE(status_of(d)["fault"].is_null());
+
+  // It answers again: its own consumer has meanwhile lost hapticd's heartbeat
+  // (it was deaf too), so it comes back in Fault; the clear's fault-reset edge
+  // and the enable sequence bring it to Operation Enabled.
+  EXPECT_EQ(drive.command("unmute"), "ok answering");
+  std::this_thread::sleep_for(300ms);
+  r = d.ctl({"fault", "clear"});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_TRUE(status_of(d)["fault"].is_null());
+  EXPECT_EQ(status_of(d)["device"]["state"], "enabled");
+  EXPECT_NE(drive.command("status").find("state=\"Operation Enabled\""), std::string::npos);
+  const double cycle = status_of(d)["cycle"].get<double>();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > cycle + 500; }));
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque flows again";
+  EXPECT_EQ(d.stop(), 0) << d.log();
+  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv")), 1);
+}
+
+TEST(Canopen, HapticctlDeviceSdoCommissionsTheRunningDrive) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000));
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(
+      eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows since 0.5 s
+  EXPECT_EQ(status_of(d)["device"]["state"], "enabled");
+
+  auto r = d.ctl({"device", "sdo", "read", "0x6041", "0", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto statusword = json::parse(r.out)["value"].get<int>();
+  EXPECT_EQ(statusword & 0x6F, 0x27) << "Operation Enabled by the mask/value table: " << statusword;
+  r = d.ctl({"device", "sdo", "read", "0x6041", "0"});
+  EXPECT_EQ(r.out.rfind("0x6041:00 statusword = ", 0), 0U) << r.out;
+  std::cout << "hapticctl device sdo read 0x6041 0: " << r.out;
+
+  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "1500"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = d.ctl({"device", "sdo", "read", "0x6072", "0", "--json"});
+  EXPECT_EQ(json::parse(r.out)["value"].get<int>(), 1500) << r.out;
+
+  // The mapping is the cyclic exchange's: refused while enabled, in words.
+  r = d.ctl({"device", "sdo", "write", "0x1A00", "0", "0"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("is a PDO mapping parameter: changing it changes the cyclic exchange: refused while "
+                       "the drive is enabled"),
+            std::string::npos)
+      << r.err;
+  // The drive's own abort, decoded.
+  EXPECT_EQ(drive.command("sdo-abort 0x6072:0 0x06090031").rfind("ok", 0), 0U);
+  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "4000"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("aborted 0x06090031 (value too high)"), std::string::npos) << r.err;
+
+  // Commissioning went through the loop's exchange without disturbing it.
+  EXPECT_TRUE(status_of(d)["fault"].is_null()) << status_of(d)["device"].dump();
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque still flows";
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
+TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
+  TempDir dir;
+  SimulatedDrive drive(dir, step_hand);
+  // 300 ms: with 100 ms the drive's consumer faulted it while hapticd was
+  // alive, once, at load 11 (hapticd's loop went unscheduled that long).
+  Daemon d(dir, canopen_config(drive.interface(), "", 200, "300ms"));
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(eventually(
+      [&] { return drive.command("status").find("state=\"Operation Enabled\"") != std::string::npos; }));
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > 700; }));
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque flows before";
+  const auto killed = std::chrono::steady_clock::now();
+  kill(d.pid(), SIGKILL);
+  std::string status;
+  ASSERT_TRUE(eventually([&] {
+    status = drive.command("status");
+    return status.find("fault=\"heartbeat of node 127 lost (consumer time 300 ms)\"") != std::string::npos;
+  })) << status;
+  const auto seen_ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - killed);
+  EXPECT_TRUE(
+      eventually([&] { return drive.command("status").find("state=\"Fault\"") != std::string::npos; }));
+  EXPECT_NE(drive.command("status").find(" force=0 "), std::string::npos);
+  std::cout << "drive disabled itself " << seen_ms.count()
+            << " ms after hapticd was killed (consumer time 300 ms)\n";
+}
+
+}  // namespace
+}  // namespace hapticd::e2e
