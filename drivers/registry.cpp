@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "drivers/canopen/canopen_device.hpp"
+#include "drivers/gpio_pwm/gpio_pwm_config.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/modbus/modbus_driver.hpp"
 #include "drivers/planned.hpp"
@@ -17,7 +18,7 @@ const std::vector<DriverDescription>& driver_registry() {
       usb_hid::usb_hid_driver(),    // drivers/usb_hid
       canopen::canopen_driver(),    // drivers/canopen
       modbus::modbus_driver(),      // drivers/modbus
-      planned::gpio_pwm_driver(),   // issue 11
+      gpio_pwm::gpio_pwm_driver(),  // drivers/gpio_pwm
   };
   return drivers;
 }

@@ -1,6 +1,7 @@
 #include "drivers/devsim/peers.hpp"
 
 #include "drivers/canopen/sim/devsim_peer.hpp"
+#include "drivers/gpio_pwm/sim/devsim_peer.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/modbus/sim/devsim_peer.hpp"
 #include "drivers/usb_hid/sim/devsim_peer.hpp"
@@ -10,9 +11,10 @@ namespace hapticd::drivers::devsim {
 const std::vector<SimulatedPeer>& simulated_peers() {
   // One line per driver with a simulated peer (its sim/ folder).
   static const std::vector<SimulatedPeer> peers{
-      canopen::sim::canopen_peer(),  // drivers/canopen/sim
-      modbus::sim::modbus_peer(),    // drivers/modbus/sim
-      usb_hid::sim::usb_hid_peer(),  // drivers/usb_hid/sim
+      canopen::sim::canopen_peer(),    // drivers/canopen/sim
+      modbus::sim::modbus_peer(),      // drivers/modbus/sim
+      usb_hid::sim::usb_hid_peer(),    // drivers/usb_hid/sim
+      gpio_pwm::sim::gpio_pwm_peer(),  // drivers/gpio_pwm/sim
   };
   return peers;
 }

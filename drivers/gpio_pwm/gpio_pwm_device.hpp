@@ -1,0 +1,116 @@
+#pragma once
+/// \file
+/// The gpio-pwm Device: an H-bridge on a PWM channel and GPIO lines, the
+/// position from a kernel counter or from two encoder lines. See README.md.
+///
+/// Threads: read()/write() belong to the RT thread; clear_fault() runs on
+/// the control thread while the RT thread keeps calling them (the fault
+/// latch and its clearing are atomics; the reset line is its own request);
+/// configure/enable/disable/close only while the RT thread is not inside
+/// read()/write(); status() from any thread (the non-RT calls share a
+/// mutex, which read()/write() never take).
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "drivers/device.hpp"
+#include "drivers/gpio_pwm/counter_unwrap.hpp"
+#include "drivers/gpio_pwm/drive_command.hpp"
+#include "drivers/gpio_pwm/gpio_lines.hpp"
+#include "drivers/gpio_pwm/gpio_pwm_config.hpp"
+#include "drivers/gpio_pwm/sysfs_attributes.hpp"
+
+namespace hapticd::drivers::gpio_pwm {
+
+class GpioPwmDevice final : public Device {
+ public:
+  /// Validates the configuration (throws ParameterError naming the key).
+  explicit GpioPwmDevice(GpioPwmConfig config);
+  ~GpioPwmDevice() override;
+  GpioPwmDevice(const GpioPwmDevice&) = delete;
+  GpioPwmDevice& operator=(const GpioPwmDevice&) = delete;
+
+  /// Opens the chip, requests the lines, configures the PWM channel to
+  /// enabled at duty 0, opens the counter or starts the quadrature thread.
+  /// Enable inactive, brake active. Throws TransportError (a DeviceError
+  /// with the key) or std::logic_error when not closed.
+  void configure(const LoopContext& loop) override;
+  /// Arms the output: duty 0 now; the enable line goes active and the
+  /// brake is released with the first write(). Throws std::logic_error
+  /// before configure().
+  void enable() override;
+  /// Pulses the reset line (if any), checks the fault line reads inactive,
+  /// then clears the latch. Returns what was cleared ("" if nothing was
+  /// latched); throws TransportError("fault_line") if the fault persists.
+  std::string clear_fault() override;
+  /// Duty 0, enable inactive, brake active; the charge pump stops (no more
+  /// writes). Idempotent.
+  void disable() noexcept override;
+  /// disable(), then releases every line and file; the PWM channel stays
+  /// exported and enabled at duty 0. Idempotent.
+  void close() noexcept override;
+
+  IoResult read(Reading& out) noexcept override;
+  IoResult write(double force) noexcept override;
+
+  /// From the config (the device cannot measure its own mass): motion,
+  /// mass, damping, the encoder's resolution; no added delay.
+  DeviceModel model() const override;
+  DeviceStatus status() const override;
+  const GpioPwmConfig& config() const noexcept { return config_; }
+  /// One line: chip, PWM, position source, and whether the rig is safe if
+  /// hapticd is killed (a charge pump) or not.
+  std::string description() const;
+
+ private:
+  enum Output : std::size_t { enable_out, direction_out, brake_out, pump_out, output_count };
+  void set_outputs(bool enable, bool brake) noexcept;
+  void disable_locked() noexcept;
+  void drive_off() noexcept;
+  bool fault_line_active();
+  void pulse_reset();
+  void release() noexcept;
+
+  GpioPwmConfig config_;
+  DriveScaling scaling_;
+  double position_per_count_ = 0.0;
+  std::string fault_reason_;
+  std::string description_;
+
+  // Kernel resources (non-RT lifecycle).
+  std::unique_ptr<GpioChip> chip_;
+  std::unique_ptr<OutputLines> outputs_;
+  std::unique_ptr<OutputLines> reset_;
+  std::unique_ptr<EdgeInput> fault_;
+  std::unique_ptr<EdgeInput> encoder_a_, encoder_b_;
+  std::unique_ptr<QuadratureReader> quadrature_;
+  std::unique_ptr<PwmOutput> pwm_;
+  std::unique_ptr<CounterInput> counter_;
+  std::optional<CounterUnwrap> unwrap_;
+
+  // Output bulk: which slot holds which role (-1: not wired), active levels.
+  std::array<int, output_count> slot_{-1, -1, -1, -1};
+  std::array<bool, output_count> active_low_{};
+  std::array<int, output_count> levels_{};
+  std::size_t used_outputs_ = 0;
+
+  // RT state.
+  bool direction_positive_ = true;
+  bool pump_ = false;
+  bool fault_seen_ = false;  // the RT thread's copy of the latch
+
+  // Shared with non-RT threads.
+  mutable std::mutex lifecycle_;                         // non-RT calls only
+  std::atomic<DeviceState> state_{DeviceState::closed};  // closed, configured or enabled
+  std::atomic<bool> fault_latched_{false};
+  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0}, counter_range_errors_{0};
+  std::atomic<int> last_errno_{0};
+};
+
+}  // namespace hapticd::drivers::gpio_pwm

@@ -1,0 +1,24 @@
+// main() of the tests that run libgpiod against the umockdev testbed: the
+// preload must be in the process from its start, so the program re-executes
+// itself with LD_PRELOAD=libumockdev-preload.so.0 when run without it (by
+// ctest's test discovery or by hand).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+
+int main(int argc, char** argv) {
+  if (!hapticd::drivers::gpio_pwm::sim::ensure_umockdev_preload(argc, argv)) {
+    std::perror("re-executing with libumockdev-preload.so.0");
+    return 1;
+  }
+  // The testbed's files on tmpfs: the simulated attributes are rewritten on
+  // every store, which costs milliseconds each on a journaling disk.
+  if (std::getenv("TMPDIR") == nullptr && std::filesystem::is_directory("/dev/shm"))
+    ::setenv("TMPDIR", "/dev/shm", 1);
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
