@@ -7,7 +7,7 @@
 //   io-thread  the loop thread hands the command to a dedicated I/O thread
 //              (atomic + futex wake) and waits for its result (atomic wait).
 // Not a Google Benchmark: the figures are per-period percentiles of a paced
-// loop, like the wake-up latency of bench/cyclictest_compare.sh.
+// loop, like the wake-up latency of bench/latency.sh.
 //
 //   modbus_link_bench [CYCLES [PERIOD_US]]   (defaults 5000, 1000)
 // Runs SCHED_FIFO 80 with memory locked when permitted, plain otherwise

@@ -15,6 +15,7 @@
 #include "daemon/device_model.hpp"
 #include "daemon/methods/method_support.hpp"
 #include "daemon/system/systemd_notify.hpp"
+#include "daemon/system/thread_placement.hpp"
 #include "daemon/version.hpp"
 
 namespace hapticd::daemon {
@@ -267,6 +268,7 @@ void Service::start_recorder() {
   recorder::RecorderOptions ro;
   ro.directory = directory;
   ro.flush_interval_s = cfg.recorder.flush_interval_s;
+  if (cfg.recorder.cpu >= 0) ro.cpus = {cfg.recorder.cpu};
   recorder_ = std::make_unique<recorder::Recorder>(
       [engine = engine_.get()](std::span<TelemetrySample> out) { return engine->drain(out); }, ro);
   recorder_->set_ring_drop_counter([engine = engine_.get()] { return engine->counters().telemetry_dropped; });
@@ -299,6 +301,7 @@ bool Service::start_control() {
   so.max_clients = cfg.control.max_clients;
   so.max_message_bytes = cfg.control.max_message_bytes;
   so.idle_timeout = std::chrono::milliseconds(static_cast<std::int64_t>(cfg.control.idle_timeout_s * 1e3));
+  if (cfg.control.cpu >= 0) so.cpus = {cfg.control.cpu};
   server_ = std::make_unique<control::ControlServer>(so);
   register_methods(*server_);
   try {
@@ -311,6 +314,16 @@ bool Service::start_control() {
 }
 
 int Service::run() {
+  // On this (non-preemptible, PREEMPT_NONE) kernel a thread inside a long
+  // system call -- the recorder's write(), the control thread's sends --
+  // delays the RT thread's wake-up on the same CPU until it returns: keep
+  // every other thread off the loop's CPU. They inherit this thread's mask;
+  // [control] cpu and [recorder] cpu still place them explicitly, and the
+  // loop pins itself. (bench/latency.sh measured the difference: README.)
+  if (options_.config.loop.cpu >= 0) {
+    if (const auto problem = system::keep_off_cpu(options_.config.loop.cpu); !problem.empty())
+      std::cerr << "hapticd: " << problem << "; other threads may share the loop's CPU\n";
+  }
   start_engine();
   try {
     device_.device->enable();
@@ -388,6 +401,12 @@ void Service::shutdown() {
   // Order matters: no new requests, then the loop stops, then the device is
   // zeroed, disabled and closed, then the recorder drains what the loop produced.
   if (server_) server_->stop();
+  if (engine_ && !engine_->finished()) {
+    engine_->stop();
+    // What a recording from launch must hold, row for row (tests/e2e).
+    if (engine_->cycle() > 0)
+      std::cout << "hapticd: loop stopped after " << engine_->cycle() << " cycles" << std::endl;
+  }
   if (engine_) engine_->stop();
   if (device_.device) {
     device_.device->disable();

@@ -49,6 +49,20 @@ class CycleStats {
     compute_.record(compute);
   }
 
+  /// RT thread (the single writer): start the statistics afresh (stats.reset,
+  /// one measurement slice of bench/latency.sh). The current overrun streak
+  /// is kept: it is the safety rule's state, not a statistic.
+  void reset() noexcept {
+    version_.write_begin();
+    seq_store(cycles_, 0);
+    seq_store(overruns_, 0);
+    seq_store(missed_, 0);
+    seq_store(max_streak_, streak_.load(std::memory_order_relaxed));
+    version_.write_end();
+    latency_.reset();
+    compute_.reset();
+  }
+
   /// RT thread reads its own streak to decide the configured consequence.
   std::uint64_t overrun_streak() const noexcept { return streak_.load(std::memory_order_relaxed); }
 

@@ -19,6 +19,10 @@ packages=(
   libboost-dev             # Boost.Odeint: RK4 and dopri5 references in `hapticctl report accuracy`
   gnuplot-nox              # draws the report figures (PNG, pngcairo terminal)
   clang-format clang-tidy
+  # issue 14: clang and its sanitizer/libFuzzer runtimes for the ASan+UBSan
+  # and fuzz build (tests/run_sanitizers.sh); jq reads `hapticctl stats
+  # --json` in bench/latency.sh.
+  clang libclang-rt-14-dev jq
 )
 
 sudo_cmd=()

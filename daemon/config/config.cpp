@@ -50,11 +50,13 @@ group = ""
 max_clients = 16
 max_message_bytes = 65536
 idle_timeout = "300s"
+cpu = -1
 
 [recorder]
 directory = ""
 ring_seconds = 2
 flush_interval = "100ms"
+cpu = -1
 )toml";
 
 std::string format_number(double value) {
@@ -170,6 +172,12 @@ class Parser {
     return i->get();
   }
 
+  /// A thread's CPU: -1 (anywhere) or an index.
+  int get_cpu(const toml::node& node, const std::string& key) const {
+    return static_cast<int>(
+        get_integer(node, key, -1, 1023, "-1 (no pinning) or a CPU index from 0 to 1023"));
+  }
+
   double get_number(const toml::node& node, const std::string& key, std::string_view accepted) const {
     double value = 0.0;
     if (const auto* i = node.as_integer()) {
@@ -252,8 +260,7 @@ class Parser {
       } else if (name == "priority") {
         loop.priority = static_cast<int>(get_integer(*node, dotted, 1, 99, "an integer from 1 to 99"));
       } else if (name == "cpu") {
-        loop.cpu = static_cast<int>(
-            get_integer(*node, dotted, -1, 1023, "-1 (no pinning) or a CPU index from 0 to 1023"));
+        loop.cpu = get_cpu(*node, dotted);
       } else if (name == "require_rt") {
         loop.require_rt = get_bool(*node, dotted);
       } else if (name == "clock") {
@@ -341,7 +348,7 @@ class Parser {
 
   void parse_control(const toml::table& table, ControlConfig& control) const {
     static const std::string accepted =
-        join({"socket", "group", "max_clients", "max_message_bytes", "idle_timeout"});
+        join({"socket", "group", "max_clients", "max_message_bytes", "idle_timeout", "cpu"});
     for (const auto& [key, node] : in_file_order(table)) {
       const std::string_view name = key->str();
       const std::string dotted = "control." + std::string(name);
@@ -361,6 +368,8 @@ class Parser {
             get_integer(*node, dotted, 1024, 16777216, "an integer from 1024 to 16777216"));
       } else if (name == "idle_timeout") {
         control.idle_timeout_s = get_duration(*node, dotted, 0.0, 86400.0, "0s (never) to 86400s");
+      } else if (name == "cpu") {
+        control.cpu = get_cpu(*node, dotted);
       } else {
         unknown_key(*key, "control", accepted);
       }
@@ -368,7 +377,7 @@ class Parser {
   }
 
   void parse_recorder(const toml::table& table, RecorderConfig& recorder) const {
-    static const std::string accepted = join({"directory", "ring_seconds", "flush_interval"});
+    static const std::string accepted = join({"directory", "ring_seconds", "flush_interval", "cpu"});
     for (const auto& [key, node] : in_file_order(table)) {
       const std::string_view name = key->str();
       const std::string dotted = "recorder." + std::string(name);
@@ -382,6 +391,8 @@ class Parser {
         if (recorder.ring_seconds < 0.1 || recorder.ring_seconds > 60.0) out_of_range(*node, dotted, range);
       } else if (name == "flush_interval") {
         recorder.flush_interval_s = get_duration(*node, dotted, 1e-3, 10.0, "1ms to 10s");
+      } else if (name == "cpu") {
+        recorder.cpu = get_cpu(*node, dotted);
       } else {
         unknown_key(*key, "recorder", accepted);
       }

@@ -95,6 +95,7 @@ struct ControlConfig {
   std::uint32_t max_clients = 16;           ///< 1..1024
   std::uint32_t max_message_bytes = 65536;  ///< 1 KiB .. 16 MiB
   double idle_timeout_s = 300.0;            ///< 0 = never
+  int cpu = -1;                             ///< the control thread's CPU; -1: any
   SourcePosition socket_where;              ///< position of socket's value (or "--socket")
   SourcePosition group_where;               ///< position of group's value
   bool operator==(const ControlConfig&) const = default;
@@ -106,6 +107,7 @@ struct RecorderConfig {
   std::string directory;
   double ring_seconds = 2.0;       ///< telemetry ring capacity, seconds of samples; 0.1..60
   double flush_interval_s = 0.1;   ///< 1ms..10s
+  int cpu = -1;                    ///< the recorder thread's CPU; -1: any
   SourcePosition directory_where;  ///< position of directory's value (file only when absent)
   /// Ring capacity in samples for a loop period: ceil(ring_seconds / period), at least 2.
   std::size_t ring_capacity(double period_s) const noexcept;

@@ -28,6 +28,7 @@
 #include "daemon/control/dispatcher.hpp"
 #include "daemon/control/listening_socket.hpp"
 #include "daemon/control/peer_credentials.hpp"
+#include "daemon/system/thread_placement.hpp"
 
 namespace hapticd::daemon::control {
 
@@ -614,7 +615,13 @@ void ControlServer::start() {
   }
   impl_->counters = ServerStats{};
   impl_->started = true;
-  impl_->thread = std::thread([impl = impl_.get()] { impl->run(); });
+  impl_->thread = std::thread([impl = impl_.get()] {
+    hapticd::daemon::system::name_this_thread("hapticd-ctl");
+    impl->run();
+  });
+  const auto problem = hapticd::daemon::system::pin_thread(impl_->thread.native_handle(), impl_->opts.cpus);
+  if (!problem.empty())
+    std::fprintf(stderr, "hapticd: control thread: %s; it runs on any CPU\n", problem.c_str());
 }
 
 void ControlServer::stop() {

@@ -59,6 +59,10 @@ struct ServerOptions {
   /// ~1.1e-10 Hz it no longer fits the timer and became a 1 ns timer.
   double min_stream_rate_hz = 0.1;
   double max_stream_rate_hz = 1000.0;
+  /// CPUs the server thread may run on (empty: any), e.g. away from the RT
+  /// loop's ([control] cpu). A CPU that cannot be had is reported on stderr
+  /// and the thread runs unpinned.
+  std::vector<int> cpus;
 };
 
 /// Who is calling, from SO_PEERCRED at accept time.

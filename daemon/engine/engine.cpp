@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "daemon/system/thread_placement.hpp"
+
 namespace hapticd::daemon::engine {
 
 namespace {
@@ -50,7 +52,18 @@ EngineCounters Engine::counters() const noexcept {
           faults_latched_.load(std::memory_order_relaxed)};
 }
 
+std::optional<std::uint64_t> Engine::reset_stats(std::chrono::milliseconds timeout) {
+  const std::uint64_t ticket = stats_reset_requested_.fetch_add(1, std::memory_order_acq_rel) + 1;
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (stats_reset_done_.load(std::memory_order_acquire) < ticket) {
+    if (finished() || std::chrono::steady_clock::now() >= end) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  }
+  return stats_since_cycle();
+}
+
 void Engine::thread_main() {
+  hapticd::daemon::system::name_this_thread("hapticd-rt");
   rt_report_ = hapticd::daemon::system::configure_realtime(options_.realtime);
   const bool fatal = rt_report_.fatal;
   started_.store(true, std::memory_order_release);
@@ -146,6 +159,12 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   }
 
   if (wake.overrun) sample.flags |= flag_overrun;
+  if (const auto requested = stats_reset_requested_.load(std::memory_order_acquire);
+      requested != stats_reset_done_.load(std::memory_order_relaxed)) {
+    stats_.reset();  // this cycle is the first one counted afresh
+    stats_since_cycle_.store(wake.cycle, std::memory_order_relaxed);
+    stats_reset_done_.store(requested, std::memory_order_release);
+  }
   stats_.record(wake, clock_.now() - wake.woke);
   if (latch_.latched()) sample.flags |= flag_fault_latched;
   if (plan_ != nullptr && plan_->unstable_forced) sample.flags |= flag_unstable_forced;

@@ -81,6 +81,14 @@ class Engine {
 
   // ---- statistics and telemetry (non-RT readers) ----
   rt::CycleStats::Snapshot stats() const { return stats_.snapshot(); }
+  /// Asks the RT thread to clear its timing statistics at the next period
+  /// (it is their only writer) and waits for it: the cycle from which the
+  /// statistics count, or nothing if the loop did not get there in time.
+  std::optional<std::uint64_t> reset_stats(std::chrono::milliseconds timeout);
+  /// The cycle of the last reset_stats() (0: counting since the start).
+  std::uint64_t stats_since_cycle() const noexcept {
+    return stats_since_cycle_.load(std::memory_order_acquire);
+  }
   EngineCounters counters() const noexcept;
   /// Telemetry consumer (exactly one thread): pops up to out.size() samples.
   std::size_t drain(std::span<TelemetrySample> out) noexcept { return telemetry_.pop_bulk(out); }
@@ -116,6 +124,12 @@ class Engine {
   std::atomic<std::uint64_t> write_errors_{0};
   std::atomic<std::uint64_t> torque_limited_{0};
   std::atomic<std::uint64_t> faults_latched_{0};
+
+  // stats.reset: the control thread bumps `requested`; the RT thread resets
+  // and copies it to `done` (release, after stats_since_cycle_).
+  std::atomic<std::uint64_t> stats_reset_requested_{0};
+  std::atomic<std::uint64_t> stats_reset_done_{0};
+  std::atomic<std::uint64_t> stats_since_cycle_{0};
 
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> finished_{false};

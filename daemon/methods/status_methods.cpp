@@ -111,7 +111,8 @@ json Service::stats() const {
   const auto s = engine_->stats();
   const auto c = engine_->counters();
   const auto rec = recorder_->status();
-  json out{{"cycles", s.cycles},
+  json out{{"since_cycle", engine_->stats_since_cycle()},
+           {"cycles", s.cycles},
            {"overruns", s.overruns},
            {"missed_periods", s.missed_periods},
            {"overrun_streak", s.overrun_streak},
@@ -142,6 +143,18 @@ void Service::register_status_methods(control::ControlServer& server) {
       "status", [this](const json&, const PeerInfo&) { return status(); }, Access::read);
   server.register_method(
       "stats", [this](const json&, const PeerInfo&) { return stats(); }, Access::read);
+  // Starts the loop's timing statistics afresh (one measurement slice of
+  // bench/latency.sh); the error, drop and control-plane counters are totals
+  // since start and stay. Write access: it erases what others may be reading.
+  server.register_method(
+      "stats.reset",
+      [this](const json& params, const PeerInfo&) {
+        methods::reject_unknown_keys("stats.reset", params, {});
+        const auto since = engine_->reset_stats(std::chrono::milliseconds(2000));
+        if (!since) throw RpcError(code::busy, "the RT loop did not reset its statistics within 2 s");
+        return json{{"since_cycle", *since}};
+      },
+      Access::write);
 
   server.set_stream_source([this](const std::vector<std::string>& channels) {
     std::optional<TelemetrySample> sample;

@@ -1,11 +1,14 @@
 #include "daemon/recorder/recorder.hpp"
 
+#include "daemon/system/thread_placement.hpp"
+
 #include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <charconv>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <deque>
@@ -384,7 +387,13 @@ Recorder::Recorder(DrainFn drain, RecorderOptions options)
       return std::make_unique<FileSink>(path);
     };
   }
-  thread_ = std::thread([this] { run(); });
+  thread_ = std::thread([this] {
+    hapticd::daemon::system::name_this_thread("hapticd-rec");
+    run();
+  });
+  const auto problem = hapticd::daemon::system::pin_thread(thread_.native_handle(), options_.cpus);
+  if (!problem.empty())
+    std::fprintf(stderr, "hapticd: recorder thread: %s; it runs on any CPU\n", problem.c_str());
 }
 
 Recorder::~Recorder() {

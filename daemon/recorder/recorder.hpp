@@ -152,6 +152,9 @@ struct RecorderOptions {
   std::size_t buffer_bytes = 1 << 20;  ///< write to the sink when the buffer exceeds this
   double idle_wait_s = 1e-3;           ///< sleep when the ring was empty
   SinkFactory sink_factory;            ///< default: FileSink
+  /// CPUs the recorder thread may run on (empty: any), e.g. away from the RT
+  /// loop's ([recorder] cpu). One that cannot be had is reported on stderr.
+  std::vector<int> cpus;
 };
 
 /// Of the current or last recording, except the two totals.

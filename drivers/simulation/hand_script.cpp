@@ -41,6 +41,18 @@ std::string number_text(double value) {
   return {buffer, ec == std::errc{} ? end : buffer};
 }
 
+/// The largest magnitude a key's number may have: far beyond any device, and
+/// small enough that the trajectory stays finite every period (a sine's
+/// velocity amplitude 2 pi f is at most 1e3 * 6.3e4; w t + phase over 1e9 s
+/// at 1e4 Hz is 6e13). 1e308 Hz made sin(w t) NaN (found by fuzzing).
+double magnitude_limit(std::string_view key) {
+  if (key == "frequency") return 1e4;                  // Hz
+  if (key == "at" || key == "release_at") return 1e9;  // s
+  if (key == "stiffness") return 1e9;                  // N/m or N m/rad
+  if (key == "rate" || key == "damping" || key == "force" || key == "phase") return 1e6;
+  return 1e3;  // position (offset), amplitude, from, to: m or rad
+}
+
 }  // namespace
 
 std::string_view to_string(HandMode mode) noexcept { return mode_names[static_cast<std::size_t>(mode)]; }
@@ -139,6 +151,10 @@ HandScript parse_hand_script(std::string_view text) {
   auto number = [](std::string_view key, const std::string& value) {
     const auto parsed = world::units::parse_finite(value);
     if (!parsed) fail(key, std::string(key) + "=" + value + " is not a finite number");
+    const double limit = magnitude_limit(key);
+    if (std::abs(*parsed) > limit)
+      fail(key, std::string(key) + "=" + value + " is out of range; accepted: -" + number_text(limit) +
+                    " to " + number_text(limit));
     return *parsed;
   };
 

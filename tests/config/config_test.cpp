@@ -44,6 +44,8 @@ TEST(ConfigDefaults, EmptyFileGivesStructDefaults) {
   EXPECT_EQ(config.recorder.directory, "");
   EXPECT_DOUBLE_EQ(config.recorder.ring_seconds, 2.0);
   EXPECT_DOUBLE_EQ(config.recorder.flush_interval_s, 0.1);
+  EXPECT_EQ(config.control.cpu, -1);
+  EXPECT_EQ(config.recorder.cpu, -1);
 }
 
 TEST(ConfigDefaults, BuiltInDefaultIsLoopbackWheelWithExactIntegrator) {
@@ -119,10 +121,12 @@ group = "haptics"
 max_clients = 4
 max_message_bytes = 4096
 idle_timeout = 0
+cpu = 0
 [recorder]
 directory = "/tmp/rec"
 ring_seconds = 0.5
 flush_interval = 0.25
+cpu = 0
 )",
                                            "all.toml");
   EXPECT_DOUBLE_EQ(config.loop.period_s, 250e-6);
@@ -156,7 +160,9 @@ flush_interval = 0.25
   EXPECT_EQ(config.control.max_clients, 4u);
   EXPECT_EQ(config.control.max_message_bytes, 4096u);
   EXPECT_DOUBLE_EQ(config.control.idle_timeout_s, 0.0);
+  EXPECT_EQ(config.control.cpu, 0);
   EXPECT_EQ(config.recorder.directory, "/tmp/rec");
+  EXPECT_EQ(config.recorder.cpu, 0);
   EXPECT_DOUBLE_EQ(config.recorder.ring_seconds, 0.5);
   EXPECT_DOUBLE_EQ(config.recorder.flush_interval_s, 0.25);
   EXPECT_EQ(config.recorder.ring_capacity(config.loop.period_s), 2000u);
@@ -239,9 +245,10 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
             "overrun_limit, duration");
   EXPECT_EQ(error_of("[control]\n  maxclients = 3"),
             "t.toml:2:3: unknown key 'maxclients' in [control]; accepted: socket, group, max_clients, "
-            "max_message_bytes, idle_timeout");
-  EXPECT_EQ(error_of("[recorder]\ndir = \"x\""),
-            "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval");
+            "max_message_bytes, idle_timeout, cpu");
+  EXPECT_EQ(
+      error_of("[recorder]\ndir = \"x\""),
+      "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
             "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, model, and a table "
             "[device.<driver>] for the selected driver");
@@ -270,6 +277,12 @@ TEST(ConfigErrors, WrongTypesAndRanges) {
   EXPECT_EQ(
       error_of("[loop]\ncpu = -2"),
       "t.toml:2:7: loop.cpu = -2 is out of range; accepted: -1 (no pinning) or a CPU index from 0 to 1023");
+  EXPECT_EQ(error_of("[control]\ncpu = 1024"),
+            "t.toml:2:7: control.cpu = 1024 is out of range; accepted: -1 (no pinning) or a CPU index from 0 "
+            "to 1023");
+  EXPECT_EQ(error_of("[recorder]\ncpu = \"0\""),
+            "t.toml:2:7: recorder.cpu = \"0\" has the wrong type; accepted: -1 (no pinning) or a CPU index "
+            "from 0 to 1023");
   EXPECT_EQ(error_of("[loop]\nrequire_rt = 1"),
             "t.toml:2:14: loop.require_rt = 1 has the wrong type; accepted: true or false");
   EXPECT_EQ(error_of("[loop]\nclock = \"wall\""),

@@ -359,3 +359,21 @@ TEST(EngineAlloc, FullTelemetryRingDropsWithoutAllocating) {
   EXPECT_EQ(allocs, 0u);
   EXPECT_EQ(rig.engine.counters().telemetry_dropped, static_cast<std::uint64_t>(guarded_cycles - 64));
 }
+
+// stats.reset is carried out by the RT thread (the statistics' only writer)
+// at its next cycle: without allocating, from that very cycle on.
+TEST(EngineAlloc, StatisticsResetHappensInTheNextCycleWithoutAllocating) {
+  Rig rig;
+  rig.engine.publish(make_plan("spring-wheel", {{"damping", 0.5}}, 0.1));
+  EXPECT_EQ(rig.guarded(100), 0u);
+  EXPECT_EQ(rig.engine.stats().cycles, 100u);
+  // No loop thread here: the request is left for the next run_cycle.
+  EXPECT_FALSE(rig.engine.reset_stats(std::chrono::milliseconds(0)).has_value());
+  EXPECT_EQ(rig.engine.stats().cycles, 100u);
+  EXPECT_EQ(rig.guarded(10), 0u);
+  EXPECT_EQ(rig.engine.stats_since_cycle(), 101u);
+  const auto s = rig.engine.stats();
+  EXPECT_EQ(s.cycles, 10u);
+  EXPECT_EQ(s.latency.count, 10u);
+  EXPECT_EQ(s.compute.count, 10u);
+}

@@ -1,6 +1,6 @@
 // The engine with its real loop thread while the control side publishes,
 // estops and clears, and a consumer drains telemetry: the hand-over, latch
-// and ring are lock-free, so this is what ThreadSanitizer (tests/run_tsan.sh)
+// and ring are lock-free, so this is what ThreadSanitizer (tests/run_sanitizers.sh tsan)
 // checks. Functional checks only; no timing assertions.
 
 #include <gtest/gtest.h>
@@ -109,7 +109,7 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   const auto& report = engine.start();
   ASSERT_FALSE(report.fatal) << report.message();
 
-  int waited = 0, applied_seen = 0, superseded = 0;
+  int waited = 0, applied_seen = 0, superseded = 0, resets = 0;
   for (int i = 0; i < 200; ++i) {
     const auto publication = engine.publish(plan_number(i));
     if (publication.superseded_seq != 0) ++superseded;
@@ -123,6 +123,13 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
     if (i % 23 == 3) device.inject_fault(loopback::Fault::nan, 1);
     if (i % 23 == 12) engine.clear_fault();
     if (i % 50 == 25) device.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=2");
+    if (i % 40 == 7) {  // stats.reset from the control thread, done by the loop thread
+      const auto since = engine.reset_stats(10s);
+      ASSERT_TRUE(since.has_value());
+      const auto stats = engine.stats();
+      EXPECT_LE(stats.cycles, engine.cycle() - *since + 1);
+      ++resets;
+    }
     if (i % 20 == 0) {
       const auto stats = engine.stats();
       const auto counters = engine.counters();
@@ -144,6 +151,7 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   device.disable();
 
   EXPECT_EQ(applied_seen, waited);
+  EXPECT_EQ(resets, 5);
   EXPECT_GE(engine.cycle(), seen + 20);
   EXPECT_GT(samples, 100u);
   EXPECT_EQ(order_errors, 0u);

@@ -271,4 +271,21 @@ TEST(HandScriptParse, ErrorsNameTheKeyAndWhatIsAccepted) {
   EXPECT_THROW(parse_hand_script("mode=grab"), std::invalid_argument);
 }
 
+// Found by fuzzing (tests/fuzz/regressions/hand_script/): every number was
+// accepted if finite, and a sine at 1e308 Hz gave the simulated hand a NaN
+// position (sin(inf)), which latched the loop's fault. Now each key has a
+// range, named in the refusal, and what it accepts stays finite.
+TEST(HandScriptParse, NumbersHaveRangesThatKeepTheTrajectoryFinite) {
+  expect_error("mode=hold trajectory=sine amplitude=0.1 frequency=1e308",
+               "frequency=1e308 is out of range; accepted: -10000 to 10000");
+  expect_error("mode=hold trajectory=sine amplitude=1e308 frequency=1", "amplitude=1e308 is out of range");
+  expect_error("mode=hold trajectory=step amplitude=1 at=1e300", "at=1e300 is out of range");
+  expect_error("mode=force force=1e7", "force=1e7 is out of range; accepted: -1e+06 to 1e+06");
+  const auto edge = parse_hand_script("mode=hold trajectory=sine amplitude=1000 frequency=10000 phase=1e6");
+  for (const double t : {0.0, 1.0, 1e9}) {
+    const auto r = edge.trajectory.at_time(t);
+    EXPECT_TRUE(std::isfinite(r.position) && std::isfinite(r.velocity)) << t;
+  }
+}
+
 }  // namespace

@@ -36,3 +36,34 @@ TEST(CycleStats, CountsOverrunsMissedPeriodsAndStreaks) {
   EXPECT_EQ(snap.compute.percentile(0.5), Nanos{100us});
   EXPECT_EQ(snap.missed_periods, s.missed_periods());
 }
+
+// stats.reset: a fresh start for the statistics, but the current overrun
+// streak (the safety rule's state) goes on.
+TEST(CycleStats, ResetClearsTheStatisticsButKeepsTheCurrentStreak) {
+  VirtualClock clock;
+  PeriodicSchedule s(clock, 1ms);
+  CycleStats stats;
+  s.start();
+  for (int i = 1; i <= 10; ++i) {
+    if (i >= 9) clock.stall_next_sleep(2'500us);  // cycles 9 and 10 overrun: streak 2
+    stats.record(s.wait_next(), 300us);
+  }
+  stats.reset();
+  auto snap = stats.snapshot();
+  EXPECT_EQ(snap.cycles, 0u);
+  EXPECT_EQ(snap.overruns, 0u);
+  EXPECT_EQ(snap.missed_periods, 0u);
+  EXPECT_EQ(snap.latency.count, 0u);
+  EXPECT_EQ(snap.compute.count, 0u);
+  EXPECT_EQ(snap.overrun_streak, 2u);
+  EXPECT_EQ(snap.max_overrun_streak, 2u);
+  // The next overrun extends that streak; counting starts afresh.
+  clock.stall_next_sleep(2'500us);
+  stats.record(s.wait_next(), 100us);
+  snap = stats.snapshot();
+  EXPECT_EQ(snap.cycles, 1u);
+  EXPECT_EQ(snap.overruns, 1u);
+  EXPECT_EQ(snap.overrun_streak, 3u);
+  EXPECT_EQ(snap.max_overrun_streak, 3u);
+  EXPECT_EQ(snap.compute.max_ns, 100'000);
+}

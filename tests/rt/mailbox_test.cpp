@@ -103,7 +103,7 @@ TEST(Mailbox, WaitAppliedReportsTheCycleOrTimesOut) {
 
 // An RT-like thread acquires every "cycle" and checks the object it holds is
 // intact and never goes backwards, while the writer publishes and collects as
-// fast as it can. Run under TSan by tests/run_tsan.sh.
+// fast as it can. Run under TSan by tests/run_sanitizers.sh (tsan).
 TEST(Mailbox, ConcurrentPublishAcquireStress) {
   Plan::live = 0;
   constexpr int publications = 20000;

@@ -1,0 +1,200 @@
+#!/usr/bin/env bash
+# Wake-up latency of the real hapticd next to cyclictest's (rt-tests), same
+# period, SCHED_FIFO priority and CPU, interleaved in short slices (one of
+# each variant per round, rounds >= 10) so the machine's drift hits all
+# alike. hapticd runs the loopback wheel, scene spring-wheel, with the
+# recorder writing every channel from the first cycle; its numbers are its
+# own histogram (`hapticctl stats --json`, reset by stats.reset after a
+# warm-up), cyclictest's come from its -h histogram. Both are read the same
+# way: 1 us buckets, nearest rank, the bucket's upper edge, capped at the max.
+#
+# The host stalls this VM's vCPU for milliseconds about twice a second: the
+# ratios hapticd / cyclictest (per slice pair, median and spread over the
+# rounds) are the result, never an absolute tail. "late" = woken one period
+# or more after the deadline (hapticd's overruns; cyclictest's histogram
+# from the period up), per 10,000 cycles.
+#
+# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--out DIR]
+#   --load  adds two hapticd variants per round: under control-plane load
+#           (bench/hapticd_load: 16 clients streaming telemetry at 1 kHz, one
+#           param.set 1,000 times a second, every reply naming its cycle),
+#           once unpinned and once with [control] cpu and [recorder] cpu on
+#           another CPU than the loop; checks every change is acknowledged
+#           and no recorded sample is lost.
+#   env: CPU (1: the RT CPU), OTHER_CPU (0), PRIORITY (80), BUILD (build), WARMUP_S (0.5)
+# Needs root (SCHED_FIFO, /dev/cpu_dma_latency, mlockall) like cyclictest.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+rounds=10 slice=3 periods="1000 250 100" load=0 out=""
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --rounds) rounds="$2"; shift 2 ;;
+    --slice) slice="$2"; shift 2 ;;
+    --periods) periods="$2"; shift 2 ;;
+    --load) load=1; shift ;;
+    --out) out="$2"; shift 2 ;;
+    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--out DIR]" >&2; exit 2 ;;
+  esac
+done
+cpu="${CPU:-1}" other="${OTHER_CPU:-0}" prio="${PRIORITY:-80}" warmup="${WARMUP_S:-0.5}"
+build="${BUILD:-$here/build}"
+hapticd="$build/daemon/hapticd" hapticctl="$build/cli/hapticctl" loadgen="$build/bench/hapticd_load"
+for tool in cyclictest jq awk; do
+  command -v "$tool" >/dev/null || { echo "$tool not found (scripts/install-deps.sh)" >&2; exit 1; }
+done
+for bin in "$hapticd" "$hapticctl"; do [[ -x "$bin" ]] || { echo "$bin not built (scripts/build.sh)" >&2; exit 1; }; done
+if [[ "$load" == 1 && ! -x "$loadgen" ]]; then echo "$loadgen not built (ninja -C build hapticd_load)" >&2; exit 1; fi
+[[ "$(id -u)" == 0 ]] || echo "warning: not root: SCHED_FIFO and cpu_dma_latency will be refused; the numbers mean little" >&2
+
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+out="${out:-$work/results}"
+mkdir -p "$out"
+variants=(cyclictest hapticd)
+[[ "$load" == 1 ]] && variants+=(loaded loaded-pinned)
+
+# ---- one slice of each kind: writes one line "p50 p99 p999 max late_per_10k cycles [compute_p50 compute_p99]"
+cyclictest_slice() {  # period_us file
+  local period="$1" result="$2" hist=$((2 * $1 > 2000 ? 2 * $1 : 2000))
+  cyclictest -m -q -p"$prio" -a"$cpu" -t1 -i"$period" -D"$slice" -h"$hist" >"$work/ct.txt" 2>&1 || true
+  awk -v H="$hist" -v T="$period" '
+    /^[0-9]+[ \t]+[0-9]+/ { c[$1 + 0] = $2 + 0; n += $2; if ($1 + 0 >= T) late += $2 }
+    /# Max Latencies:/ { max = $4 + 0 }
+    /# Histogram Overflows:/ { over = $4 + 0 }
+    function pct(p,   r, s, i) {
+      r = int(p * (n + over)); if (r < p * (n + over)) r++; if (r < 1) r = 1
+      s = 0; for (i = 0; i < H; i++) { s += c[i]; if (s >= r) return (i + 1 < max ? i + 1 : max) }
+      return max
+    }
+    END {
+      if (n + over == 0) { print "cyclictest produced no samples" > "/dev/stderr"; exit 1 }
+      printf "%s %s %s %s %.3f %d\n", pct(0.5), pct(0.99), pct(0.999), max, (late + over) * 1e4 / (n + over), n + over
+    }' "$work/ct.txt" >"$result"
+}
+
+hapticd_config() {  # period_us variant socket dir
+  local placement=""
+  [[ "$2" == loaded-pinned ]] && placement="cpu = $other"
+  cat <<EOF
+[loop]
+period = "$1us"
+priority = $prio
+cpu = $cpu
+clock = "real"
+overrun_limit = 0
+[device]
+driver = "loopback"
+[scene]
+name = "spring-wheel"
+integrator = "exact"
+[control]
+socket = "$3"
+max_clients = 32
+$placement
+[recorder]
+directory = "$4"
+$placement
+EOF
+}
+
+hapticd_slice() {  # period_us variant file
+  local period="$1" variant="$2" result="$3" dir="$work/d"
+  rm -rf "$dir" && mkdir -p "$dir"
+  hapticd_config "$period" "$variant" "$dir/s.sock" "$dir" >"$dir/h.toml"
+  "$hapticd" --config "$dir/h.toml" --record rec.csv >"$dir/log" 2>&1 &
+  local pid=$!
+  for _ in $(seq 200); do
+    [[ -S "$dir/s.sock" ]] && "$hapticctl" --socket "$dir/s.sock" status >/dev/null 2>&1 && break
+    sleep 0.05
+  done
+  local ctl=("$hapticctl" --socket "$dir/s.sock") loadpid=""
+  if [[ "$variant" == loaded* ]]; then
+    # The load runs on the other CPU, like any client should.
+    taskset -c "$other" "$loadgen" --socket "$dir/s.sock" --streams 16 --stream-rate 1000 --sets 1000 \
+      --duration "$(awk -v s="$slice" -v w="$warmup" 'BEGIN { print s + w + 0.5 }')" >"$dir/load.json" 2>"$dir/load.err" &
+    loadpid=$!
+  fi
+  sleep "$warmup"
+  "${ctl[@]}" device call stats.reset >/dev/null
+  sleep "$slice"
+  "${ctl[@]}" stats --json >"$dir/stats.json"
+  local load_ok=1
+  if [[ -n "$loadpid" ]]; then
+    wait "$loadpid" || load_ok=0
+    cp "$dir/load.json" "$out/load-$period-$variant-$round.json" 2>/dev/null || true
+  fi
+  "${ctl[@]}" record stop --json >"$dir/record.json" || true
+  kill -TERM "$pid"; wait "$pid" || true
+  jq -r --argjson T "$period" '
+    [.latency.p50_us, .latency.p99_us, .latency.p999_us, .latency.max_us,
+     (.overruns * 1e4 / .cycles), .cycles, .compute.p50_us, .compute.p99_us] | map(tostring) | join(" ")' \
+    "$dir/stats.json" >"$result"
+  # Losses: none allowed in the recording; every change acknowledged under load.
+  local lost
+  lost=$(jq -r '.dropped_ring + .dropped_write + .cycle_gaps' "$dir/record.json" 2>/dev/null || echo "?")
+  echo "$lost" >"$result.lost"
+  if [[ -n "$loadpid" ]]; then
+    jq -c '{sets_sent, sets_acknowledged, sets_failed, sets_unanswered, ack_ms, notifications_received,
+            notifications_dropped_by_daemon}' "$dir/load.json" >"$result.load" 2>/dev/null || echo '{}' >"$result.load"
+    [[ "$load_ok" == 1 ]] || echo "  load: not every change was acknowledged: $(cat "$dir/load.json" "$dir/load.err")" >&2
+  fi
+}
+
+# ---- summary: median (min-max) of per-round ratios, and medians of the values
+median_spread() {  # reads numbers, prints "median (min-max)"
+  sort -g | awk '{ v[NR] = $1 } END {
+    if (NR == 0) { print "-"; exit }
+    m = (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2
+    printf "%.2f (%.2f-%.2f)", m, v[1], v[NR] }'
+}
+median_of() { sort -g | awk '{ v[NR] = $1 } END { if (NR == 0) { print "-"; exit }
+  m = (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.1f", m }'; }
+
+echo "hapticd vs cyclictest: cpu $cpu, priority $prio, $rounds rounds of ${slice}s slices (${variants[*]}), kernel $(uname -r)"
+for period in $periods; do
+  for ((round = 1; round <= rounds; round++)); do
+    # Rotate the order so no variant always follows the same one.
+    for ((k = 0; k < ${#variants[@]}; k++)); do
+      v="${variants[$(((k + round) % ${#variants[@]}))]}"
+      f="$out/$period-$v-$round"
+      if [[ "$v" == cyclictest ]]; then cyclictest_slice "$period" "$f"; else hapticd_slice "$period" "$v" "$f"; fi
+    done
+    printf '.' >&2
+  done
+  echo >&2
+  echo
+  echo "period ${period} us:"
+  printf '  %-16s %8s %8s %8s %8s %10s %s\n' variant p50_us p99_us p99.9_us max_us late/10k "compute p50/p99 us"
+  for v in "${variants[@]}"; do
+    col() { for ((r = 1; r <= rounds; r++)); do awk -v c="$1" '{ print $c }' "$out/$period-$v-$r"; done | median_of; }
+    compute=""
+    [[ "$v" != cyclictest ]] && compute="$(col 7)/$(col 8)"
+    printf '  %-16s %8s %8s %8s %8s %10s %s\n' "$v" "$(col 1)" "$(col 2)" "$(col 3)" "$(col 4)" "$(col 5)" "$compute"
+  done
+  for v in "${variants[@]}"; do
+    [[ "$v" == cyclictest ]] && continue
+    ratios() {  # column, reference variant: this variant / the reference, per round
+      for ((r = 1; r <= rounds; r++)); do
+        awk -v c="$1" 'NR == FNR { h = $c; next } { if ($c > 0) printf "%.6f\n", h / $c }' \
+          "$out/$period-$v-$r" "$out/$period-$2-$r"
+      done | median_spread
+    }
+    printf '  %-16s p50 %s  p99 %s  p99.9 %s  max %s   (%s / cyclictest, median (min-max) of %d rounds)\n' \
+      "$v" "$(ratios 1 cyclictest)" "$(ratios 2 cyclictest)" "$(ratios 3 cyclictest)" "$(ratios 4 cyclictest)" "$v" "$rounds"
+    if [[ "$v" == loaded* ]]; then
+      printf '  %-16s p50 %s  p99 %s   (%s / unloaded hapticd)\n' "" "$(ratios 1 hapticd)" "$(ratios 2 hapticd)" "$v"
+    fi
+    late() { for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$1-$r"; done | awk '{ l += $5 * $6 / 1e4; n += $6 } END { printf "%.2f", l * 1e4 / n }'; }
+    lost=$(for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$v-$r.lost"; done | awk '$1 != 0 { bad++ } END { print bad + 0 }')
+    printf '  %-16s late per 10,000 cycles over all rounds: %s (cyclictest %s); slices that lost recorded samples: %s\n' \
+      "" "$(late "$v")" "$(late cyclictest)" "$lost"
+    if [[ "$v" == loaded* ]]; then
+      for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$v-$r.load"; done | jq -s -r '"  " + "                 " +
+        "param.set sent \(map(.sets_sent) | add), acknowledged with a cycle \(map(.sets_acknowledged) | add), " +
+        "failed \(map(.sets_failed) | add), unanswered \(map(.sets_unanswered) | add); ack p99 (worst slice) " +
+        "\(map(.ack_ms.p99) | max) ms; telemetry received \(map(.notifications_received) | add), dropped by the daemon \(map(.notifications_dropped_by_daemon) | add)"'
+    fi
+  done
+done
+echo
+echo "raw slices: $out (kept with --out DIR)"

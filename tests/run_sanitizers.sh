@@ -1,0 +1,129 @@
+#!/usr/bin/env bash
+# The sanitizer stages CI runs (scripts/test.sh), each timed:
+#   asan  build-asan: clang, AddressSanitizer + UndefinedBehaviorSanitizer,
+#         -O1, no recovery (the first finding fails), instrumented for
+#         libFuzzer too; builds and runs the WHOLE test suite (ctest), the
+#         kept fuzz crashers included.
+#   fuzz  the same build: every fuzz target for FUZZ_SECONDS (tests/run_fuzz.sh).
+#         Without clang: GCC's ASan+UBSan build, and the fuzz stage is the
+#         replay of each target's crashers and seeds the asan stage's ctest ran.
+#   tsan  build-tsan: ThreadSanitizer, -O1; builds only target tsan_tests
+#         (tests/CMakeLists.txt) and runs the RT, daemon, control, recorder,
+#         driver-framework, modbus, canopen (session and conformance) and
+#         usb-hid umockdev tests (with the preload and their suppressions):
+#         where threads meet.
+# usage: tests/run_sanitizers.sh [asan] [fuzz] [tsan]   (default: all three)
+# env: FUZZ_SECONDS (10), JOBS (nproc), ASAN_BUILD (build-asan), TSAN_BUILD (build-tsan)
+#
+# Findings are fixed, not suppressed. A suppression needs a comment saying
+# why the finding is a false positive: the only ones are usb-hid's, inside
+# the uninstrumented third-party libraries umockdev brings
+# (tests/drivers/usb_hid/tsan.supp).
+set -uo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+asan_build="${ASAN_BUILD:-$here/build-asan}"
+tsan_build="${TSAN_BUILD:-$here/build-tsan}"
+jobs="${JOBS:-$(nproc 2>/dev/null || echo 2)}"
+stages=("$@")
+[[ ${#stages[@]} -eq 0 ]] && stages=(asan fuzz tsan)
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
+# TSan's shadow memory breaks with the high mmap randomization of recent
+# kernels ("FATAL: ThreadSanitizer: unexpected memory mapping"); running
+# with ASLR off avoids it without touching sysctls. ctest and everything it
+# starts inherit the personality.
+no_aslr=()
+setarch "$(uname -m)" -R true 2>/dev/null && no_aslr=(setarch "$(uname -m)" -R)
+
+export ASAN_OPTIONS="${ASAN_OPTIONS:-halt_on_error=1:abort_on_error=1:detect_leaks=1:detect_stack_use_after_return=1}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
+export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}"
+
+status=0
+timings=()
+stage() {  # name command...
+  local name="$1" start=$SECONDS
+  shift
+  echo "=== sanitizers: $name"
+  if "$@"; then
+    timings+=("$name: $((SECONDS - start)) s, passed")
+    return 0
+  fi
+  timings+=("$name: $((SECONDS - start)) s, FAILED")
+  status=1
+  return 1
+}
+
+# clang (scripts/install-deps.sh installs it) makes the ASan+UBSan build the
+# libFuzzer build too. Without it GCC builds the suite with ASan+UBSan and
+# the fuzz stage falls back to what ctest already did: every target replays
+# its kept crashers and seeds (fuzz_<name>_replay, tests/fuzz/replay_main.cpp).
+have_clang=0
+command -v clang++ >/dev/null && command -v clang >/dev/null && have_clang=1
+configure_asan() {
+  local compiler=(CC=clang CXX=clang++) fuzz=ON
+  [[ "$have_clang" == 1 ]] || { compiler=(CC=gcc CXX=g++); fuzz=OFF; }
+  env "${compiler[@]}" cmake -S "$here" -B "$asan_build" -G Ninja "${launcher[@]}" \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+    -DHAPTICD_SANITIZE=address,undefined -DHAPTICD_FUZZ=$fuzz -DHAPTICD_BENCH=OFF >/dev/null
+}
+asan_build_all() { configure_asan && ninja -C "$asan_build" -j"$jobs"; }
+asan_tests() { (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j"$jobs"); }
+fuzz() {
+  if [[ "$have_clang" != 1 ]]; then
+    echo "no clang: no libFuzzer; the asan stage replayed every fuzz target's crashers and seeds (ctest -L fuzz)"
+    return 0
+  fi
+  FUZZ_BUILD="$asan_build" bash "$here/tests/run_fuzz.sh"
+}
+
+tsan_build_targets() {
+  cmake -S "$here" -B "$tsan_build" -G Ninja "${launcher[@]}" \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+    -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF >/dev/null && ninja -C "$tsan_build" -j"$jobs" tsan_tests
+}
+# Each binary directly, not through ctest: the TSan build lists its tests at
+# test time (CMakeLists.txt), and the umockdev ones must not be started
+# without their preload.
+tsan_tests() {
+  local t="$tsan_build/tests" rc=0
+  # The RT primitives (the 10-million-item ring transfer is ~20x slower under
+  # TSan; it still runs); the engine's loop thread against a publishing,
+  # estopping, clearing control thread and a draining consumer, and every
+  # other daemon test; the control server's threads; the recorder's writer;
+  # the driver framework's conformance suite; modbus against its simulated
+  # amplifier's server thread.
+  for bin in rt_tests daemon_tests control_tests recorder_tests drivers_tests drivers/modbus/modbus_tests; do
+    echo "--- tsan $bin"
+    "${no_aslr[@]}" "$t/$bin" || rc=1
+  done
+  # The canopen driver's session: its RT loop thread against clear_fault(),
+  # commissioning SDO through the ring and status() on other threads, the
+  # simulated drive's bus thread; and the conformance suite over the socket.
+  echo "--- tsan canopen_tests"
+  "${no_aslr[@]}" "$t/drivers/canopen/canopen_tests" --gtest_filter='SessionTest.*:Canopen/*' || rc=1
+  # The usb-hid driver through libusb under umockdev: the RT-like thread
+  # against clear_fault's hand-over, libusb's event and hotplug threads, the
+  # umockdev handler thread. The preload must come before libtsan (the test
+  # links it, but -fsanitize=thread puts libtsan first); the suppressions
+  # cover races TSan reports inside the uninstrumented umockdev, glib and
+  # libudev (tests/drivers/usb_hid/tsan.supp says why each is one).
+  echo "--- tsan usb_hid_umockdev_tests"
+  LD_PRELOAD=libumockdev-preload.so.0 \
+    TSAN_OPTIONS="$TSAN_OPTIONS:suppressions=$here/tests/drivers/usb_hid/tsan.supp" \
+    "${no_aslr[@]}" "$t/drivers/usb_hid/usb_hid_umockdev_tests" || rc=1
+  return "$rc"
+}
+
+for s in "${stages[@]}"; do
+  case "$s" in
+    asan) stage "asan+ubsan build" asan_build_all && stage "asan+ubsan tests" asan_tests ;;
+    fuzz) [[ -d "$asan_build" ]] || stage "asan+ubsan build" asan_build_all; stage "fuzz" fuzz ;;
+    tsan) stage "tsan build" tsan_build_targets && stage "tsan tests" tsan_tests ;;
+    *) echo "unknown stage $s (asan, fuzz, tsan)" >&2; exit 2 ;;
+  esac
+done
+echo "=== sanitizer stage times"
+printf '  %s\n' "${timings[@]}"
+exit "$status"
