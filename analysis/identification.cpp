@@ -140,11 +140,11 @@ bool Structure::plant(const Eigen::VectorXd& t, world::LinearPlant& out) const {
 /// thousands of bins, hundreds of times).
 class SampledResponse {
  public:
-  static constexpr int max_states = 4;
+  static constexpr std::size_t max_states = 4;
 
   SampledResponse(const DelayedZoh& sys, const Eigen::RowVectorXd& c) : n_(static_cast<int>(sys.phi.rows())) {
     for (int i = 0; i < n_; ++i) {
-      for (int j = 0; j < n_; ++j) phi_[static_cast<std::size_t>(i * n_ + j)] = sys.phi(i, j);
+      for (int j = 0; j < n_; ++j) phi_[index(i, j)] = sys.phi(i, j);
       g0_[static_cast<std::size_t>(i)] = sys.gamma0(i);
       g1_[static_cast<std::size_t>(i)] = sys.gamma1(i);
       c_[static_cast<std::size_t>(i)] = c(i);
@@ -157,7 +157,7 @@ class SampledResponse {
     const cd z = std::polar(1.0, w * period_);
     std::array<cd, max_states * max_states> m{};
     std::array<cd, max_states> x{};
-    const auto at_ij = [this](int i, int j) { return static_cast<std::size_t>(i * n_ + j); };
+    const auto at_ij = [this](int i, int j) { return index(i, j); };
     for (int i = 0; i < n_; ++i) {
       for (int j = 0; j < n_; ++j) m[at_ij(i, j)] = -phi_[at_ij(i, j)];
       m[at_ij(i, i)] += z;
@@ -201,6 +201,10 @@ class SampledResponse {
   }
 
  private:
+  std::size_t index(int i, int j) const {
+    return static_cast<std::size_t>(i) * static_cast<std::size_t>(n_) + static_cast<std::size_t>(j);
+  }
+
   int n_;
   int whole_ = 0;
   double period_ = 0.0;

@@ -117,7 +117,7 @@ LeastSquaresFit levenberg_marquardt(const LeastSquaresProblem& problem) {
   for (Eigen::Index c = 0; c < n; ++c) {
     inverse_square(c) = sv(c) > 1e-14 * sv(0) ? 1.0 / (sv(c) * sv(c)) : 1e28 / (sv(0) * sv(0));
   }
-  const Eigen::MatrixXd v = svd.matrixV();
+  const Eigen::MatrixXd& v = svd.matrixV();
   const Eigen::MatrixXd unscaled = v * inverse_square.asDiagonal() * v.transpose();
   fit.covariance = fit.residual_variance *
                    (norms.cwiseInverse().asDiagonal() * unscaled * norms.cwiseInverse().asDiagonal());

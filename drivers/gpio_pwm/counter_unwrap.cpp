@@ -23,7 +23,13 @@ bool CounterUnwrap::update(std::uint64_t raw) noexcept {
     const std::uint64_t backward = ceiling_ - forward + 1;  // range - forward, in [1, 2^63]
     delta = -static_cast<std::int64_t>(backward - 1) - 1;   // no overflow at 2^63
   }
-  position_ += delta;
+  // Unbounded in principle, int64 in fact: a position that would leave it
+  // (only a 64-bit counter jumping by ~2^63 per read can get there) is a
+  // bad read, not a wrap to the other end of the range (fuzzing found it).
+  std::int64_t next = 0;
+  if (__builtin_add_overflow(position_, delta, &next)) return false;
+  if (next == std::numeric_limits<std::int64_t>::min()) return false;  // `reverse` negates it
+  position_ = next;
   last_ = raw;
   return true;
 }

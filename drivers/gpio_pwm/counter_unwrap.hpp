@@ -21,7 +21,8 @@ class CounterUnwrap {
 
   /// The position after a new raw count. A raw count above the ceiling (a
   /// counter whose ceiling was changed behind our back) returns false and
-  /// leaves the position unchanged.
+  /// leaves the position unchanged; so does a move that would take the
+  /// position outside int64.
   bool update(std::uint64_t raw) noexcept;
   std::int64_t position() const noexcept { return position_; }
   std::uint64_t last_raw() const noexcept { return last_; }

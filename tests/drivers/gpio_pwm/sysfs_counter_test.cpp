@@ -79,6 +79,22 @@ TEST(CounterUnwrap, FullSixtyFourBitRange) {
   EXPECT_EQ(u.position(), 1);
 }
 
+// Found by fuzz_gpio_pwm_position (tests/fuzz/regressions): two jumps of
+// about 2^63 back on a 64-bit counter overflowed the int64 position (UB),
+// and the device negates the position when `reverse` is set.
+TEST(CounterUnwrap, AMoveOutsideInt64IsRefusedNotWrapped) {
+  constexpr auto top = std::numeric_limits<std::uint64_t>::max();
+  CounterUnwrap u(top, 0);
+  ASSERT_TRUE(u.update(std::uint64_t{1} << 63 | 1));  // back by 2^63 - 1
+  EXPECT_EQ(u.position(), std::numeric_limits<std::int64_t>::min() + 1);
+  EXPECT_FALSE(u.update(1));  // back by 2^63 more: outside int64
+  EXPECT_EQ(u.position(), std::numeric_limits<std::int64_t>::min() + 1);
+  EXPECT_EQ(u.last_raw(), std::uint64_t{1} << 63 | 1);
+  EXPECT_FALSE(u.update(std::uint64_t{1} << 63));  // back by 1: INT64_MIN, which has no negation
+  ASSERT_TRUE(u.update(0));                        // forward again
+  EXPECT_EQ(u.position(), 0);
+}
+
 TEST(CounterUnwrap, RawAboveTheCeilingIsRefused) {
   CounterUnwrap u(1000, 10);
   EXPECT_FALSE(u.update(1001));
