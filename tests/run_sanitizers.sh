@@ -69,7 +69,16 @@ configure_asan() {
     -DHAPTICD_SANITIZE=address,undefined -DHAPTICD_FUZZ=$fuzz -DHAPTICD_BENCH=OFF >/dev/null
 }
 asan_build_all() { configure_asan && ninja -C "$asan_build" -j"$jobs"; }
-asan_tests() { (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j"$jobs"); }
+# Left out under ASan, each run in the Release ctest stage instead:
+# - what measures the instrumented daemon's wall-clock behaviour or memory:
+#   the overload and socket-fuzz attacks (ASan's quarantine keeps freed
+#   memory, so RSS grows 50-60 MiB by design; its 2-3x slowdown adds
+#   overruns) and the resonant-excitation run on the real clock;
+# - the usb-hid tests on the umockdev bus: with ASan's interceptors in the
+#   executable the preload's /sys mapping is not seen (UmockdevUsbBoard
+#   refuses to start); they run under TSan with the preload.
+asan_excluded='^(Overload\.(ClientsThatNeverRead|HundredClientsComingAndGoing)|SocketFuzz\.|Freudenberg4\.ResonantExcitationPumpsOrDampsByPhase|UsbHid\.|UsbHidEndToEnd\.)'
+asan_tests() { (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j"$jobs" -E "$asan_excluded"); }
 fuzz() {
   if [[ "$have_clang" != 1 ]]; then
     echo "no clang: no libFuzzer; the asan stage replayed every fuzz target's crashers and seeds (ctest -L fuzz)"

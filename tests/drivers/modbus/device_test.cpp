@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -53,8 +54,11 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
 
   bool rtu() const { return GetParam() == mb::Transport::rtu; }
 
-  void start_amplifier(mb::sim::AmplifierSettings settings) {
+  /// before_start: runs on this thread before the server's thread exists
+  /// (Amplifier::tick() is that thread's once it runs).
+  void start_amplifier(mb::sim::AmplifierSettings settings, const std::function<void()>& before_start = {}) {
     amplifier_ = std::make_unique<mb::sim::Amplifier>(settings, plant_);
+    if (before_start) before_start();
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(*amplifier_) : mb::sim::AmplifierServer::tcp(*amplifier_);
     server_->start();
@@ -246,6 +250,9 @@ TEST_P(DeviceTest, ASilentAmplifierLatchesAfterTheStreak) {
 TEST_P(DeviceTest, ReadAndWriteAllocateNothing) {
   mb::ModbusDevice& d = enabled();
   ASSERT_TRUE(hapticd::testing::allocation_counting_active());
+#ifdef HAPTICD_SANITIZED
+  GTEST_SKIP() << "C allocations are counted in the normal build (a sanitizer owns malloc here)";
+#endif
   ASSERT_TRUE(mb::testing::c_allocation_counting_active());
   server_->inject(mb::sim::Injection::exception, 2, mb::exception_code::server_device_busy);
   std::size_t cpp = 0, c = 0;
@@ -368,9 +375,10 @@ TEST_P(DeviceTest, AnAmplifierWithoutFunction23IsRefusedUnlessConfiguredSo) {
 }
 
 TEST_P(DeviceTest, AnAmplifierInFaultAtStartIsRefusedUnlessResetOnStart) {
-  start_amplifier(amplifier_settings(amplifier_config_));
-  amplifier_->inject_fault(0x0004);
-  amplifier_->tick(0.0);
+  start_amplifier(amplifier_settings(amplifier_config_), [this] {
+    amplifier_->inject_fault(0x0004);
+    amplifier_->tick(0.0);  // before the server thread: TSan found it racing that thread's tick()
+  });
   try {
     mb::ModbusDevice d(device_config());
     d.configure(LoopContext{test_period_s});

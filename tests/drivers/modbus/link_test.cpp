@@ -135,6 +135,9 @@ TEST_P(LinkTest, TransactionsAllocateNothing) {
   mb::ModbusLink link(settings());
   link.open();
   ASSERT_TRUE(hapticd::testing::allocation_counting_active());
+#ifdef HAPTICD_SANITIZED
+  GTEST_SKIP() << "C allocations are counted in the normal build (a sanitizer owns malloc here)";
+#endif
   ASSERT_TRUE(mb::testing::c_allocation_counting_active());
   std::array<std::uint16_t, 6> state{};
   std::array<std::uint16_t, 2> command{0, 50};
