@@ -142,8 +142,12 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
       if (latch_.latch(FaultReason::non_finite_command)) bump(faults_latched_);
     }
   }
+  // One read decides both the output and the sample's latched flag: an estop
+  // from the control thread landing after it takes effect next cycle, and
+  // this sample must not say "latched" beside the torque it did send.
+  const bool output_latched = latched_before || latch_.latched();
   double applied = 0.0;
-  if (position_valid && plan_ != nullptr && !latched_before && !latch_.latched()) {
+  if (position_valid && plan_ != nullptr && !output_latched) {
     applied = limit_output(command, plan_->torque_limit);
     if (applied != command) {
       sample.flags |= flag_torque_limited;
@@ -156,6 +160,7 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
     const FaultReason reason =
         write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error;
     if (latch_.latch(reason)) bump(faults_latched_);
+    sample.flags |= flag_fault_latched;  // the output did not reach the device
   }
 
   if (wake.overrun) sample.flags |= flag_overrun;
@@ -166,7 +171,7 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
     stats_reset_done_.store(requested, std::memory_order_release);
   }
   stats_.record(wake, clock_.now() - wake.woke);
-  if (latch_.latched()) sample.flags |= flag_fault_latched;
+  if (output_latched) sample.flags |= flag_fault_latched;
   if (plan_ != nullptr && plan_->unstable_forced) sample.flags |= flag_unstable_forced;
 
   sample.command = command;
