@@ -502,18 +502,20 @@ LinkResult ModbusLink::read_registers(ReadTable table, std::uint16_t address,
 }
 
 // fc 5 and 6 over TCP: the reply echoes the request (V1.1b3 6.5, 6.6).
+LinkResult ModbusLink::tcp_echo_exchange(std::span<const std::uint8_t> pdu, std::uint8_t fc) noexcept {
+  const LinkResult r = tcp_exchange(pdu, fc);
+  if (!r.ok()) return r;
+  std::uint8_t code = 0;
+  return tcp_outcome(parse_echo_response(reply_pdu(), pdu, code), fc, code);
+}
+
 LinkResult ModbusLink::write_register(std::uint16_t address, std::uint16_t value) noexcept {
   constexpr std::uint8_t fc = function_code::write_single_register;
   if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
   if (settings_.transport == Transport::tcp) {
     std::array<std::uint8_t, 8> pdu{};
     const std::size_t n = build_write_single_register_request(pdu, address, value);
-    const LinkResult r = tcp_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
-    if (!r.ok()) return r;
-    std::uint8_t code = 0;
-    const PduStatus status =
-        parse_echo_response(reply_pdu(), std::span<const std::uint8_t>(pdu.data(), n), code);
-    return tcp_outcome(status, fc, code);
+    return tcp_echo_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
   }
   const double started = monotonic_s();
   return finish(modbus_write_register(ctx_, address, value), fc, started);
@@ -525,12 +527,7 @@ LinkResult ModbusLink::write_coil(std::uint16_t address, bool on) noexcept {
   if (settings_.transport == Transport::tcp) {
     std::array<std::uint8_t, 8> pdu{};
     const std::size_t n = build_write_single_coil_request(pdu, address, on);
-    const LinkResult r = tcp_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
-    if (!r.ok()) return r;
-    std::uint8_t code = 0;
-    const PduStatus status =
-        parse_echo_response(reply_pdu(), std::span<const std::uint8_t>(pdu.data(), n), code);
-    return tcp_outcome(status, fc, code);
+    return tcp_echo_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
   }
   const double started = monotonic_s();
   return finish(modbus_write_bit(ctx_, address, on ? 1 : 0), fc, started);

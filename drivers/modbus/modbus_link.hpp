@@ -171,6 +171,8 @@ class ModbusLink {
   LinkResult tcp_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function) noexcept;
   /// A reply PDU checked against its request (parse_read_response ...).
   LinkResult tcp_outcome(PduStatus status, std::uint8_t function, std::uint8_t exception_code) noexcept;
+  /// fc 5 and 6: a request whose reply must echo it (V1.1b3 6.5, 6.6).
+  LinkResult tcp_echo_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function) noexcept;
   std::span<const std::uint8_t> reply_pdu() const noexcept {
     return std::span<const std::uint8_t>(reply_.data(), reply_size_);
   }
