@@ -7,6 +7,7 @@
 #include "analysis/critical_stiffness.hpp"
 #include "analysis/integrator_stability.hpp"
 #include "analysis/optimize.hpp"
+#include "analysis/passivity.hpp"
 #include "analysis/wall_stability.hpp"
 
 namespace hapticd::analysis {
@@ -71,6 +72,27 @@ WallRegionMap wall_region_map(int max_delay, int points, StudyProgress& progress
     progress.advance(1);
   }
   return map;
+}
+
+std::vector<WallMapPoint> passivity_region_map(double device_beta, int max_delay, int points) {
+  std::vector<WallMapPoint> out;
+  if (!(device_beta > 0.0) || points < 2) return out;
+  for (int d = 0; d <= max_delay; ++d) {
+    // As the stability boundary: half log-spaced up to device_beta / 2, half
+    // crowding toward device_beta, where the passive alpha falls to 0.
+    const int half = points / 2;
+    for (int i = 0; i < half; ++i) {
+      const double beta = device_beta * 0.5 * std::pow(2e-4, 1.0 - static_cast<double>(i) / half);
+      out.push_back({d, beta, passive_alpha_max(beta, device_beta, d)});
+    }
+    for (int i = 0; i < points - half; ++i) {
+      const double beta =
+          device_beta * (1.0 - 0.5 * std::pow(2e-6, static_cast<double>(i) / std::max(1, points - half - 1)));
+      const double alpha = passive_alpha_max(beta, device_beta, d);
+      if (alpha > 0.0) out.push_back({d, beta, alpha});
+    }
+  }
+  return out;
 }
 
 namespace {

@@ -53,6 +53,16 @@ struct WallRegionMap {
 /// d = 0 .. max_delay, `points` per curve.
 WallRegionMap wall_region_map(int max_delay, int points, StudyProgress& progress);
 
+/// Colgate & Schenkel's passivity boundary in the same plane (passivity.hpp):
+/// for a device damping normalized as beta, device_beta = b T / m, the
+/// largest passive alpha at each beta in (0, device_beta), d = 0 .. max_delay,
+/// `points` per curve spaced as the stability boundary's (log-spaced from
+/// device_beta * 1e-4, crowding toward device_beta where alpha falls to 0;
+/// alpha = 0 itself is left out: the maps have log axes). Passive lies
+/// below it, inside the stable region except near beta = 0, where the device's
+/// own damping b (which Hulin's region, for b = 0, leaves out) is what holds.
+std::vector<WallMapPoint> passivity_region_map(double device_beta, int max_delay, int points);
+
 /// The stable zeta values of one integrator at one w_n T: [lower, upper]
 /// (upper = +inf if stable up to the scan's top, 1e3); lower = 0 when the
 /// undamped spring is stable. Several intervals are listed separately.

@@ -7,7 +7,7 @@
 
 namespace hapticd::cli {
 
-/// Adds `analyze` with its subcommands: integrator, wall, boundary, critical-stiffness.
+/// Adds `analyze` with its subcommands: integrator, wall, boundary, critical-stiffness, passivity.
 void add_analyze_command(CLI::App& app);
 
 }  // namespace hapticd::cli

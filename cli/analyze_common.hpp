@@ -34,5 +34,6 @@ class Table {
 void add_analyze_wall(CLI::App& analyze);
 void add_analyze_integrator(CLI::App& analyze);
 void add_analyze_critical_stiffness(CLI::App& analyze);
+void add_analyze_passivity(CLI::App& analyze);
 
 }  // namespace hapticd::cli

@@ -4,6 +4,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "analysis/passivity.hpp"
 #include "analysis/wall_stability.hpp"
 #include "cli/analyze_common.hpp"
 #include "cli/arguments.hpp"
@@ -106,21 +107,68 @@ void print_wall(const analysis::WallVerdict& v, bool have_point, bool have_stiff
 
 struct BoundaryArgs {
   std::string delay, points = "50";
+  std::string device_damping, mass, period;  ///< the passivity boundary: all three, or none
+  CLI::Option* device_option = nullptr;
+  CLI::Option* mass_option = nullptr;
+  CLI::Option* period_option = nullptr;
   bool json = false;
 };
+
+/// Colgate & Schenkel's boundary in the same plane, for a device damping b
+/// normalized as Hulin's beta: b T / m.
+struct PassivityCurve {
+  double device_damping = 0.0, mass = 0.0, period = 0.0, device_beta = 0.0;
+  std::vector<analysis::PassivityBoundaryPoint> points;
+};
+
+std::optional<PassivityCurve> passivity_curve(const BoundaryArgs& a, int delay, int points) {
+  const int given = static_cast<int>(a.device_option->count() > 0) +
+                    static_cast<int>(a.mass_option->count() > 0) +
+                    static_cast<int>(a.period_option->count() > 0);
+  if (given == 0) return std::nullopt;
+  if (given != 3)
+    throw UsageError(
+        "--device-damping: the passivity boundary needs --device-damping, --mass and --period "
+        "together (its beta is b T / m)");
+  PassivityCurve c;
+  c.device_damping = non_negative_number("--device-damping", a.device_damping, "N s/m");
+  c.mass = positive_number("--mass", a.mass, "kg");
+  c.period = period_flag(a.period);
+  c.device_beta = analysis::normalized_damping(c.device_damping, c.mass, c.period);
+  c.points = analysis::passivity_boundary(c.device_beta, delay, points);
+  return c;
+}
 
 void run_boundary(const BoundaryArgs& a) {
   const int delay = whole_number("--delay", a.delay, 0, 64);
   const int points = whole_number("--points", a.points, 2, 100000);
+  const auto passivity = passivity_curve(a, delay, points);
   const auto boundary = analysis::stability_boundary(delay, points);
   nlohmann::json list = nlohmann::json::array();
   for (const auto& p : boundary) list.push_back({p.beta, p.alpha});
   if (a.json) {
-    std::cout << nlohmann::json{{"delay", delay}, {"points", list}}.dump(2) << "\n";
+    nlohmann::json out{{"delay", delay}, {"points", list}};
+    if (passivity) {
+      nlohmann::json passive = nlohmann::json::array();
+      for (const auto& p : passivity->points) passive.push_back({p.beta, p.alpha});
+      out["passivity"] = {{"device_damping", passivity->device_damping},
+                          {"mass", passivity->mass},
+                          {"period", passivity->period},
+                          {"device_beta", passivity->device_beta},
+                          {"points", passive}};
+    }
+    std::cout << out.dump(2) << "\n";
     return;
   }
   std::cout << "# Hulin stability boundary, d = " << delay << ": beta alpha_max(beta)\n";
   for (const auto& p : boundary) std::cout << fmt(p.beta) << " " << fmt(p.alpha) << "\n";
+  if (!passivity) return;
+  std::cout << "\n\n# Colgate & Schenkel passivity boundary, d = " << delay
+            << ", device damping b = " << fmt(passivity->device_damping) << " N s/m on "
+            << fmt(passivity->mass) << " kg, T = " << fmt_duration(passivity->period)
+            << " (b T/m = " << fmt(passivity->device_beta) << "): beta alpha_passive(beta)\n";
+  if (passivity->points.empty()) std::cout << "# b = 0: only alpha = beta = 0 is passive\n";
+  for (const auto& p : passivity->points) std::cout << fmt(p.beta) << " " << fmt(p.alpha) << "\n";
 }
 
 }  // namespace
@@ -138,10 +186,17 @@ void add_analyze_wall(CLI::App& analyze) {
   wall->callback([args] { run_wall(*args); });
 
   auto bargs = std::make_shared<BoundaryArgs>();
-  auto* boundary =
-      analyze.add_subcommand("boundary", "Points of the exact boundary alpha_max(beta) (Hulin Fig. 4-7)");
+  auto* boundary = analyze.add_subcommand(
+      "boundary",
+      "Points of the exact boundary alpha_max(beta) (Hulin Fig. 4-7), and the passivity boundary beside it");
   boundary->add_option("--delay", bargs->delay, "output delay d, whole samples 0 to 64")->required();
   boundary->add_option("--points", bargs->points, "number of points (default 50)");
+  bargs->device_option = boundary->add_option(
+      "--device-damping", bargs->device_damping,
+      "with --mass and --period: also the passivity boundary for this device damping b, N s/m");
+  bargs->mass_option = boundary->add_option("--mass", bargs->mass, "device mass m, kg (passivity: b T / m)");
+  bargs->period_option =
+      boundary->add_option("--period", bargs->period, "sampling period (s, ms, us) (passivity: b T / m)");
   boundary->add_flag("--json", bargs->json, "print one JSON object");
   boundary->callback([bargs] { run_boundary(*bargs); });
 }

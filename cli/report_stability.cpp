@@ -11,6 +11,7 @@
 #include <numbers>
 
 #include "analysis/accuracy_study.hpp"
+#include "analysis/passivity.hpp"
 #include "analysis/stability_maps.hpp"
 #include "analysis/stability_sweep.hpp"
 #include "analysis/wall_stability.hpp"
@@ -33,18 +34,25 @@ struct StabilityArgs {
   bool json = false;
   bool quick = false;
   std::string mass = "0.1", period = "1ms", delay = "1", stiffness = "9000", damping = "46";
+  std::string device_damping = "2";  ///< N s/m: the passivity boundary's device
 };
 
 /// The wall the operating point of the region map stands for.
 struct OperatingPoint {
   double mass = 0.0, period_s = 0.0, stiffness = 0.0, damping = 0.0;
   int delay = 0;
+  double device_damping = 0.0;  ///< b, N s/m, for the passivity boundary
   double alpha() const { return analysis::normalized_stiffness(stiffness, mass, period_s); }
   double beta() const { return analysis::normalized_damping(damping, mass, period_s); }
+  double device_beta() const { return analysis::normalized_damping(device_damping, mass, period_s); }
+  analysis::PassivityVerdict passivity() const {
+    return analysis::analyze_wall_passivity(stiffness, damping, period_s, delay, device_damping);
+  }
 };
 
 struct Maps {
   analysis::WallRegionMap wall;
+  std::vector<analysis::WallMapPoint> passivity;  ///< Colgate & Schenkel at the operating point's b T / m
   std::vector<analysis::IntegratorRegionRow> integrators;
   std::vector<analysis::CriticalStiffnessRow> critical;
   double critical_period_s = 1e-3;
@@ -65,7 +73,9 @@ Figure wall_figure(const Maps& m, const OperatingPoint& op) {
       "Hulin's virtual wall: stable below each boundary alpha_max(beta), d = 0 .. 8 samples of delay\n"
       "dashed: minimum pole radius (6.2), dotted: maximum damping (6.1); star: K = " +
       fmt(op.stiffness) + " N/m, B = " + fmt(op.damping) + " N s/m on " + fmt(op.mass) +
-      " kg, T = " + fmt_duration(op.period_s) + ", d = " + std::to_string(op.delay);
+      " kg, T = " + fmt_duration(op.period_s) + ", d = " + std::to_string(op.delay) +
+      "\ndash-dot: passive below (Colgate & Schenkel) on a device damping b = " + fmt(op.device_damping) +
+      " N s/m (b T / m = " + fmt(op.device_beta()) + "); Hulin's region is for b = 0";
   f.x = {"normalized damping {/Symbol b} = B T / m", true, "[1e-4:3]"};
   f.y = {"normalized stiffness {/Symbol a} = K T^2 / m", true, "[1e-7:1.5]"};
   f.data.columns = {"curve", "delay", "beta", "alpha"};
@@ -77,6 +87,7 @@ Figure wall_figure(const Maps& m, const OperatingPoint& op) {
   add("minimum-radius", m.wall.minimum_radius_path);
   add("maximum-damping", m.wall.maximum_damping_path);
   add("maximum-stiffness", m.wall.maximum_stiffness);
+  add("passivity-boundary", m.passivity);
   f.data.rows.push_back(
       {std::string("operating-point"), static_cast<double>(op.delay), op.beta(), op.alpha()});
   for (int d = 0; d <= map_delays; ++d) {
@@ -97,6 +108,11 @@ Figure wall_figure(const Maps& m, const OperatingPoint& op) {
                         "beta",
                         "alpha",
                         "lines dt 3 lw 1.2 " + c});
+    f.curves.push_back({d == 0 ? "passive below (dash-dot)" : "",
+                        {{"curve", std::string("passivity-boundary")}, {"delay", delay}},
+                        "beta",
+                        "alpha",
+                        "lines dt 4 lw 1.5 " + c});
   }
   f.curves.push_back({"Remark 2 maxima",
                       {{"curve", std::string("maximum-stiffness")}},
@@ -118,6 +134,12 @@ Figure wall_figure(const Maps& m, const OperatingPoint& op) {
               {"alpha", op.alpha()},
               {"beta", op.beta()},
               {"stable", analysis::wall_stable(op.alpha(), op.beta(), op.delay)}}}};
+  const analysis::PassivityVerdict passivity = op.passivity();
+  f.meta["passivity"] = {{"device_damping", op.device_damping},
+                         {"device_beta", op.device_beta()},
+                         {"required_damping", passivity.bound.required_damping},
+                         {"passive", passivity.passive},
+                         {"max_stiffness", passivity.max_stiffness}};
   return f;
 }
 
@@ -301,15 +323,35 @@ Figure sweep_figure(const std::vector<SweepResult>& results) {
   return f;
 }
 
-Maps compute_maps(bool quick, analysis::StudyProgress& progress) {
+Maps compute_maps(bool quick, const OperatingPoint& op, analysis::StudyProgress& progress) {
   Maps m;
   m.wall = analysis::wall_region_map(map_delays, quick ? 24 : 60, progress);
+  m.passivity = analysis::passivity_region_map(op.device_beta(), map_delays, quick ? 24 : 60);
   m.integrators = analysis::integrator_region_map(
       std::vector<world::Integrator>(world::all_integrators.begin(), world::all_integrators.end()),
       quick ? 8 : 24, progress);
   m.critical =
       analysis::critical_stiffness_curves(m.critical_period_s, 8e-3, quick ? 1e-3 : 0.1e-3, progress);
   return m;
+}
+
+/// Colgate & Schenkel beside Hulin: what a device damping b allows.
+void print_passivity(std::ostream& out, const OperatingPoint& op) {
+  out << "Passivity (Colgate & Schenkel) on a device damping b = " << fmt(op.device_damping)
+      << " N s/m: b T / m = " << fmt(op.device_beta()) << "\n";
+  TextTable table({"d", "passive alpha at beta = 0", "passive beta up to", "K at B = 0 (N/m)"});
+  for (int d = 0; d <= map_delays; ++d) {
+    const double alpha = analysis::passive_alpha_max(0.0, op.device_beta(), d);
+    table.row({std::to_string(d), fmt(alpha), fmt(op.device_beta()),
+               fmt(analysis::physical_stiffness(alpha, op.mass, op.period_s))});
+  }
+  table.print(out);
+  const analysis::PassivityVerdict v = op.passivity();
+  out << "  operating point: needs b >= " << fmt(v.bound.required_damping)
+      << " N s/m to be passive: " << (v.passive ? "passive" : "NOT PASSIVE")
+      << " on b = " << fmt(op.device_damping) << " N s/m; the largest passive K at B = " << fmt(op.damping)
+      << " N s/m is " << fmt(v.max_stiffness) << " N/m"
+      << (v.max_stiffness > 0.0 ? "" : " (B alone needs b >= B)") << "\n\n";
 }
 
 void print_maps(std::ostream& out, const Maps& m, const OperatingPoint& op) {
@@ -323,6 +365,7 @@ void print_maps(std::ostream& out, const Maps& m, const OperatingPoint& op) {
   out << "  operating point: alpha = " << fmt(op.alpha()) << ", beta = " << fmt(op.beta())
       << ", d = " << op.delay << ": "
       << (analysis::wall_stable(op.alpha(), op.beta(), op.delay) ? "stable" : "UNSTABLE") << "\n\n";
+  print_passivity(out, op);
   out << "Integrators (spring scene, device held): stable w_n T range at zeta = 0 and the zeta band at w_n T "
          "= 1\n";
   TextTable integ({"integrator", "zeta = 0: stable for w_n T below", "w_n T = 1: stable zeta"});
@@ -420,6 +463,7 @@ int run_stability(const StabilityArgs& a) {
   op.delay = whole_number("--delay", a.delay, 0, map_delays);
   op.stiffness = non_negative_number("--stiffness", a.stiffness, "N/m");
   op.damping = non_negative_number("--damping", a.damping, "N s/m");
+  op.device_damping = non_negative_number("--device-damping", a.device_damping, "N s/m");
   ReportSession session;
   StagedFiles files = open_output(a.out);
   analysis::StudyProgress progress = session.progress("report stability");
@@ -428,7 +472,7 @@ int run_stability(const StabilityArgs& a) {
   std::vector<SweepResult> results;
   double sweep_seconds = 0.0;
   try {
-    maps = compute_maps(a.quick, progress);
+    maps = compute_maps(a.quick, op, progress);
     const auto sweep_start = std::chrono::steady_clock::now();
     results = analysis::run_stability_sweep(analysis::sweep_cases(a.quick), {}, progress);
     sweep_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count();
@@ -470,11 +514,24 @@ int run_stability(const StabilityArgs& a) {
            {"delay_s", r.delay_s},
            {"k_cr", std::isfinite(r.k_cr) ? nlohmann::json(r.k_cr) : nlohmann::json(nullptr)}});
     }
+    const analysis::PassivityVerdict passivity = op.passivity();
+    nlohmann::json passive_maxima = nlohmann::json::array();
+    for (int d = 0; d <= map_delays; ++d)
+      passive_maxima.push_back(
+          {{"delay", d}, {"alpha_at_zero_beta", analysis::passive_alpha_max(0.0, op.device_beta(), d)}});
     nlohmann::json out{
         {"wall_maxima", wall},     {"critical_stiffness", critical},  {"sweep", sweep_json(results)},
         {"cases", results.size()}, {"disagreements", disagreements},  {"sweep_seconds", sweep_seconds},
         {"elapsed_s", elapsed},    {"files", nlohmann::json::array()}};
     for (const auto& f : written) out["files"].push_back(f.string());
+    out["passivity"] = {{"device_damping", op.device_damping},
+                        {"device_beta", op.device_beta()},
+                        {"maxima", passive_maxima},
+                        {"operating_point",
+                         {{"required_damping", passivity.bound.required_damping},
+                          {"frequency_hz", passivity.bound.frequency_hz},
+                          {"passive", passivity.passive},
+                          {"max_stiffness", passivity.max_stiffness}}}};
     std::cout << out.dump(1) << "\n";
   } else {
     print_maps(std::cout, maps, op);
@@ -508,6 +565,9 @@ void add_report_stability(CLI::App& report) {
   cmd->add_option("--delay", args->delay, "... delay d, samples (0..8)")->capture_default_str();
   cmd->add_option("--stiffness", args->stiffness, "... wall stiffness K, N/m")->capture_default_str();
   cmd->add_option("--damping", args->damping, "... wall damping B, N s/m")->capture_default_str();
+  cmd->add_option("--device-damping", args->device_damping,
+                  "the device's physical damping b for the passivity boundary, N s/m")
+      ->capture_default_str();
   cmd->callback([args] {
     const int code = run_stability(*args);
     if (code != exit_ok) throw hapticctl::Exit(code);

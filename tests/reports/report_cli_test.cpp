@@ -254,6 +254,26 @@ TEST(ReportStabilityCli, QuickSweepHasNoDisagreementAndTheMapsMatchThePapers) {
     ++maxima;
   }
   EXPECT_EQ(maxima, 9);  // d = 0 .. 8
+  // Colgate & Schenkel beside it (device damping 2 N s/m: b T/m = 0.02), for
+  // beta in (0, 0.02): the requirement lies between (alpha/2)(2d+1) - beta (its
+  // value as w -> 0) and (alpha/2)(2d+1) + beta, so 2 (0.02 - beta)/(2d+1) <=
+  // alpha <= 2 (0.02 + beta)/(2d+1); the operating point (Hulin section 7)
+  // needs 50.72 N s/m.
+  int passive = 0;
+  for (std::size_t i = 0; i < wall.rows.size(); ++i) {
+    if (wall.text(i, "curve") != "passivity-boundary") continue;
+    const double d = wall.number(i, "delay"), beta = wall.number(i, "beta"), alpha = wall.number(i, "alpha");
+    EXPECT_LT(beta, 0.02);
+    EXPECT_GT(alpha, 0.0);
+    EXPECT_LE(alpha, 2 * (0.02 + beta) / (2 * d + 1) * (1 + 1e-12)) << d << " " << beta;
+    EXPECT_GE(alpha, 2 * (0.02 - beta) / (2 * d + 1) * (1 - 1e-12)) << d << " " << beta;
+    ++passive;
+  }
+  EXPECT_GT(passive, 9 * 10);
+  EXPECT_NEAR(result["passivity"]["operating_point"]["required_damping"].get<double>(), 50.5 + 81.0 / 368.0,
+              1e-9);
+  EXPECT_FALSE(result["passivity"]["operating_point"]["passive"].get<bool>());
+  EXPECT_NEAR(result["passivity"]["maxima"][1]["alpha_at_zero_beta"].get<double>(), 0.04 / 3, 1e-12);
   // Freudenberg 2.14 in the integrator map: forward Euler needs zeta > w_n T / 2.
   const Csv integrators = read_csv(dir.path / "stability_integrator_regions.csv");
   int euler = 0;
