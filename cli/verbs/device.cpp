@@ -51,6 +51,7 @@ void print_sdo(const nlohmann::json& r) {
   std::cout << " = " << r["value"].get<std::int64_t>() << " (raw " << r["raw"].get<std::string>();
   if (!r["type"].is_null()) std::cout << ", " << r["type"].get<std::string>();
   std::cout << ")\n";
+  if (r.contains("note")) std::cout << r["note"].get<std::string>() << "\n";  // canopen: a new torque unit
 }
 
 void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
