@@ -116,6 +116,8 @@ class CanopenSession {
   std::uint32_t rated_torque_mnm() const noexcept {
     return rated_torque_mnm_.load(std::memory_order_acquire);
   }
+  /// The scaling in use (from rated_torque_mnm()).
+  Scaling scaling() const { return canopen::scaling(config_, rated_torque_mnm()); }
 
  private:
   class SocketLink;
