@@ -432,16 +432,20 @@ std::string CanopenSession::clear_fault() {
   if (before.fault_kind == FaultKind::drive_restarted)
     throw SetupError("not cleared: " + before.fault_reason, "");
   const bool loop = loop_running();
-  {
-    // The unit the reset resumes with: a changed 0x6076 is taken now, the
-    // torque still zero.
+  // The unit the reset resumes with: a changed 0x6076 is taken now, the
+  // torque still zero. A lost link has nothing to read (the reset fails below).
+  if (before.fault_kind != FaultKind::link_lost) {
     std::lock_guard lock(sdo_mutex_);
-    if (loop) {
-      RingLink link(socket_, *sdo_answers_);
-      recheck_torque_unit(link, false);
-    } else {
-      SocketLink link(socket_, &*exchange_);
-      recheck_torque_unit(link, false);
+    try {
+      if (loop) {
+        RingLink link(socket_, *sdo_answers_);
+        recheck_torque_unit(link, false);
+      } else {
+        SocketLink link(socket_, &*exchange_);
+        recheck_torque_unit(link, false);
+      }
+    } catch (const SetupError& e) {
+      throw SetupError("the drive stays in fault: " + before.fault_reason + "; " + e.what(), e.key());
     }
   }
   clear_requested_.store(true, std::memory_order_release);
