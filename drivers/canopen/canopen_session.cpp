@@ -24,6 +24,7 @@ constexpr std::size_t unit_ring_capacity = 8;
 constexpr double enable_timeout_s = 1.0;
 constexpr double reset_timeout_s = 1.0;
 constexpr int prime_attempts = 3;
+constexpr double clear_loop_wait_s = 0.1;
 
 std::uint64_t periods_in(double seconds, double period_s) {
   return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(seconds / period_s - 1e-9)));
@@ -392,9 +393,9 @@ bool CanopenSession::run_periods(Done&& done, std::uint64_t max_periods) {
   return done();
 }
 
-bool CanopenSession::loop_running() const {
+bool CanopenSession::loop_running(double at_least_s) const {
   const std::uint64_t before = reads_.load(std::memory_order_acquire);
-  const auto wait = std::chrono::duration<double>(std::max(5 * period_s_, 5e-3));
+  const auto wait = std::chrono::duration<double>(std::max(5 * period_s_, at_least_s));
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(wait);
   while (Clock::now() < deadline) {
     if (reads_.load(std::memory_order_acquire) != before) return true;
@@ -431,7 +432,10 @@ std::string CanopenSession::clear_fault() {
   if (!before.faulted) return "";
   if (before.fault_kind == FaultKind::drive_restarted)
     throw SetupError("not cleared: " + before.fault_reason, "");
-  const bool loop = loop_running();
+  // Which thread owns the socket decides the link: a loop this VM stalls for
+  // more than 5 ms must not be taken for none (its answers would go to the
+  // ring while this thread read the socket), so it gets 100 ms to show up.
+  const bool loop = loop_running(clear_loop_wait_s);
   // The unit the reset resumes with: a changed 0x6076 is taken now, the
   // torque still zero. A lost link has nothing to read (the reset fails below).
   if (before.fault_kind != FaultKind::link_lost) {

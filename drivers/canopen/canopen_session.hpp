@@ -129,8 +129,9 @@ class CanopenSession {
   /// Runs read/write(0) periods on this thread until done() or max periods.
   template <class Done>
   bool run_periods(Done&& done, std::uint64_t max_periods);
-  /// True when an RT loop is calling read(): its counter moves within a few periods.
-  bool loop_running() const;
+  /// True when an RT loop is calling read(): its counter moves within a few
+  /// periods, and at least `at_least_s`.
+  bool loop_running(double at_least_s = 5e-3) const;
   SdoAccess access(cia301::ObjectAddress address, std::uint32_t raw,
                    std::optional<cia301::DataType> type) const;
   /// Reads 0x6076 back over `link` (sdo_mutex_ held); a new unit goes to the
