@@ -51,6 +51,7 @@ void print_sdo(const nlohmann::json& r) {
   std::cout << " = " << r["value"].get<std::int64_t>() << " (raw " << r["raw"].get<std::string>();
   if (!r["type"].is_null()) std::cout << ", " << r["type"].get<std::string>();
   std::cout << ")\n";
+  if (r.contains("note")) std::cout << r["note"].get<std::string>() << "\n";  // canopen: a new torque unit
 }
 
 void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
@@ -68,7 +69,10 @@ void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
     return p;
   };
   auto* read = sdo->add_subcommand("read", "INDEX SUB: e.g. sdo read 0x6041 0");
-  auto* write = sdo->add_subcommand("write", "INDEX SUB VALUE: e.g. sdo write 0x6072 0 1500");
+  auto* write = sdo->add_subcommand(
+      "write",
+      "INDEX SUB VALUE: e.g. sdo write 0x6065 0 2000 --type u32 (refused while enabled: what "
+      "scales or bounds the torque)");
   for (auto* c : {read, write}) {
     add_common_options(*c, opts);
     c->add_option("index", args->index, "object index, e.g. 0x6041")->required();

@@ -3,6 +3,7 @@
 #include <linux/can.h>
 #include <linux/can/error.h>
 
+#include <cstdio>
 #include <utility>
 
 namespace hapticd::drivers::canopen {
@@ -67,6 +68,18 @@ std::string describe(const BusError& error) {
   }
   if (out.empty()) out = "error frame";
   return "CAN " + out;
+}
+
+std::string describe(const MalformedMessage& m) {
+  if (m.bytes == sizeof(can_frame)) {
+    char id[16];
+    std::snprintf(id, sizeof id, "0x%03X", static_cast<unsigned>(m.can_id & CAN_EFF_MASK));
+    return "a can_frame with len " + std::to_string(m.can_len) + " (id " + id +
+           ") on the CAN socket: a classic frame carries 0..8 data bytes";
+  }
+  const std::string size = m.truncated ? "more than " + std::to_string(m.bytes) : std::to_string(m.bytes);
+  return "a " + size + "-byte message on the CAN socket: not a can_frame (" +
+         std::to_string(sizeof(can_frame)) + " bytes)";
 }
 
 }  // namespace hapticd::drivers::canopen

@@ -8,10 +8,12 @@
 #include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <system_error>
@@ -137,6 +139,7 @@ CanSocket::CanSocket(CanSocket&& other) noexcept
     : fd_(std::exchange(other.fd_, -1)),
       unix_(other.unix_),
       last_errno_(other.last_errno_),
+      malformed_(other.malformed_),
       filters_(std::move(other.filters_)),
       error_classes_(other.error_classes_) {}
 
@@ -146,6 +149,7 @@ CanSocket& CanSocket::operator=(CanSocket&& other) noexcept {
     fd_ = std::exchange(other.fd_, -1);
     unix_ = other.unix_;
     last_errno_ = other.last_errno_;
+    malformed_ = other.malformed_;
     filters_ = std::move(other.filters_);
     error_classes_ = other.error_classes_;
   }
@@ -202,9 +206,16 @@ IoStatus CanSocket::send(const cia301::Frame& frame) noexcept {
 }
 
 IoStatus CanSocket::receive(cia301::Frame& frame) noexcept {
+  // A buffer larger than any frame, and MSG_TRUNC for the real length: a
+  // message of another size is seen as what it is, never cut to 16 bytes.
+  // No allocation: the buffer is on the stack.
   for (;;) {
-    can_frame cf{};
-    const ssize_t n = ::recv(fd_, &cf, sizeof cf, MSG_DONTWAIT);
+    alignas(canfd_frame) unsigned char buffer[sizeof(canfd_frame)];
+    iovec io{buffer, sizeof buffer};
+    msghdr message{};
+    message.msg_iov = &io;
+    message.msg_iovlen = 1;
+    const ssize_t n = ::recvmsg(fd_, &message, MSG_DONTWAIT | MSG_TRUNC);
     if (n < 0) {
       last_errno_ = errno;
       if (last_errno_ == EAGAIN || last_errno_ == EWOULDBLOCK) return IoStatus::would_block;
@@ -212,14 +223,29 @@ IoStatus CanSocket::receive(cia301::Frame& frame) noexcept {
       if (last_errno_ == ECONNRESET || last_errno_ == ENOTCONN) return IoStatus::closed;
       return IoStatus::error;
     }
-    if (n == 0 && unix_) return IoStatus::closed;  // SEQPACKET end of stream
-    if (n != static_cast<ssize_t>(sizeof cf)) {
-      last_errno_ = EMSGSIZE;  // not a classic frame (a CAN FD frame, or a peer that breaks the seam)
-      return IoStatus::error;
+    // SEQPACKET end of stream and an empty message both read 0 bytes: only a
+    // peer that hung up is the end.
+    if (n == 0 && unix_ && peer_hung_up()) return IoStatus::closed;
+    can_frame cf{};
+    if (n == static_cast<ssize_t>(sizeof cf)) std::memcpy(&cf, buffer, sizeof cf);
+    if (n != static_cast<ssize_t>(sizeof cf) || cf.len > CAN_MAX_DLEN) {
+      malformed_ = MalformedMessage{};
+      malformed_.bytes = static_cast<std::uint32_t>(n);
+      malformed_.truncated = (message.msg_flags & MSG_TRUNC) != 0 && n <= static_cast<ssize_t>(sizeof buffer);
+      if (n == static_cast<ssize_t>(sizeof cf)) {
+        malformed_.can_id = cf.can_id;
+        malformed_.can_len = cf.len;
+      }
+      return IoStatus::malformed;
     }
     from_can_frame(cf, frame);
     if (!unix_ || passes(frame)) return IoStatus::ok;
   }
+}
+
+bool CanSocket::peer_hung_up() const noexcept {
+  pollfd p{fd_, POLLRDHUP, 0};
+  return ::poll(&p, 1, 0) > 0 && (p.revents & (POLLRDHUP | POLLHUP)) != 0;
 }
 
 bool CanSocket::wait_readable(std::chrono::microseconds timeout) const {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "drivers/canopen/301/frame.hpp"
+#include "drivers/canopen/can_error.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -38,6 +39,7 @@ enum class IoStatus : std::uint8_t {
   would_block,  ///< receive: nothing queued; send: TX queue full (frame dropped)
   closed,       ///< the peer closed the connection (unix: transport only)
   error,        ///< another error (errno in last_errno())
+  malformed,    ///< receive: a message that is no classic can_frame (last_malformed() says what)
 };
 
 class CanSocket {
@@ -60,8 +62,12 @@ class CanSocket {
 
   /// Non-blocking; RT-safe (one send(2) or recv(2), no allocation).
   IoStatus send(const cia301::Frame& frame) noexcept;
+  /// A message of another size (or a can_frame with len > 8) is consumed and
+  /// returned as malformed, never cut to a frame; an empty message on the
+  /// unix seam is malformed too while the peer lives (closed once it hung up).
   IoStatus receive(cia301::Frame& frame) noexcept;
   int last_errno() const noexcept { return last_errno_; }
+  const MalformedMessage& last_malformed() const noexcept { return malformed_; }
 
   /// Non-RT: waits until a frame can be read or `timeout` passes (poll(2));
   /// false on timeout. A closed peer counts as readable.
@@ -82,7 +88,10 @@ class CanSocket {
 
   int fd_ = -1;
   bool unix_ = false;
+  bool peer_hung_up() const noexcept;
+
   int last_errno_ = 0;
+  MalformedMessage malformed_;
   std::vector<CanFilter> filters_;  // user-space filters (unix transport); fixed after open
   std::uint32_t error_classes_ = 0;
 };

@@ -82,6 +82,7 @@ json to_json(const SdoAccess& a) {
       {"index", hex(a.address.index, 4)}, {"sub", a.address.sub}, {"raw", hex(a.raw, 8)}, {"value", a.value}};
   j["type"] = a.type ? json(std::string(cia301::short_name(*a.type))) : json(nullptr);
   j["name"] = a.name;
+  if (!a.note.empty()) j["note"] = a.note;
   return j;
 }
 
@@ -205,7 +206,10 @@ DeviceStatus CanopenDevice::status() const {
                 {"error_frames", c.error_frames},
                 {"drive_heartbeats", c.drive_heartbeats},
                 {"tx_dropped", c.tx_dropped},
+                {"malformed_frames", c.malformed_frames},
+                {"malformed_messages", c.malformed_messages},
                 {"sdo_answers_dropped", st.sdo_answers_dropped},
+                {"rated_torque_mnm", st.rated_torque_mnm},
                 {"statusword", st.statusword},
                 {"controlword", st.controlword}};
   return s;
@@ -227,7 +231,8 @@ std::vector<DeviceMethod> CanopenDevice::methods() {
                     }};
   DeviceMethod write{
       "device.sdo.write", true,
-      "write an object of the drive by SDO: index, sub, value [, type]; the mapping only while disabled",
+      "write an object of the drive by SDO: index, sub, value [, type]; what scales or bounds the torque "
+      "only while disabled",
       [this](const json& params) {
         only_members(params, {"index", "sub", "value", "type"}, "device.sdo.write");
         const cia301::ObjectAddress a = address_param(params);
@@ -239,6 +244,8 @@ std::vector<DeviceMethod> CanopenDevice::methods() {
         } catch (const std::invalid_argument& e) {
           throw RpcError(code::refused, e.what());
         } catch (const SdoError& e) {
+          throw RpcError(code::refused, e.what());
+        } catch (const SetupError& e) {  // 0x6076 read back: unreadable, or against rated_torque
           throw RpcError(code::refused, e.what());
         }
       }};

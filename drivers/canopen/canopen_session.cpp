@@ -20,9 +20,11 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 constexpr std::size_t sdo_ring_capacity = 64;
+constexpr std::size_t unit_ring_capacity = 8;
 constexpr double enable_timeout_s = 1.0;
 constexpr double reset_timeout_s = 1.0;
 constexpr int prime_attempts = 3;
+constexpr double clear_loop_wait_s = 0.1;
 
 std::uint64_t periods_in(double seconds, double period_s) {
   return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(seconds / period_s - 1e-9)));
@@ -32,10 +34,13 @@ std::uint64_t periods_in(double seconds, double period_s) {
 
 // ---- links for the SDO client ------------------------------------------------
 
-/// Before the loop runs: the SDO client owns the socket.
+/// Before the loop runs: the SDO client owns the socket. Once configured, the
+/// exchange's frames (TPDOs, EMCYs, heartbeats) go to the exchange, not lost
+/// to the SDO client, and a message that is no frame faults it.
 class CanopenSession::SocketLink final : public FrameLink {
  public:
-  explicit SocketLink(CanSocket& socket) : socket_(socket) {}
+  explicit SocketLink(CanSocket& socket, CyclicExchange* exchange = nullptr)
+      : socket_(socket), exchange_(exchange) {}
   bool send(const Frame& frame) override {
     const IoStatus s = socket_.send(frame);
     if (s == IoStatus::closed) error_ = "the bus connection closed";
@@ -44,7 +49,15 @@ class CanopenSession::SocketLink final : public FrameLink {
   bool receive(Frame& frame, Clock::time_point deadline) override {
     for (;;) {
       const IoStatus s = socket_.receive(frame);
-      if (s == IoStatus::ok) return true;
+      if (s == IoStatus::ok) {
+        if (exchange_ == nullptr || exchange_->on_frame(frame) == FrameUse::sdo_response) return true;
+        continue;
+      }
+      if (s == IoStatus::malformed) {
+        if (exchange_ != nullptr) exchange_->on_malformed_message(socket_.last_malformed());
+        error_ = describe(socket_.last_malformed());
+        return false;
+      }
       if (s == IoStatus::closed) {
         error_ = "the bus connection closed";
         return false;
@@ -62,6 +75,7 @@ class CanopenSession::SocketLink final : public FrameLink {
 
  private:
   CanSocket& socket_;
+  CyclicExchange* exchange_;
   std::string error_;
 };
 
@@ -103,13 +117,22 @@ struct CanopenSession::Cells {
   std::atomic<std::uint8_t> bus_severity{0};
   std::atomic<int> link_errno{0};
   std::atomic<bool> link_closed{false};
+  std::atomic<std::uint8_t> malformed{0};
+  std::atomic<std::uint32_t> frame_id{0};
+  std::atomic<std::uint8_t> frame_len{0};
+  std::atomic<std::uint64_t> frame_data{0};
+  std::atomic<std::uint32_t> message_bytes{0};
+  std::atomic<bool> message_truncated{false};
+  std::atomic<std::uint32_t> message_can_id{0};
+  std::atomic<std::uint8_t> message_can_len{0};
+  std::atomic<std::uint32_t> rated_before{0}, rated_after{0};
   std::atomic<bool> resetting{false};
   std::atomic<bool> operational{false};
   std::atomic<std::uint16_t> statusword{0};
   std::atomic<std::uint16_t> controlword{0};
   std::atomic<std::int16_t> torque{0};
   std::atomic<std::uint64_t> periods{0}, tpdos{0}, late_tpdos{0}, short_tpdos{0}, emcys{0}, error_frames{0},
-      drive_heartbeats{0}, tx_dropped{0}, faults{0};
+      drive_heartbeats{0}, tx_dropped{0}, malformed_frames{0}, malformed_messages{0}, faults{0};
 };
 
 CanopenSession::CanopenSession(CanopenConfig config)
@@ -127,6 +150,9 @@ void CanopenSession::publish() noexcept {
   std::uint64_t manufacturer = 0;
   for (std::size_t i = 0; i < f.emcy.manufacturer.size(); ++i)
     manufacturer |= static_cast<std::uint64_t>(f.emcy.manufacturer[i]) << (8 * i);
+  std::uint64_t frame_data = 0;
+  for (std::size_t i = 0; i < f.frame.data.size(); ++i)
+    frame_data |= static_cast<std::uint64_t>(f.frame.data[i]) << (8 * i);
   version_.write_begin();
   rt::seq_store(s.fault_kind, static_cast<std::uint8_t>(f.kind));
   rt::seq_store(s.emcy_code, f.emcy.error_code);
@@ -140,6 +166,16 @@ void CanopenSession::publish() noexcept {
   rt::seq_store(s.bus_severity, static_cast<std::uint8_t>(f.bus.severity));
   rt::seq_store(s.link_errno, f.link_errno);
   rt::seq_store(s.link_closed, f.link_closed);
+  rt::seq_store(s.malformed, static_cast<std::uint8_t>(f.malformed));
+  rt::seq_store(s.frame_id, f.frame.id);
+  rt::seq_store(s.frame_len, f.frame.len);
+  rt::seq_store(s.frame_data, frame_data);
+  rt::seq_store(s.message_bytes, f.message.bytes);
+  rt::seq_store(s.message_truncated, f.message.truncated);
+  rt::seq_store(s.message_can_id, f.message.can_id);
+  rt::seq_store(s.message_can_len, f.message.can_len);
+  rt::seq_store(s.rated_before, f.rated_before);
+  rt::seq_store(s.rated_after, f.rated_after);
   rt::seq_store(s.resetting, x.resetting());
   rt::seq_store(s.operational, x.operational());
   rt::seq_store(s.statusword, x.statusword());
@@ -153,6 +189,8 @@ void CanopenSession::publish() noexcept {
   rt::seq_store(s.error_frames, c.error_frames);
   rt::seq_store(s.drive_heartbeats, c.drive_heartbeats);
   rt::seq_store(s.tx_dropped, c.tx_dropped);
+  rt::seq_store(s.malformed_frames, c.malformed_frames);
+  rt::seq_store(s.malformed_messages, c.malformed_messages);
   rt::seq_store(s.faults, c.faults);
   version_.write_end();
   publications_.fetch_add(1, std::memory_order_release);
@@ -180,6 +218,18 @@ SessionStatus CanopenSession::status() const {
     f.bus.severity = static_cast<BusErrorSeverity>(rt::seq_load(s.bus_severity));
     f.link_errno = rt::seq_load(s.link_errno);
     f.link_closed = rt::seq_load(s.link_closed);
+    f.malformed = static_cast<MalformedFrame>(rt::seq_load(s.malformed));
+    f.frame.id = rt::seq_load(s.frame_id);
+    f.frame.len = rt::seq_load(s.frame_len);
+    const std::uint64_t d = rt::seq_load(s.frame_data);
+    for (std::size_t i = 0; i < f.frame.data.size(); ++i)
+      f.frame.data[i] = static_cast<std::uint8_t>(d >> (8 * i));
+    f.message.bytes = rt::seq_load(s.message_bytes);
+    f.message.truncated = rt::seq_load(s.message_truncated);
+    f.message.can_id = rt::seq_load(s.message_can_id);
+    f.message.can_len = rt::seq_load(s.message_can_len);
+    f.rated_before = rt::seq_load(s.rated_before);
+    f.rated_after = rt::seq_load(s.rated_after);
     st.resetting = rt::seq_load(s.resetting);
     st.operational = rt::seq_load(s.operational);
     st.statusword = rt::seq_load(s.statusword);
@@ -193,6 +243,8 @@ SessionStatus CanopenSession::status() const {
     st.counters.error_frames = rt::seq_load(s.error_frames);
     st.counters.drive_heartbeats = rt::seq_load(s.drive_heartbeats);
     st.counters.tx_dropped = rt::seq_load(s.tx_dropped);
+    st.counters.malformed_frames = rt::seq_load(s.malformed_frames);
+    st.counters.malformed_messages = rt::seq_load(s.malformed_messages);
     st.counters.faults = rt::seq_load(s.faults);
   });
   st.fault_kind = f.kind;
@@ -201,6 +253,7 @@ SessionStatus CanopenSession::status() const {
   const auto state = cia402::decode_statusword(st.statusword);
   st.drive_state = state ? std::string(cia402::to_string(*state)) : "unknown";
   st.sdo_answers_dropped = sdo_answers_ ? sdo_answers_->dropped() : 0;
+  st.rated_torque_mnm = rated_torque_mnm();
   return st;
 }
 
@@ -269,9 +322,11 @@ void CanopenSession::configure(double period_s) {
     SocketLink link(socket_);
     SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
     setup_ = setup_drive(sdo, link, setup_options(config_, period_s));
-    scaling_ = canopen::scaling(config_, setup_.rated_torque_mnm);
+    rated_torque_mnm_.store(setup_.rated_torque_mnm, std::memory_order_release);
     sdo_answers_ = std::make_unique<rt::SpscRing<Frame>>(sdo_ring_capacity);
-    exchange_.emplace(cyclic_settings(config_, setup_, scaling_, period_s));
+    unit_changes_ = std::make_unique<rt::SpscRing<TorqueUnitChange>>(unit_ring_capacity);
+    exchange_.emplace(
+        cyclic_settings(config_, setup_, canopen::scaling(config_, setup_.rated_torque_mnm), period_s));
     if (!link.send(cia301::encode_nmt(cia301::NmtCommand::start, config_.node_id)))
       throw SetupError(
           "cannot send NMT start to node " + std::to_string(config_.node_id) + ": " + link.link_error(),
@@ -300,6 +355,11 @@ void CanopenSession::prime() {
       const IoStatus s = socket_.receive(f);
       if (s == IoStatus::ok) {
         exchange_->on_frame(f);
+      } else if (s == IoStatus::malformed) {
+        exchange_->on_malformed_message(socket_.last_malformed());
+        throw SetupError("node " + std::to_string(config_.node_id) +
+                             " after NMT start and SYNC: " + describe(socket_.last_malformed()),
+                         "interface");
       } else if (s == IoStatus::would_block) {
         socket_.wait_readable(std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now()));
       } else {
@@ -333,9 +393,9 @@ bool CanopenSession::run_periods(Done&& done, std::uint64_t max_periods) {
   return done();
 }
 
-bool CanopenSession::loop_running() const {
+bool CanopenSession::loop_running(double at_least_s) const {
   const std::uint64_t before = reads_.load(std::memory_order_acquire);
-  const auto wait = std::chrono::duration<double>(std::max(5 * period_s_, 5e-3));
+  const auto wait = std::chrono::duration<double>(std::max(5 * period_s_, at_least_s));
   const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(wait);
   while (Clock::now() < deadline) {
     if (reads_.load(std::memory_order_acquire) != before) return true;
@@ -346,6 +406,11 @@ bool CanopenSession::loop_running() const {
 
 void CanopenSession::enable() {
   if (!exchange_) throw std::logic_error("canopen: enable() before configure()");
+  {
+    std::lock_guard lock(sdo_mutex_);
+    SocketLink link(socket_, &*exchange_);
+    recheck_torque_unit(link, false);  // applied by the first read() below
+  }
   exchange_->set_enabled(true);
   const bool ok = run_periods([this] { return exchange_->operational() || exchange_->faulted(); },
                               periods_in(enable_timeout_s, period_s_));
@@ -365,9 +430,31 @@ std::string CanopenSession::clear_fault() {
   if (!exchange_) throw std::logic_error("canopen: clear_fault() before configure()");
   const SessionStatus before = status();
   if (!before.faulted) return "";
+  if (before.fault_kind == FaultKind::drive_restarted)
+    throw SetupError("not cleared: " + before.fault_reason, "");
+  // Which thread owns the socket decides the link: a loop this VM stalls for
+  // more than 5 ms must not be taken for none (its answers would go to the
+  // ring while this thread read the socket), so it gets 100 ms to show up.
+  const bool loop = loop_running(clear_loop_wait_s);
+  // The unit the reset resumes with: a changed 0x6076 is taken now, the
+  // torque still zero. A lost link has nothing to read (the reset fails below).
+  if (before.fault_kind != FaultKind::link_lost) {
+    std::lock_guard lock(sdo_mutex_);
+    try {
+      if (loop) {
+        RingLink link(socket_, *sdo_answers_);
+        recheck_torque_unit(link, false);
+      } else {
+        SocketLink link(socket_, &*exchange_);
+        recheck_torque_unit(link, false);
+      }
+    } catch (const SetupError& e) {
+      throw SetupError("the drive stays in fault: " + before.fault_reason + "; " + e.what(), e.key());
+    }
+  }
   clear_requested_.store(true, std::memory_order_release);
   const auto limit = std::chrono::duration<double>(reset_timeout_s + 0.5);
-  if (loop_running()) {
+  if (loop) {
     // The loop takes the request at its next read() but publishes its status
     // only at write(): until a publication after the take, status() still
     // shows the old fault, not yet resetting.
@@ -440,10 +527,15 @@ IoResult CanopenSession::read(Reading& out) noexcept {
     exchange_->request_fault_reset();
   }
   if (disable_requested_.exchange(false, std::memory_order_acq_rel)) exchange_->set_enabled(false);
+  apply_torque_unit();
   Frame f;
   for (int i = 0; i < max_frames_per_period; ++i) {
     const IoStatus s = socket_.receive(f);
     if (s == IoStatus::would_block) break;
+    if (s == IoStatus::malformed) {
+      exchange_->on_malformed_message(socket_.last_malformed());  // latched: zero output this period
+      continue;
+    }
     if (s != IoStatus::ok) {
       exchange_->on_link_lost(socket_.last_errno(), s == IoStatus::closed);
       break;
@@ -455,6 +547,14 @@ IoResult CanopenSession::read(Reading& out) noexcept {
   if (!r.valid) return IoResult::error;
   out.position = r.position;
   return IoResult::ok;
+}
+
+void CanopenSession::apply_torque_unit() noexcept {
+  TorqueUnitChange change;
+  while (unit_changes_->try_pop(change)) {
+    if (change.fault) exchange_->on_torque_unit_changed(change.before_mnm, change.after_mnm);
+    if (change.after_mnm != 0) exchange_->set_force_per_permille(change.force_per_permille);
+  }
 }
 
 IoResult CanopenSession::write(double force) noexcept {
@@ -488,6 +588,43 @@ SdoAccess CanopenSession::access(cia301::ObjectAddress address, std::uint32_t ra
   return a;
 }
 
+std::string CanopenSession::recheck_torque_unit(FrameLink& link, bool fault_if_changed) {
+  if (!setup_.rated_torque_from_drive) return "";  // no 0x6076: the config's rated_torque stands
+  SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+  const std::uint32_t before = rated_torque_mnm();
+  TorqueUnitChange change;
+  change.before_mnm = before;
+  change.fault = fault_if_changed;
+  std::string problem;
+  try {
+    const auto drive = read_rated_torque(sdo);
+    change.after_mnm = torque_unit(
+        drive, static_cast<std::uint32_t>(std::llround(config_.rated_torque * 1e3)), config_.node_id);
+  } catch (const SdoError& e) {
+    problem = std::string(
+                  "cannot read back 0x6076 motor rated torque, the unit of every torque hapticd "
+                  "sends: ") +
+              e.what();
+  } catch (const SetupError& e) {
+    problem = e.what();
+  }
+  if (!problem.empty() && !fault_if_changed) throw SetupError(problem, "rated_torque");
+  if (problem.empty() && change.after_mnm == before) return "";
+  if (problem.empty())
+    change.force_per_permille = canopen::scaling(config_, change.after_mnm).force_per_permille;
+  else
+    change.after_mnm = 0;  // enabled and unreadable: a fault, the scale unchanged
+  if (!unit_changes_->try_push(change))
+    throw SetupError("the loop has not taken the last torque unit yet", "");
+  if (!problem.empty()) throw SetupError(problem + ": torque held at zero (fault latched)", "rated_torque");
+  rated_torque_mnm_.store(change.after_mnm, std::memory_order_release);
+  return "node " + std::to_string(config_.node_id) + "'s 0x6076 motor rated torque is now " +
+         std::to_string(change.after_mnm) + " mN m (was " + std::to_string(before) +
+         "): hapticd scales every torque by it" +
+         (fault_if_changed ? "; the drive was enabled: torque held at zero (fault latched) until fault clear"
+                           : " from now on");
+}
+
 SdoAccess CanopenSession::sdo_read(cia301::ObjectAddress address, std::optional<cia301::DataType> type) {
   if (!exchange_) throw std::invalid_argument("the drive is not configured");
   std::lock_guard lock(sdo_mutex_);
@@ -498,7 +635,7 @@ SdoAccess CanopenSession::sdo_read(cia301::ObjectAddress address, std::optional<
     SdoClient sdo(link, config_.node_id, timeout);
     raw = sdo.read(address);
   } else {
-    SocketLink link(socket_);
+    SocketLink link(socket_, &*exchange_);
     SdoClient sdo(link, config_.node_id, timeout);
     raw = sdo.read(address);
   }
@@ -509,8 +646,7 @@ SdoAccess CanopenSession::sdo_write(cia301::ObjectAddress address, std::int64_t 
                                     std::optional<cia301::DataType> type) {
   if (!exchange_) throw std::invalid_argument("the drive is not configured");
   if (enabled()) {
-    if (const auto why = refused_while_enabled(address))
-      throw std::invalid_argument(*why + ": refused while the drive is enabled");
+    if (const auto why = refused_while_enabled(address)) throw std::invalid_argument(*why);
   }
   const cia301::DataType t = write_type(address, type);
   const auto raw = cia301::to_raw(t, value);
@@ -518,17 +654,30 @@ SdoAccess CanopenSession::sdo_write(cia301::ObjectAddress address, std::int64_t 
     throw std::invalid_argument(std::to_string(value) + " does not fit " +
                                 std::string(cia301::short_name(t)) + " (" + cia301::to_string(address) + ")");
   std::lock_guard lock(sdo_mutex_);
-  const auto timeout = sdo_timeout(config_);
-  if (enabled()) {
-    RingLink link(socket_, *sdo_answers_);
-    SdoClient sdo(link, config_.node_id, timeout);
+  const bool was_enabled = enabled();
+  std::optional<RingLink> ring;
+  std::optional<SocketLink> direct;
+  FrameLink& link = was_enabled ? static_cast<FrameLink&>(ring.emplace(socket_, *sdo_answers_))
+                                : static_cast<FrameLink&>(direct.emplace(socket_, &*exchange_));
+  SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+  // Any write may change 0x6076 (a restore, a manufacturer's motor object):
+  // it is read back after each, also after an abort (the drive may have
+  // taken part of it).
+  try {
     sdo.write(address, *raw, cia301::size_of(t));
-  } else {
-    SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, timeout);
-    sdo.write(address, *raw, cia301::size_of(t));
+  } catch (const SdoError& e) {
+    std::string note;
+    try {
+      note = recheck_torque_unit(link, was_enabled);
+    } catch (const SetupError& unreadable) {
+      throw SetupError(std::string(e.what()) + "; " + unreadable.what(), unreadable.key());
+    }
+    if (note.empty()) throw;
+    throw SdoError(std::string(e.what()) + "; " + note, e.outcome());
   }
-  return access(address, *raw, t);
+  SdoAccess a = access(address, *raw, t);
+  a.note = recheck_torque_unit(link, was_enabled);
+  return a;
 }
 
 }  // namespace hapticd::drivers::canopen

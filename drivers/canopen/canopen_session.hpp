@@ -49,6 +49,7 @@ struct SessionStatus {
   std::int16_t torque_permille = 0;
   CyclicCounters counters;
   std::uint64_t sdo_answers_dropped = 0;
+  std::uint32_t rated_torque_mnm = 0;  ///< the 0x6076 hapticd scales the torque by
 };
 
 /// The value of one commissioning access.
@@ -58,6 +59,15 @@ struct SdoAccess {
   std::optional<cia301::DataType> type;  ///< known for the standard objects of this subset
   std::int64_t value = 0;                ///< raw interpreted in `type` (raw itself when unknown)
   std::string name;                      ///< the standard name, "" if unknown
+  std::string note;  ///< what the write changed for hapticd (a new torque unit), "" if nothing
+};
+
+/// A torque unit handed to the loop: 0x6076 read back and found changed.
+struct TorqueUnitChange {
+  std::uint32_t before_mnm = 0;
+  std::uint32_t after_mnm = 0;      ///< 0: it could not be read back (the scale stays)
+  double force_per_permille = 0.0;  ///< the new scale, when after_mnm != 0
+  bool fault = false;               ///< latch torque_unit_changed (the drive is enabled)
 };
 
 class CanopenSession {
@@ -71,10 +81,12 @@ class CanopenSession {
   /// Bus budget, socket, drive setup, NMT start, first TPDO. Throws
   /// SetupError (with the config key to blame) or ConfigError.
   void configure(double period_s);
-  /// To Operation Enabled with zero torque. Throws SetupError.
+  /// Reads 0x6076 back (the torque unit follows it), then to Operation
+  /// Enabled with zero torque. Throws SetupError.
   void enable();
-  /// The fault reset edge and the enable sequence; returns what was cleared
-  /// ("" if nothing). Throws SetupError if the drive stays in fault.
+  /// Reads 0x6076 back, the fault reset edge and the enable sequence; returns
+  /// what was cleared ("" if nothing). Throws SetupError if the drive stays in
+  /// fault, or restarted (its setup may be lost: configure again).
   std::string clear_fault();
   void disable() noexcept;
   void close() noexcept;
@@ -84,8 +96,12 @@ class CanopenSession {
 
   SessionStatus status() const;
   SdoAccess sdo_read(cia301::ObjectAddress address, std::optional<cia301::DataType> type);
-  /// Refused while enabled for the objects of refused_while_enabled(). Throws
-  /// std::invalid_argument (bad request) or SdoError (the drive said no).
+  /// Refused while enabled for the objects of refused_while_enabled(). After
+  /// every write 0x6076 is read back: while disabled a new value becomes the
+  /// torque unit (SdoAccess::note says so); while enabled it latches a fault
+  /// (the torque held at zero) and the unit changes with it. Throws
+  /// std::invalid_argument (bad request), SdoError (the drive said no) or
+  /// SetupError (0x6076 contradicts rated_torque).
   SdoAccess sdo_write(cia301::ObjectAddress address, std::int64_t value,
                       std::optional<cia301::DataType> type);
 
@@ -95,7 +111,13 @@ class CanopenSession {
   double period_s() const noexcept { return period_s_; }
   const SetupResult& setup() const noexcept { return setup_; }
   const cia301::BusBudget& budget() const noexcept { return budget_; }
-  const Scaling& scaling() const noexcept { return scaling_; }
+  /// The 0x6076 (mN m) the torque is scaled by: as read at configure, at
+  /// every enable and clear, and after every SDO write.
+  std::uint32_t rated_torque_mnm() const noexcept {
+    return rated_torque_mnm_.load(std::memory_order_acquire);
+  }
+  /// The scaling in use (from rated_torque_mnm()).
+  Scaling scaling() const { return canopen::scaling(config_, rated_torque_mnm()); }
 
  private:
   class SocketLink;
@@ -107,16 +129,21 @@ class CanopenSession {
   /// Runs read/write(0) periods on this thread until done() or max periods.
   template <class Done>
   bool run_periods(Done&& done, std::uint64_t max_periods);
-  /// True when an RT loop is calling read(): its counter moves within a few periods.
-  bool loop_running() const;
+  /// True when an RT loop is calling read(): its counter moves within a few
+  /// periods, and at least `at_least_s`.
+  bool loop_running(double at_least_s = 5e-3) const;
   SdoAccess access(cia301::ObjectAddress address, std::uint32_t raw,
                    std::optional<cia301::DataType> type) const;
+  /// Reads 0x6076 back over `link` (sdo_mutex_ held); a new unit goes to the
+  /// exchange at its next read(), with a fault first when `fault_if_changed`.
+  /// Returns a note ("" if unchanged). Throws SetupError.
+  std::string recheck_torque_unit(FrameLink& link, bool fault_if_changed);
+  void apply_torque_unit() noexcept;  ///< RT: takes what recheck_torque_unit() handed over
 
   CanopenConfig config_;
   double period_s_ = 0.0;
   CanSocket socket_;
   SetupResult setup_;
-  Scaling scaling_;
   cia301::BusBudget budget_;
   std::optional<CyclicExchange> exchange_;
   std::unique_ptr<rt::SpscRing<cia301::Frame>> sdo_answers_;
@@ -127,7 +154,10 @@ class CanopenSession {
   std::atomic<bool> disable_requested_{false};
   std::atomic<std::uint64_t> reads_{0};
   std::atomic<std::uint64_t> publications_{0};  ///< status publications, one per write()
-  std::mutex sdo_mutex_;                        // one commissioning transfer at a time (non-RT)
+  std::atomic<std::uint32_t> rated_torque_mnm_{
+      0};  ///< the unit the exchange scales by (or will, at its next read)
+  std::unique_ptr<rt::SpscRing<TorqueUnitChange>> unit_changes_;  ///< control thread -> the loop's read()
+  std::mutex sdo_mutex_;  // one commissioning transfer at a time (non-RT)
 };
 
 }  // namespace hapticd::drivers::canopen

@@ -32,9 +32,48 @@ std::string state_words(std::uint16_t statusword) {
          (s ? std::string(cia402::to_string(*s)) : std::string("no CiA 402 state")) + ")";
 }
 
+std::string hex3(unsigned v) {
+  char text[8];
+  std::snprintf(text, sizeof text, "0x%03X", v);
+  return text;
+}
+
+std::string data_bytes(const Frame& f) {
+  std::string out;
+  for (std::size_t i = 0; i < f.len && i < f.data.size(); ++i) {
+    char b[4];
+    std::snprintf(b, sizeof b, "%02X", f.data[i]);
+    out += (out.empty() ? "" : " ") + std::string(b);
+  }
+  return out;
+}
+
+std::string malformed_words(const FaultRecord& f) {
+  const std::string bytes = std::to_string(f.frame.len) + (f.frame.len == 1 ? " byte" : " bytes") +
+                            (f.frame.len == 0 ? std::string() : " (" + data_bytes(f.frame) + ")");
+  switch (f.malformed) {
+    case MalformedFrame::emcy_length:
+      return "an EMCY of " + bytes + " on " + hex3(f.frame.id) +
+             ": CiA 301 EMCY has 8 (error code, error register, 5 manufacturer bytes)";
+    case MalformedFrame::heartbeat_length:
+      return "a heartbeat of " + bytes + " on " + hex3(f.frame.id) +
+             ": CiA 301 heartbeat has 1 (the NMT state)";
+    case MalformedFrame::heartbeat_state: {
+      char state[8];
+      std::snprintf(state, sizeof state, "0x%02X", f.frame.data[0]);
+      return "heartbeat state " + std::string(state) + " on " + hex3(f.frame.id) +
+             ": no NMT state (CiA 301: 0x00 boot-up, 0x04 stopped, 0x05 operational, 0x7F pre-operational)";
+    }
+    case MalformedFrame::none:
+      break;
+  }
+  return "a malformed frame on " + hex3(f.frame.id) + ": " + bytes;
+}
+
 }  // namespace
 
-CyclicExchange::CyclicExchange(const CyclicSettings& settings) : settings_(settings) {}
+CyclicExchange::CyclicExchange(const CyclicSettings& settings)
+    : settings_(settings), force_per_permille_(settings.scaling.force_per_permille) {}
 
 FrameUse CyclicExchange::on_frame(const Frame& frame) noexcept {
   if ((frame.id & cia301::can_err_flag) != 0) {
@@ -59,35 +98,86 @@ FrameUse CyclicExchange::on_frame(const Frame& frame) noexcept {
     on_tpdo_velocity(frame);
     return FrameUse::cyclic;
   }
-  if (const auto emcy = cia301::decode_emergency(frame, node)) {
-    ++counters_.emcys;
-    if (emcy->error_code != cia301::emcy_code::no_error) {
-      FaultRecord r;
-      r.kind = FaultKind::emcy;
-      r.emcy = *emcy;
-      r.statusword = statusword_;
-      latch(r);
-    }
+  if (frame.id == cia301::emcy_id(node)) {
+    on_emergency(frame);
     return FrameUse::cyclic;
   }
   if (frame.id == cia301::heartbeat_id(node)) {
-    const auto hb = cia301::decode_heartbeat(frame);
-    if (!hb) return FrameUse::ignored;
-    ++counters_.drive_heartbeats;
-    const bool was_operational = drive_heartbeat_seen_ && drive_nmt_ == cia301::NmtState::operational;
-    drive_heartbeat_seen_ = true;
-    periods_since_heartbeat_ = 0;
-    drive_nmt_ = hb->state;
-    if (was_operational && hb->state != cia301::NmtState::operational && !resetting_) {
-      FaultRecord r;
-      r.kind = FaultKind::left_operational;
-      r.nmt = hb->state;
-      latch(r);
-    }
+    on_drive_heartbeat(frame);
     return FrameUse::cyclic;
   }
   if (frame.id == cia301::sdo_response_id(node)) return FrameUse::sdo_response;
   return FrameUse::ignored;
+}
+
+void CyclicExchange::on_emergency(const Frame& frame) noexcept {
+  ++counters_.emcys;
+  const auto emcy = cia301::decode_emergency(frame, settings_.node);
+  if (!emcy) {  // the id is the drive's EMCY: the length is wrong
+    latch_malformed(MalformedFrame::emcy_length, frame);
+    return;
+  }
+  if (emcy->error_code == cia301::emcy_code::no_error) return;
+  FaultRecord r;
+  r.kind = FaultKind::emcy;
+  r.emcy = *emcy;
+  r.statusword = statusword_;
+  latch(r);
+}
+
+void CyclicExchange::on_drive_heartbeat(const Frame& frame) noexcept {
+  if (frame.len != 1) {
+    latch_malformed(MalformedFrame::heartbeat_length, frame);
+    return;
+  }
+  const auto hb = cia301::decode_heartbeat(frame);
+  if (!hb) {
+    latch_malformed(MalformedFrame::heartbeat_state, frame);
+    return;
+  }
+  ++counters_.drive_heartbeats;
+  const bool was_operational = drive_heartbeat_seen_ && drive_nmt_ == cia301::NmtState::operational;
+  drive_heartbeat_seen_ = true;
+  periods_since_heartbeat_ = 0;
+  drive_nmt_ = hb->state;
+  FaultRecord r;
+  r.nmt = hb->state;
+  if (hb->state == cia301::NmtState::boot_up) {
+    // Only a restart sends it after the setup: the mapping, the mode and the
+    // dead-man hapticd wrote may be back to the drive's defaults.
+    r.kind = FaultKind::drive_restarted;
+    latch(r);
+  } else if (hb->state != cia301::NmtState::operational && !resetting_ && (was_operational || enabled_)) {
+    // Stopped or pre-operational: the drive takes no RPDO (CiA 301), so the
+    // torque hapticd sends is not what it applies.
+    r.kind = FaultKind::left_operational;
+    latch(r);
+  }
+}
+
+void CyclicExchange::latch_malformed(MalformedFrame what, const Frame& frame) noexcept {
+  ++counters_.malformed_frames;
+  FaultRecord r;
+  r.kind = FaultKind::malformed_frame;
+  r.malformed = what;
+  r.frame = frame;
+  latch(r);
+}
+
+void CyclicExchange::on_malformed_message(const MalformedMessage& message) noexcept {
+  ++counters_.malformed_messages;
+  FaultRecord r;
+  r.kind = FaultKind::malformed_message;
+  r.message = message;
+  latch(r);
+}
+
+void CyclicExchange::on_torque_unit_changed(std::uint32_t before_mnm, std::uint32_t after_mnm) noexcept {
+  FaultRecord r;
+  r.kind = FaultKind::torque_unit_changed;
+  r.rated_before = before_mnm;
+  r.rated_after = after_mnm;
+  latch(r);
 }
 
 void CyclicExchange::on_tpdo_position(const Frame& frame) noexcept {
@@ -220,8 +310,8 @@ std::size_t CyclicExchange::end_period(double force, std::span<Frame, 4> out) no
   const bool command_flows =
       std::isfinite(force) && enabled_ && !faulted() && !resetting_ && state == DriveState::operation_enabled;
   std::int16_t torque = 0;
-  if (command_flows && settings_.scaling.force_per_permille != 0.0) {
-    const double permille = std::round(force / settings_.scaling.force_per_permille);
+  if (command_flows && force_per_permille_ != 0.0) {
+    const double permille = std::round(force / force_per_permille_);
     torque = static_cast<std::int16_t>(std::fmax(-32767.0, std::fmin(32767.0, permille)));
   } else {
     cw |= cia402::control_bit::halt;  // halt clear only while a valid command flows
@@ -279,12 +369,9 @@ std::string describe(const FaultRecord& f, const CyclicSettings& s) {
       return node + " is in fault: " + state_words(f.statusword) + ", no EMCY received";
     case FaultKind::left_enabled:
       return node + " left Operation Enabled on its own: " + state_words(f.statusword);
-    case FaultKind::tpdo_timeout: {
-      char id[8];
-      std::snprintf(id, sizeof id, "0x%03X", static_cast<unsigned>(s.mapping.tpdo_position_id));
-      return "no TPDO1 (" + std::string(id) + ") from " + node + " for " + std::to_string(f.periods) +
-             " periods";
-    }
+    case FaultKind::tpdo_timeout:
+      return "no TPDO1 (" + hex3(s.mapping.tpdo_position_id) + ") from " + node + " for " +
+             std::to_string(f.periods) + " periods";
     case FaultKind::heartbeat_lost:
       return "no heartbeat from " + node + " for " + std::to_string(f.periods) + " periods";
     case FaultKind::left_operational:
@@ -298,6 +385,22 @@ std::string describe(const FaultRecord& f, const CyclicSettings& s) {
     case FaultKind::reset_failed:
       return "the fault reset did not bring " + node + " back to Operation Enabled within " +
              std::to_string(f.periods) + " periods: " + state_words(f.statusword);
+    case FaultKind::malformed_frame:
+      return node + " sent " + malformed_words(f);
+    case FaultKind::malformed_message:
+      return describe(f.message);
+    case FaultKind::drive_restarted:
+      return node + " restarted (its boot-up message on " + hex3(cia301::heartbeat_id(s.node)) +
+             "): the PDO mapping, mode and dead-man hapticd set up may be lost; restart hapticd to "
+             "configure it again";
+    case FaultKind::torque_unit_changed:
+      if (f.rated_after == 0)
+        return node +
+               "'s 0x6076 motor rated torque, the unit of every torque hapticd sends, could not be "
+               "read back after an SDO write: torque held at zero; fault clear reads it again";
+      return node + "'s 0x6076 motor rated torque, the unit of every torque hapticd sends, is now " +
+             std::to_string(f.rated_after) + " mN m, not the " + std::to_string(f.rated_before) +
+             " mN m hapticd scaled by: torque held at zero; fault clear takes the new unit";
   }
   return "";
 }

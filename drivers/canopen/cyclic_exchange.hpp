@@ -15,7 +15,11 @@
 /// Faults latch with the drive's own reason until request_fault_reset():
 /// an EMCY (code != 0), the statusword in Fault, the drive leaving
 /// Operation Enabled or NMT operational, TPDOs missing, the drive's heartbeat
-/// lost, a bus error frame (bus-off ...), the link lost. While latched the
+/// lost, a bus error frame (bus-off ...), the link lost; an EMCY or heartbeat
+/// that breaks CiA 301 (its length, an undefined NMT state), a message on the
+/// socket that is no can_frame, the drive's boot-up (it restarted), and the
+/// torque unit 0x6076 changing under hapticd. A malformed frame is never
+/// dropped quietly: the driver cannot tell what the drive meant by it. While latched the
 /// torque is 0 and the halt bit set. The reset drives the CiA 402 fault
 /// reset (bit 7 low, then high), NMT start if the drive left operational,
 /// and the enable sequence, until the drive is back in Operation Enabled.
@@ -51,15 +55,27 @@ struct CyclicSettings {
 
 enum class FaultKind : std::uint8_t {
   none,
-  emcy,              ///< the drive sent an EMCY (emcy)
-  drive_fault,       ///< the statusword shows Fault / Fault Reaction Active (statusword)
-  left_enabled,      ///< the drive left Operation Enabled on its own (statusword)
-  tpdo_timeout,      ///< no TPDO1 for `periods`
-  heartbeat_lost,    ///< no heartbeat from the drive for `periods`
-  left_operational,  ///< the drive's heartbeat shows another NMT state (nmt)
-  bus_error,         ///< an error frame (bus)
-  link_lost,         ///< the socket failed (link_errno, link_closed)
-  reset_failed,      ///< the fault reset did not bring the drive back (statusword)
+  emcy,                 ///< the drive sent an EMCY (emcy)
+  drive_fault,          ///< the statusword shows Fault / Fault Reaction Active (statusword)
+  left_enabled,         ///< the drive left Operation Enabled on its own (statusword)
+  tpdo_timeout,         ///< no TPDO1 for `periods`
+  heartbeat_lost,       ///< no heartbeat from the drive for `periods`
+  left_operational,     ///< the drive's heartbeat shows another NMT state (nmt)
+  bus_error,            ///< an error frame (bus)
+  link_lost,            ///< the socket failed (link_errno, link_closed)
+  reset_failed,         ///< the fault reset did not bring the drive back (statusword)
+  malformed_frame,      ///< an EMCY or heartbeat from the drive that breaks CiA 301 (frame, malformed)
+  malformed_message,    ///< a message on the socket that is no can_frame (message)
+  drive_restarted,      ///< the drive's boot-up: its setup may be lost (not cleared by a fault reset)
+  torque_unit_changed,  ///< 0x6076 is not what the scale was built on (rated_before, rated_after)
+};
+
+/// What broke CiA 301 in a frame from the drive.
+enum class MalformedFrame : std::uint8_t {
+  none,
+  emcy_length,       ///< an EMCY of other than 8 bytes (CiA 301 7.2.7.3.1)
+  heartbeat_length,  ///< a heartbeat of other than 1 byte
+  heartbeat_state,   ///< a heartbeat whose state is no NMT state (0x00, 0x04, 0x05, 0x7F)
 };
 
 struct FaultRecord {
@@ -71,7 +87,11 @@ struct FaultRecord {
   BusError bus;
   int link_errno = 0;
   bool link_closed = false;
-  std::uint64_t period = 0;  ///< the period it latched in
+  MalformedFrame malformed = MalformedFrame::none;
+  cia301::Frame frame;  ///< the malformed frame as it arrived
+  MalformedMessage message;
+  std::uint32_t rated_before = 0, rated_after = 0;  ///< 0x6076, mN m
+  std::uint64_t period = 0;                         ///< the period it latched in
 };
 /// The fault in words, the drive's own where it gave any ("EMCY 0x2310: ...").
 std::string describe(const FaultRecord& fault, const CyclicSettings& settings);
@@ -84,7 +104,9 @@ struct CyclicCounters {
   std::uint64_t emcys = 0;
   std::uint64_t error_frames = 0;
   std::uint64_t drive_heartbeats = 0;
-  std::uint64_t tx_dropped = 0;  ///< frames the socket refused (TX queue full)
+  std::uint64_t tx_dropped = 0;          ///< frames the socket refused (TX queue full)
+  std::uint64_t malformed_frames = 0;    ///< EMCYs and heartbeats that break CiA 301 (each a fault)
+  std::uint64_t malformed_messages = 0;  ///< socket messages that are no can_frame (each a fault)
   std::uint64_t faults = 0;
 };
 
@@ -106,6 +128,16 @@ class CyclicExchange {
   // ---- RT ----
   FrameUse on_frame(const cia301::Frame& frame) noexcept;
   void on_link_lost(int error, bool closed) noexcept;
+  /// A message that is no can_frame arrived (CanSocket::receive said malformed).
+  void on_malformed_message(const MalformedMessage& message) noexcept;
+  /// The torque unit: output N m (N) per 0x6071 unit. While the drive is
+  /// enabled only after a fault latched (on_torque_unit_changed).
+  void set_force_per_permille(double force_per_permille) noexcept {
+    force_per_permille_ = force_per_permille;
+  }
+  double force_per_permille() const noexcept { return force_per_permille_; }
+  /// 0x6076 read back differs from the one the scale was built on: a fault.
+  void on_torque_unit_changed(std::uint32_t before_mnm, std::uint32_t after_mnm) noexcept;
   void on_frame_dropped() noexcept { ++counters_.tx_dropped; }
   CycleReading begin_period() noexcept;
   /// The frames of this period into `out`: RPDO1, SYNC, then the heartbeat
@@ -137,8 +169,12 @@ class CyclicExchange {
   void on_tpdo_position(const cia301::Frame& frame) noexcept;
   void on_tpdo_velocity(const cia301::Frame& frame) noexcept;
   void check_statusword() noexcept;
+  void on_emergency(const cia301::Frame& frame) noexcept;
+  void on_drive_heartbeat(const cia301::Frame& frame) noexcept;
+  void latch_malformed(MalformedFrame what, const cia301::Frame& frame) noexcept;
 
   CyclicSettings settings_;
+  double force_per_permille_ = 0.0;  ///< settings_.scaling's, until set_force_per_permille()
   FaultRecord fault_;
   CyclicCounters counters_;
   bool enabled_ = false;

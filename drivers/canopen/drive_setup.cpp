@@ -165,19 +165,16 @@ void select_torque_mode(SdoClient& sdo, const std::string& node, SetupResult& r)
 }
 
 // 4. Rated torque (the unit of 0x6071) and the interpolation period.
-void units_and_timing(SdoClient& sdo, const SetupOptions& o, const std::string& node, SetupResult& r) {
-  r.rated_torque_mnm = o.rated_torque_mnm;
-  if (r.rated_torque_mnm == 0) {
-    try {
-      r.rated_torque_mnm = sdo.read({obj402::rated_torque, 0});
-      r.rated_torque_from_drive = true;
-    } catch (const SdoError& e) {
-      throw SetupError(std::string(e.what()) + ": set rated_torque in the config", "rated_torque");
-    }
-    if (r.rated_torque_mnm == 0)
-      throw SetupError(node + " reports 0x6076 rated torque = 0: set rated_torque in the config",
-                       "rated_torque");
+void units_and_timing(SdoClient& sdo, const SetupOptions& o, SetupResult& r) {
+  std::optional<std::uint32_t> drive_mnm;
+  try {
+    drive_mnm = read_rated_torque(sdo);
+  } catch (const SdoError& e) {
+    throw SetupError(std::string(e.what()) + ": 0x6076 is the unit of every torque hapticd sends",
+                     "rated_torque");
   }
+  r.rated_torque_mnm = torque_unit(drive_mnm, o.rated_torque_mnm, o.node);
+  r.rated_torque_from_drive = drive_mnm.has_value();
   const auto period = cia402::encode_interpolation_period(o.period_s);
   if (!period)
     throw SetupError("the period " + std::to_string(o.period_s * 1e6) +
@@ -233,6 +230,36 @@ cia402::DriveState reset_old_fault(SdoClient& sdo, const std::string& node, Setu
 
 }  // namespace
 
+std::optional<std::uint32_t> read_rated_torque(SdoClient& sdo) {
+  try {
+    return sdo.read({obj402::rated_torque, 0});
+  } catch (const SdoError& e) {
+    if (e.object_missing()) return std::nullopt;
+    throw;
+  }
+}
+
+std::uint32_t torque_unit(std::optional<std::uint32_t> drive_mnm, std::uint32_t config_mnm,
+                          std::uint8_t node) {
+  const std::string name = node_name(node);
+  if (!drive_mnm) {
+    if (config_mnm == 0)
+      throw SetupError(name + " has no 0x6076 motor rated torque: set rated_torque in the config",
+                       "rated_torque");
+    return config_mnm;
+  }
+  if (*drive_mnm == 0)
+    throw SetupError(name + " reports 0x6076 rated torque = 0: set rated_torque in the config",
+                     "rated_torque");
+  if (config_mnm != 0 && config_mnm != *drive_mnm)
+    throw SetupError("rated_torque = " + std::to_string(config_mnm) + " mN m, but " + name +
+                         "'s 0x6076 motor rated torque = " + std::to_string(*drive_mnm) +
+                         " mN m: the drive scales 0x6071 by its own 0x6076; set rated_torque = 0 (the "
+                         "drive's) or correct 0x6076",
+                     "rated_torque");
+  return *drive_mnm;
+}
+
 SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) {
   SetupResult r;
   const std::string node = node_name(o.node);
@@ -242,7 +269,7 @@ SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& o) 
   write(sdo, {obj402::controlword, 0}, cia402::controlword::disable_voltage, 2);
   write(sdo, {obj402::target_torque, 0}, 0, 2);
   select_torque_mode(sdo, node, r);
-  units_and_timing(sdo, o, node, r);
+  units_and_timing(sdo, o, r);
   r.mapping = standard_mapping(o.node, o.velocity);
   configure_pdos(sdo, o, r.mapping, r);  // 5.
   arm_dead_man(sdo, o, node, r);

@@ -6,7 +6,8 @@
 ///   2. power stage off (0x6040 = Disable Voltage), 0x6071 = 0
 ///   3. 0x6502 must offer cyclic synchronous torque (if the drive has 0x6502);
 ///      0x6060 = 10, confirmed by reading 0x6061 back
-///   4. 0x6076 rated torque (unless the config gives it); 0x60C2 = the period
+///   4. 0x6076 rated torque (the config's rated_torque only for a drive
+///      without 0x6076, and refused if it differs from the drive's); 0x60C2 = the period
 ///   5. PDO mapping the standard way (301/pdo.hpp): RPDO1 = 0x6040 + 0x6071,
 ///      TPDO1 = 0x6041 + 0x6064, TPDO2 = 0x606C only if asked; the other
 ///      PDOs made not valid; transmission type 1 (every SYNC)
@@ -59,8 +60,8 @@ struct DriveIdentity {
 
 struct SetupResult {
   DriveIdentity identity;
-  std::uint32_t rated_torque_mnm = 0;
-  bool rated_torque_from_drive = false;
+  std::uint32_t rated_torque_mnm = 0;    ///< the unit of 0x6071 (per mille of it), mN m
+  bool rated_torque_from_drive = false;  ///< the drive has 0x6076 (read back at every enable)
   cia402::DriveState state = cia402::DriveState::not_ready_to_switch_on;
   CyclicMapping mapping;
   std::vector<std::string> notes;  ///< what the drive lacks that the driver did without
@@ -76,6 +77,16 @@ class SetupError : public std::runtime_error {
  private:
   std::string key_;
 };
+
+/// 0x6076 motor rated torque (mN m) as the drive has it now; nullopt if it
+/// has no 0x6076. Throws SdoError for any other failure.
+std::optional<std::uint32_t> read_rated_torque(SdoClient& sdo);
+/// The unit of 0x6071 target torque (CiA 402: per mille of 0x6076): the
+/// drive's 0x6076, which the config's rated_torque (`config_mnm`, 0 if not
+/// given) must equal, since the drive scales by its own; the config's only
+/// for a drive without 0x6076. Throws SetupError (key rated_torque).
+std::uint32_t torque_unit(std::optional<std::uint32_t> drive_mnm, std::uint32_t config_mnm,
+                          std::uint8_t node);
 
 /// Runs the steps above. Throws SetupError.
 SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& options);

@@ -7,13 +7,19 @@
 // Must hold: nothing crashes or reads out of bounds; a period sends at most
 // its 4 frames, each with a length code of at most 8; a reading is finite;
 // an expedited SDO upload indicates at most 4 bytes; an EMCY decodes back
-// to the same frame (CiA 301 7.2.7.3.1: always 8 bytes).
+// to the same frame (CiA 301 7.2.7.3.1: always 8 bytes); and nothing
+// malformed passes quietly (issue 17): an EMCY of the drive of other than 8
+// bytes, a heartbeat of other than 1 byte or with no NMT state, a boot-up
+// after the setup, and a length code over 8 (which the socket refuses as no
+// can_frame: fed as on_malformed_message, as the session does) each leave the
+// exchange faulted.
 #include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 
+#include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/301/emcy.hpp"
 #include "drivers/canopen/301/nmt.hpp"
 #include "drivers/canopen/301/sdo.hpp"
@@ -68,6 +74,30 @@ void check_codecs(const co::Frame& f) {
   (void)co::decode_nmt(f);
 }
 
+/// Must the exchange have latched a fault on this frame of the drive's?
+bool must_fault(const co::Frame& f) {
+  if (!co::is_standard_data_frame(f)) return false;
+  if (f.id == co::emcy_id(node)) return f.len != 8;
+  if (f.id != co::heartbeat_id(node)) return false;
+  const auto hb = co::decode_heartbeat(f);
+  return !hb || hb->state == co::NmtState::boot_up;
+}
+
+/// One received message the way the session's read() takes it.
+void receive(canopen::CyclicExchange& exchange, const co::Frame& f) {
+  if (f.len > 8) {  // the socket's verdict: a can_frame with len over 8 is no frame
+    canopen::MalformedMessage m;
+    m.bytes = 16;
+    m.can_id = f.id;
+    m.can_len = f.len;
+    exchange.on_malformed_message(m);
+    require(exchange.faulted());
+    return;
+  }
+  (void)exchange.on_frame(f);
+  if (must_fault(f)) require(exchange.faulted());
+}
+
 void end_period(canopen::CyclicExchange& exchange, const std::uint8_t* record) {
   const canopen::CycleReading reading = exchange.begin_period();
   require(std::isfinite(reading.position) && std::isfinite(reading.velocity));
@@ -88,7 +118,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (std::size_t i = 0; i + record_bytes <= size; i += record_bytes) {
     const co::Frame f = frame_of(data + i);
     check_codecs(f);
-    (void)exchange.on_frame(f);
+    receive(exchange, f);
     if ((i / record_bytes) % 3 == 2) end_period(exchange, data + i);
   }
   return 0;

@@ -97,6 +97,63 @@ TEST(CanopenCanSocket, ClosedPeerIsReported) {
   EXPECT_EQ(a.send(make(0x080, {})), IoStatus::closed);
 }
 
+// Issue 17: a peer on the seam writes what it likes. Only a message of
+// exactly sizeof(struct can_frame) with len 0..8 is a frame; anything else is
+// reported as what it is, never cut to 16 bytes.
+TEST(CanopenCanSocket, AMessageOfAnotherSizeIsMalformedNotCutToAFrame) {
+  auto [driver, peer] = CanSocket::pair();
+  can_frame tpdo{};
+  tpdo.can_id = 0x185;
+  tpdo.len = 6;
+  tpdo.data[0] = 0x37;
+  unsigned char oversize[72] = {};
+  std::memcpy(oversize, &tpdo, sizeof tpdo);  // its first 16 bytes are a TPDO
+  ASSERT_EQ(::send(peer.fd(), oversize, sizeof oversize, 0), 72);
+  ASSERT_EQ(::send(peer.fd(), oversize, 5, 0), 5);
+  unsigned char huge[300] = {};
+  ASSERT_EQ(::send(peer.fd(), huge, sizeof huge, 0), 300);
+  ASSERT_EQ(::send(peer.fd(), &tpdo, sizeof tpdo, 0), 16);
+  Frame got;
+  ASSERT_EQ(driver.receive(got), IoStatus::malformed);
+  EXPECT_EQ(driver.last_malformed().bytes, 72U);
+  EXPECT_EQ(canopen::describe(driver.last_malformed()),
+            "a 72-byte message on the CAN socket: not a can_frame (16 bytes)");
+  ASSERT_EQ(driver.receive(got), IoStatus::malformed);
+  EXPECT_EQ(canopen::describe(driver.last_malformed()),
+            "a 5-byte message on the CAN socket: not a can_frame (16 bytes)");
+  ASSERT_EQ(driver.receive(got), IoStatus::malformed);  // MSG_TRUNC tells the real length
+  EXPECT_EQ(canopen::describe(driver.last_malformed()),
+            "a 300-byte message on the CAN socket: not a can_frame (16 bytes)");
+  ASSERT_EQ(driver.receive(got), IoStatus::ok);  // each message consumed whole: the next frame is intact
+  EXPECT_EQ(got, make(0x185, {0x37, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(driver.receive(got), IoStatus::would_block);
+}
+
+TEST(CanopenCanSocket, AnEmptyMessageIsMalformedWhileThePeerLivesAndTheEndOnceItHungUp) {
+  auto [driver, peer] = CanSocket::pair();
+  ASSERT_EQ(::send(peer.fd(), "", 0, 0), 0);
+  Frame got;
+  ASSERT_EQ(driver.receive(got), IoStatus::malformed);
+  EXPECT_EQ(canopen::describe(driver.last_malformed()),
+            "a 0-byte message on the CAN socket: not a can_frame (16 bytes)");
+  EXPECT_EQ(driver.receive(got), IoStatus::would_block);
+  peer.close();
+  EXPECT_EQ(driver.receive(got), IoStatus::closed);
+}
+
+TEST(CanopenCanSocket, ACanFrameClaimingMoreThan8DataBytesIsMalformed) {
+  auto [driver, peer] = CanSocket::pair();
+  can_frame cf{};
+  cf.can_id = 0x085;
+  cf.len = 15;
+  ASSERT_EQ(::send(peer.fd(), &cf, sizeof cf, 0), 16);
+  Frame got;
+  ASSERT_EQ(driver.receive(got), IoStatus::malformed);
+  EXPECT_EQ(driver.last_malformed().can_len, 15);
+  EXPECT_EQ(canopen::describe(driver.last_malformed()),
+            "a can_frame with len 15 (id 0x085) on the CAN socket: a classic frame carries 0..8 data bytes");
+}
+
 TEST(CanopenCanSocket, UnixInterfaceFiltersLikeCanRaw) {
   const std::string path = scratch_path("filters");
   auto listener = canopen::CanListener::listen(path);

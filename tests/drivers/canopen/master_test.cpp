@@ -550,6 +550,77 @@ TEST_F(MasterTest, ThePeriodIsAllocationFree) {
   EXPECT_TRUE(exchange->operational());
 }
 
+// Issue 17: what breaks CiA 301 zeroes the torque in the period it is read.
+TEST_F(MasterTest, AMalformedEmcyHeartbeatOrMessageZeroesThatPeriodsTorque) {
+  start();
+  period(0.0);
+  enable();
+  Frame short_emcy;
+  short_emcy.id = 0x085;
+  short_emcy.len = 3;
+  short_emcy.data = {0x10, 0x23, 0x00};
+  Frame odd_state = co::encode_heartbeat(node, co::NmtState::operational);
+  odd_state.data[0] = 0x33;
+  Frame long_heartbeat = co::encode_heartbeat(node, co::NmtState::operational);
+  long_heartbeat.len = 2;
+  for (const Frame& attack : {short_emcy, odd_state, long_heartbeat}) {
+    period(0.2);
+    ASSERT_EQ(sent_torque(), 400);
+    link.inbox.push_back(attack);
+    period(0.2);  // read at the start of this period
+    EXPECT_TRUE(exchange->faulted());
+    EXPECT_EQ(exchange->fault().kind, canopen::FaultKind::malformed_frame);
+    EXPECT_EQ(sent_torque(), 0);
+    EXPECT_EQ(sent_controlword() & 0x100, 0x100);  // halt
+    exchange->request_fault_reset();
+    for (int i = 0; i < 10 && !exchange->operational(); ++i) period(0.0);
+    ASSERT_TRUE(exchange->operational());
+  }
+  EXPECT_EQ(exchange->counters().malformed_frames, 3U);
+  period(0.2);
+  canopen::MalformedMessage m;
+  m.bytes = 72;
+  exchange->on_malformed_message(m);
+  period(0.2);
+  EXPECT_EQ(exchange->fault().kind, canopen::FaultKind::malformed_message);
+  EXPECT_EQ(sent_torque(), 0);
+  EXPECT_EQ(canopen::describe(exchange->fault(), exchange->settings()),
+            "a 72-byte message on the CAN socket: not a can_frame (16 bytes)");
+}
+
+TEST_F(MasterTest, MalformedFramesKeepThePeriodAllocationFree) {
+  start();
+  period(0.0);
+  enable();
+  Frame short_emcy;
+  short_emcy.id = 0x085;
+  short_emcy.len = 2;
+  Frame odd_state = co::encode_heartbeat(node, co::NmtState::operational);
+  odd_state.data[0] = 0x33;
+  Frame boot_up = co::encode_heartbeat(node, co::NmtState::boot_up);
+  canopen::MalformedMessage empty;
+  std::array<Frame, 4> frames;
+  std::size_t allocations = 0;
+  for (int i = 0; i < 4; ++i) {
+    {
+      hapticd::testing::AllocationGuard guard;
+      if (i == 0) exchange->on_frame(short_emcy);
+      if (i == 1) exchange->on_frame(odd_state);
+      if (i == 2) exchange->on_frame(boot_up);
+      if (i == 3) exchange->on_malformed_message(empty);
+      exchange->on_torque_unit_changed(500, 5000);
+      exchange->set_force_per_permille(5e-3);
+      exchange->begin_period();
+      exchange->end_period(0.1, frames);
+      allocations += guard.count();
+    }
+    EXPECT_TRUE(exchange->faulted());
+    exchange->request_fault_reset();
+  }
+  EXPECT_TRUE(hapticd::testing::allocation_counting_active());
+  EXPECT_EQ(allocations, 0U);
+}
+
 // ---- the exchange alone, frame by frame ----------------------------------------
 
 namespace {

@@ -11,6 +11,8 @@
 //     CiA 402 state machine once it answers again;
 //   - hapticctl device sdo reads and writes objects of the running drive,
 //     refusing the mapping while enabled and decoding the drive's aborts;
+//   - while enabled it refuses every object that scales or bounds the torque
+//     (0x6076, 0x6072, 0x1029 ...) with the object's role, as a -32000 error;
 //   - a killed hapticd lets the drive's heartbeat consumer disable it.
 // The canopen runs use the real clock (the drive answers in its own process);
 // the loopback reference runs on the virtual clock.
@@ -415,25 +417,80 @@ TEST(Canopen, HapticctlDeviceSdoCommissionsTheRunningDrive) {
   EXPECT_EQ(r.out.rfind("0x6041:00 statusword = ", 0), 0U) << r.out;
   std::cout << "hapticctl device sdo read 0x6041 0: " << r.out;
 
-  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "1500"});
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  r = d.ctl({"device", "sdo", "read", "0x6072", "0", "--json"});
-  EXPECT_EQ(json::parse(r.out)["value"].get<int>(), 1500) << r.out;
-
   // The mapping is the cyclic exchange's: refused while enabled, in words.
   r = d.ctl({"device", "sdo", "write", "0x1A00", "0", "0"});
   EXPECT_NE(r.exit_code, 0);
-  EXPECT_NE(r.err.find("is a PDO mapping parameter: changing it changes the cyclic exchange: refused while "
-                       "the drive is enabled"),
-            std::string::npos)
+  EXPECT_NE(
+      r.err.find("0x1A00:00 TPDO1 mapping parameter: what the bytes of the position hapticd reads mean; "
+                 "refused while the drive is enabled"),
+      std::string::npos)
       << r.err;
-  // The drive's own abort, decoded.
-  EXPECT_EQ(drive.command("sdo-abort 0x6072:0 0x06090031").rfind("ok", 0), 0U);
-  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "4000"});
+  // An object outside the guarded list goes to the drive; the drive's own abort, decoded.
+  EXPECT_EQ(drive.command("sdo-abort 0x6065:0 0x06090031").rfind("ok", 0), 0U);
+  r = d.ctl({"device", "sdo", "write", "0x6065", "0", "4000", "--type", "u32"});
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("aborted 0x06090031 (value too high)"), std::string::npos) << r.err;
 
   // Commissioning went through the loop's exchange without disturbing it.
+  EXPECT_TRUE(status_of(d)["fault"].is_null()) << status_of(d)["device"].dump();
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque still flows";
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
+// Issue 17: `device sdo write 0x6076 0 10000` was accepted while enabled; the
+// drive then applied 10x the torque hapticd reported, past torque_limit.
+TEST(Canopen, WritesThatScaleOrBoundTheTorqueAreRefusedWhileEnabledWithTheirRole) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000));
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows
+  const json described = json::parse(d.ctl({"device", "describe", "--json"}).out);
+  EXPECT_EQ(described["counters"]["rated_torque_mnm"], 1000) << described.dump();  // the scale in use
+
+  auto r = d.ctl({"device", "sdo", "write", "0x6076", "0", "10000"});
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.err.find("0x6076:00 motor rated torque: the scale of every torque hapticd sends; refused while "
+                       "the drive is enabled, disable it first"),
+            std::string::npos)
+      << r.err;
+  r = d.ctl({"device", "sdo", "write", "0x6072", "0", "1500"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("0x6072:00 max torque: the drive's bound on every torque hapticd sends; refused"),
+            std::string::npos)
+      << r.err;
+  r = d.ctl({"device", "sdo", "write", "0x1029", "1", "1"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("0x1029:01 error behaviour: what the drive does on a communication error"),
+            std::string::npos)
+      << r.err;
+  for (const char* index : {"0x607E", "0x608F", "0x6091", "0x6092", "0x60B2", "0x6060", "0x1017"}) {
+    r = d.ctl({"device", "sdo", "write", index, "0", "1", "--type", "u8"});
+    EXPECT_EQ(r.exit_code, 1) << index;
+    EXPECT_NE(r.err.find("; refused while the drive is enabled"), std::string::npos)
+        << index << ": " << r.err;
+  }
+  // The JSON-RPC error itself: -32000 (refused) with the role in its message.
+  {
+    RawConnection c(d.socket());
+    ASSERT_TRUE(c.send(
+        R"({"jsonrpc":"2.0","id":1,"method":"device.sdo.write","params":{"index":"0x6076","sub":0,"value":10000}})"
+        "\n"));
+    const json reply = json::parse(c.read_line());
+    EXPECT_EQ(reply["error"]["code"], -32000) << reply.dump();
+    EXPECT_EQ(
+        reply["error"]["message"].get<std::string>().rfind("0x6076:00 motor rated torque: the scale of every "
+                                                           "torque hapticd sends; refused while the drive is "
+                                                           "enabled",
+                                                           0),
+        0U)
+        << reply.dump();
+  }
+  // Nothing reached the drive; torque still flows, no fault.
+  r = d.ctl({"device", "sdo", "read", "0x6076", "0", "--json"});
+  EXPECT_EQ(json::parse(r.out)["value"].get<int>(), 1000) << r.out;
+  r = d.ctl({"device", "sdo", "read", "0x6072", "0", "--json"});
+  EXPECT_NE(json::parse(r.out)["value"].get<int>(), 1500) << r.out;
   EXPECT_TRUE(status_of(d)["fault"].is_null()) << status_of(d)["device"].dump();
   EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque still flows";
   EXPECT_EQ(d.stop(), 0) << d.log();
