@@ -17,10 +17,10 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
-#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <system_error>
 #include <thread>
 
 #include <httplib.h>
@@ -123,8 +123,8 @@ void open_browser(const std::string& url) {
   const int rc = posix_spawnp(&pid, "xdg-open", &actions, nullptr, argv, environ);
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) {
-    std::cerr << "hapticctl: scope: cannot start xdg-open (" << std::strerror(rc) << "); open " << url
-              << " in a browser\n";
+    std::cerr << "hapticctl: scope: cannot start xdg-open (" << std::generic_category().message(rc)
+              << "); open " << url << " in a browser\n";
     return;
   }
   std::thread([pid] {

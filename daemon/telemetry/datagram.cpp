@@ -140,10 +140,10 @@ std::string exact_seconds(std::uint64_t cycle, std::int64_t period_ns) {
       digits[i] = static_cast<char>('0' + fraction % 10);
       fraction /= 10;
     }
-    int last = 8;
-    while (digits[last] == '0') --last;
+    std::size_t length = 9;
+    while (digits[length - 1] == '0') --length;  // fraction != 0: stops at a digit
     out += '.';
-    out.append(digits, static_cast<std::size_t>(last + 1));
+    out.append(digits, length);
   }
   return out;
 }
