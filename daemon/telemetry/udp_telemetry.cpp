@@ -215,35 +215,46 @@ void UdpTelemetry::format(SenderState& s, const TelemetrySample& sample) {
   if (s.in_datagram >= s.batch) send_datagram(s);
 }
 
+bool UdpTelemetry::held() const {
+  std::lock_guard lock(mutex_);
+  return !quit_ && Clock::now() < hold_until_;
+}
+
 void UdpTelemetry::run() {
   // Placed like the daemon's other non-RT threads: off the loop's CPU.
   system::name_this_thread("hapticd-udp");
   SenderState s;
-  std::vector<TelemetrySample> popped(256);
+  std::vector<TelemetrySample> chunk(256);
+  std::vector<TelemetrySample> popped;  ///< taken from the queue, not yet formatted
+  popped.reserve(queue_.capacity());
   for (;;) {
     bool quit = false;
-    bool held = false;
     {
       std::unique_lock lock(mutex_);
       wake_.wait_for(lock, std::chrono::milliseconds(50),
                      [&] { return quit_ || !queue_.empty() || s.generation != generation_; });
       quit = quit_;
-      held = !quit && Clock::now() < hold_until_;
+    }
+    // Pop first, then read the settings: every sample popped was offered
+    // after any apply() that returned before, so it gets those settings
+    // (or newer). While held for a scene switch the samples stay queued.
+    if (!held()) {
+      std::size_t n = 0;
+      do {
+        n = queue_.pop_bulk(std::span<TelemetrySample>(chunk));
+        popped.insert(popped.end(), chunk.begin(), chunk.begin() + static_cast<std::ptrdiff_t>(n));
+      } while (n == chunk.size() && popped.size() < queue_.capacity());
     }
     refresh(s);
-    if (held) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));  // the queue holds them meanwhile
+    if (held()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
       continue;
     }
-    std::size_t n = 0;
-    do {
-      n = queue_.pop_bulk(std::span<TelemetrySample>(popped));
-      for (std::size_t i = 0; i < n; ++i) format(s, popped[i]);
-    } while (n == popped.size());
+    for (const auto& sample : popped) format(s, sample);
+    popped.clear();
     if (s.in_datagram > 0 && (quit || Clock::now() - s.oldest >= batch_patience)) send_datagram(s);
-    if (quit) break;
+    if (quit && queue_.empty()) break;
   }
-  refresh(s);
   {
     std::lock_guard lock(mutex_);
     counters_ = s.counts;

@@ -101,6 +101,7 @@ class UdpTelemetry {
   struct SenderState;
   void run();
   void refresh(SenderState& state);
+  bool held() const;  ///< hold_for_scene() in force (never once stopping)
   void send_datagram(SenderState& state);
   void format(SenderState& state, const TelemetrySample& sample);
 

@@ -223,7 +223,9 @@ TEST(UdpTelemetry, HeldDuringASceneSwitchSoNamesFollowTheCycle) {
   t.set_scene({"spring"}, 6);
   t.stop();
   const auto datagrams = r.read_all();
-  ASSERT_EQ(datagrams.size(), 10u);
+  const auto c = t.counters();
+  ASSERT_EQ(datagrams.size(), 10u) << "queued " << c.samples_queued << ", sent " << c.samples_sent
+                                   << ", failed " << c.samples_dropped_send << ": " << c.last_error;
   for (std::size_t i = 0; i < datagrams.size(); ++i) {
     const auto values = json::parse(datagrams[i])["hapticd"];
     EXPECT_EQ(values.contains("velocity"), i < 5) << datagrams[i];
