@@ -14,36 +14,43 @@
 # or more after the deadline (hapticd's overruns; cyclictest's histogram
 # from the period up), per 10,000 cycles.
 #
-# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--out DIR]
+# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--telemetry] [--out DIR]
 #   --load  adds two hapticd variants per round: under control-plane load
 #           (bench/hapticd_load: 16 clients streaming telemetry at 1 kHz, one
 #           param.set 1,000 times a second, every reply naming its cycle),
 #           once unpinned and once with [control] cpu and [recorder] cpu on
 #           another CPU than the loop; checks every change is acknowledged
 #           and no recorded sample is lost.
+#   --telemetry  adds a hapticd variant sending UDP telemetry ([telemetry],
+#           PlotJuggler's JSON) at the loop rate, every channel, to a
+#           receiver that never reads (bench/udp_sink), and reports its
+#           percentiles against the same round's hapticd without it.
 #   env: CPU (1: the RT CPU), OTHER_CPU (0), PRIORITY (80), BUILD (build), WARMUP_S (0.5)
 # Needs root (SCHED_FIFO, /dev/cpu_dma_latency, mlockall) like cyclictest.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-rounds=10 slice=3 periods="1000 250 100" load=0 out=""
+rounds=10 slice=3 periods="1000 250 100" load=0 telemetry=0 out=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rounds) rounds="$2"; shift 2 ;;
     --slice) slice="$2"; shift 2 ;;
     --periods) periods="$2"; shift 2 ;;
     --load) load=1; shift ;;
+    --telemetry) telemetry=1; shift ;;
     --out) out="$2"; shift 2 ;;
-    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--out DIR]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--telemetry] [--out DIR]" >&2; exit 2 ;;
   esac
 done
 cpu="${CPU:-1}" other="${OTHER_CPU:-0}" prio="${PRIORITY:-80}" warmup="${WARMUP_S:-0.5}"
 build="${BUILD:-$here/build}"
 hapticd="$build/daemon/hapticd" hapticctl="$build/cli/hapticctl" loadgen="$build/bench/hapticd_load"
+udpsink="$build/bench/udp_sink"
 for tool in cyclictest jq awk; do
   command -v "$tool" >/dev/null || { echo "$tool not found (scripts/install-deps.sh)" >&2; exit 1; }
 done
 for bin in "$hapticd" "$hapticctl"; do [[ -x "$bin" ]] || { echo "$bin not built (scripts/build.sh)" >&2; exit 1; }; done
 if [[ "$load" == 1 && ! -x "$loadgen" ]]; then echo "$loadgen not built (ninja -C build hapticd_load)" >&2; exit 1; fi
+if [[ "$telemetry" == 1 && ! -x "$udpsink" ]]; then echo "$udpsink not built (ninja -C build udp_sink)" >&2; exit 1; fi
 [[ "$(id -u)" == 0 ]] || echo "warning: not root: SCHED_FIFO and cpu_dma_latency will be refused; the numbers mean little" >&2
 
 work="$(mktemp -d)"
@@ -52,6 +59,7 @@ out="${out:-$work/results}"
 mkdir -p "$out"
 variants=(cyclictest hapticd)
 [[ "$load" == 1 ]] && variants+=(loaded loaded-pinned)
+[[ "$telemetry" == 1 ]] && variants+=(telemetry)
 
 # ---- one slice of each kind: writes one line "p50 p99 p999 max late_per_10k cycles [compute_p50 compute_p99]"
 cyclictest_slice() {  # period_us file
@@ -72,8 +80,13 @@ cyclictest_slice() {  # period_us file
     }' "$work/ct.txt" >"$result"
 }
 
-hapticd_config() {  # period_us variant socket dir
-  local placement=""
+hapticd_config() {  # period_us variant socket dir [udp_port]
+  local placement="" telemetry_section=""
+  if [[ "$2" == telemetry ]]; then
+    telemetry_section="[telemetry]
+udp = \"127.0.0.1:$5\"
+rate_hz = $((1000000 / $1))"
+  fi
   [[ "$2" == loaded-pinned ]] && placement="cpu = $other"
   cat <<EOF
 [loop]
@@ -94,13 +107,22 @@ $placement
 [recorder]
 directory = "$4"
 $placement
+$telemetry_section
 EOF
 }
 
 hapticd_slice() {  # period_us variant file
   local period="$1" variant="$2" result="$3" dir="$work/d"
   rm -rf "$dir" && mkdir -p "$dir"
-  hapticd_config "$period" "$variant" "$dir/s.sock" "$dir" >"$dir/h.toml"
+  local sinkpid="" sinkport=""
+  if [[ "$variant" == telemetry ]]; then
+    # On the other CPU, like any client; it never reads.
+    taskset -c "$other" "$udpsink" >"$dir/sink.port" &
+    sinkpid=$!
+    for _ in $(seq 100); do [[ -s "$dir/sink.port" ]] && break; sleep 0.02; done
+    sinkport="$(cat "$dir/sink.port")"
+  fi
+  hapticd_config "$period" "$variant" "$dir/s.sock" "$dir" "$sinkport" >"$dir/h.toml"
   "$hapticd" --config "$dir/h.toml" --record rec.csv >"$dir/log" 2>&1 &
   local pid=$!
   for _ in $(seq 200); do
@@ -125,6 +147,10 @@ hapticd_slice() {  # period_us variant file
   fi
   "${ctl[@]}" record stop --json >"$dir/record.json" || true
   kill -TERM "$pid"; wait "$pid" || true
+  if [[ -n "$sinkpid" ]]; then
+    kill -TERM "$sinkpid"; wait "$sinkpid" || true
+    jq -c '.telemetry' "$dir/stats.json" >"$out/telemetry-$period-$round.json" 2>/dev/null || true
+  fi
   jq -r --argjson T "$period" '
     [.latency.p50_us, .latency.p99_us, .latency.p999_us, .latency.max_us,
      (.overruns * 1e4 / .cycles), .cycles, .compute.p50_us, .compute.p99_us] | map(tostring) | join(" ")' \
@@ -181,8 +207,14 @@ for period in $periods; do
     }
     printf '  %-16s p50 %s  p99 %s  p99.9 %s  max %s   (%s / cyclictest, median (min-max) of %d rounds)\n' \
       "$v" "$(ratios 1 cyclictest)" "$(ratios 2 cyclictest)" "$(ratios 3 cyclictest)" "$(ratios 4 cyclictest)" "$v" "$rounds"
-    if [[ "$v" == loaded* ]]; then
-      printf '  %-16s p50 %s  p99 %s   (%s / unloaded hapticd)\n' "" "$(ratios 1 hapticd)" "$(ratios 2 hapticd)" "$v"
+    if [[ "$v" == loaded* || "$v" == telemetry ]]; then
+      printf '  %-16s p50 %s  p99 %s  p99.9 %s   (%s / hapticd without it, same rounds)\n' "" \
+        "$(ratios 1 hapticd)" "$(ratios 2 hapticd)" "$(ratios 3 hapticd)" "$v"
+    fi
+    if [[ "$v" == telemetry ]]; then
+      for ((r = 1; r <= rounds; r++)); do cat "$out/telemetry-$period-$r.json" 2>/dev/null; done | jq -s -r '"  " +
+        "                 telemetry datagrams sent \(map(.datagrams_sent) | add), samples dropped by the daemon " +
+        "\(map(.dropped) | add) (socket buffer full \(map(.buffer_full) | add), refused \(map(.refused) | add))"'
     fi
     late() { for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$1-$r"; done | awk '{ l += $5 * $6 / 1e4; n += $6 } END { printf "%.2f", l * 1e4 / n }'; }
     lost=$(for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$v-$r.lost"; done | awk '$1 != 0 { bad++ } END { print bad + 0 }')

@@ -9,6 +9,7 @@
 #include "cli/analyze.hpp"
 #include "cli/experiment.hpp"
 #include "cli/report.hpp"
+#include "cli/scope/scope.hpp"
 #include "cli/usage_error.hpp"
 #include "cli/verbs.hpp"
 
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
   hapticd::cli::add_report_command(app);
   hapticd::cli::add_tune_command(app, options);
   hapticd::cli::add_identify_command(app, options);
+  hapticd::cli::scope::add_scope_command(app, options);
   try {
     return hapticctl::run(app, argc, argv);
   } catch (const hapticd::cli::CannotAssess& e) {

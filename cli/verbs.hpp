@@ -67,6 +67,9 @@ void add_fault_command(CLI::App& app,
 void add_estop_command(CLI::App& app, CommonOptions& opts);   ///< estop
 void add_stats_command(CLI::App& app, CommonOptions& opts);   ///< stats
 void add_device_command(CLI::App& app, CommonOptions& opts);  ///< device [describe] | device call METHOD ...
+void add_telemetry_command(
+    CLI::App& app,
+    CommonOptions& opts);  ///< telemetry [on|off] [udp=A:P rate_hz= channels= batch= prefix=]
 
 /// All of the above, plus the common options on `app`, in one call.
 void add_daemon_commands(CLI::App& app, CommonOptions& opts);

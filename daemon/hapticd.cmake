@@ -11,12 +11,13 @@ add_library(hapticd_daemon_core STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/record_methods.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/fault_methods.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/device_methods.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/methods/model_methods.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/methods/model_methods.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/methods/telemetry_methods.cpp)
 target_include_directories(hapticd_daemon_core PUBLIC ${PROJECT_SOURCE_DIR})
 target_compile_definitions(hapticd_daemon_core PUBLIC HAPTICD_VERSION="${PROJECT_VERSION}")
 target_link_libraries(hapticd_daemon_core
   PUBLIC hapticd_rt hapticd_system hapticd_analysis hapticd_world hapticd_drivers hapticd_config hapticd_recorder
-         hapticd_control nlohmann_json::nlohmann_json
+         hapticd_control hapticd_telemetry nlohmann_json::nlohmann_json
   PRIVATE hapticd_warnings)
 
 add_executable(hapticd ${CMAKE_CURRENT_SOURCE_DIR}/main.cpp)

@@ -119,6 +119,7 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
     throw scene_error(cfg.scene, initial_requested_, *refusal, model_);
   }
   initial_ = std::move(std::get<PlannedScene>(outcome));
+  check_telemetry_config();
 }
 
 Service::~Service() { shutdown(); }
@@ -187,6 +188,7 @@ std::uint64_t Service::publish(const PlannedScene& planned) {
 }
 
 void Service::adopt(CurrentScene next) {
+  if (telemetry_) telemetry_->set_scene(methods::names_of(next.channels), next.effective_cycle);
   std::lock_guard lock(scene_mutex_);
   previous_channels_ = methods::names_of(scene_.channels);
   scene_ = std::move(next);
@@ -208,6 +210,7 @@ json Service::plan_and_apply(const std::string& scene, const world::ParameterSet
 
 json Service::apply(const PlannedScene& planned, const world::ParameterSet& requested) {
   if (engine_->finished()) throw RpcError(code::busy, "the RT loop has stopped; nothing can take effect");
+  telemetry_->hold_for_scene();  // until adopt() says from which cycle the new channel names hold
   const auto seq = publish(planned);
   const auto cycle = engine_->wait_applied(seq, 2000ms);
   if (!cycle) throw RpcError(code::busy, "the RT loop did not take the new scene within 2 s");
@@ -232,6 +235,7 @@ void Service::register_methods(control::ControlServer& server) {
   register_fault_methods(server);
   register_device_methods(server);
   register_model_methods(server);
+  register_telemetry_methods(server);
 }
 
 // ---- run(), step by step ----------------------------------------------------
@@ -333,6 +337,10 @@ int Service::run() {
     return 1;
   }
   start_recorder();
+  if (!start_telemetry()) {
+    shutdown();
+    return 1;
+  }
   // The configured scene is published before the loop starts, so it is in
   // effect from cycle 1 (starting at equilibrium with the first measured
   // position), and a recording asked for at launch holds every cycle.
@@ -421,6 +429,7 @@ void Service::shutdown() {
     }
     recorder_.reset();
   }
+  stop_telemetry();  // after the recorder: it sends what the last drain gave it
   server_.reset();
   engine_.reset();
 }

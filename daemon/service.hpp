@@ -21,6 +21,7 @@
 #include "daemon/engine/engine.hpp"
 #include "daemon/planner.hpp"
 #include "daemon/recorder/recorder.hpp"
+#include "daemon/telemetry/udp_telemetry.hpp"
 #include "rt/clock.hpp"
 
 namespace hapticd::daemon {
@@ -67,6 +68,10 @@ class Service {
   /// False if the loop could not start (the reason is printed).
   bool start_loop(std::uint64_t initial_seq, CurrentScene first);
   bool start_control();
+  // [telemetry] (daemon/methods/telemetry_methods.cpp).
+  void check_telemetry_config() const;  ///< throws config::ConfigError
+  bool start_telemetry();               ///< false if it cannot start (the reason is printed)
+  void stop_telemetry();
   int supervise();
   void shutdown();
 
@@ -89,6 +94,9 @@ class Service {
   void register_fault_methods(control::ControlServer& server);
   void register_device_methods(control::ControlServer& server);
   void register_model_methods(control::ControlServer& server);
+  void register_telemetry_methods(control::ControlServer& server);
+  nlohmann::json telemetry_json() const;
+  nlohmann::json telemetry_counters_json() const;
   /// Makes `next` the gate's device model if the loaded scene stays stable
   /// on it (else refused, naming the scene and its limit); the scene's verdict
   /// is redone on it. Control thread only (model_ is read there).
@@ -104,6 +112,7 @@ class Service {
   world::ParameterSet initial_requested_;
   std::unique_ptr<rt::Clock> clock_;
   std::unique_ptr<engine::Engine> engine_;
+  std::unique_ptr<telemetry::UdpTelemetry> telemetry_;  ///< outlives recorder_, which feeds it
   std::unique_ptr<recorder::Recorder> recorder_;
   std::unique_ptr<control::ControlServer> server_;
   const hapticd::daemon::system::RtSetupReport* rt_report_ = nullptr;

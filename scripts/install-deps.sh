@@ -23,6 +23,12 @@ packages=(
   # and fuzz build (tests/run_sanitizers.sh); jq reads `hapticctl stats
   # --json` in bench/latency.sh.
   clang libclang-rt-14-dev jq
+  # issue 20: `hapticctl scope` serves its page with cpp-httplib (server-sent
+  # events) and plots with Debian's dygraphs (served from
+  # /usr/share/javascript/dygraphs, no CDN); headless chromium opens the page
+  # in tests/e2e/scope_browser_test (ctest label `browser`) and takes the
+  # README's screenshot.
+  libcpp-httplib-dev libjs-dygraphs chromium
 )
 
 sudo_cmd=()

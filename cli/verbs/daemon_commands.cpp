@@ -18,6 +18,7 @@ void add_daemon_commands(CLI::App& app, CommonOptions& opts) {
   add_estop_command(app, opts);
   add_stats_command(app, opts);
   add_device_command(app, opts);
+  add_telemetry_command(app, opts);
 }
 
 }  // namespace hapticctl

@@ -11,6 +11,9 @@
 
 #include <toml++/toml.h>
 
+#include "daemon/telemetry/datagram.hpp"
+#include "daemon/telemetry/udp_endpoint.hpp"
+#include "daemon/telemetry/udp_telemetry.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::daemon::config {
@@ -57,6 +60,13 @@ directory = ""
 ring_seconds = 2
 flush_interval = "100ms"
 cpu = -1
+
+[telemetry]
+udp = ""
+rate_hz = 100
+channels = []
+batch = 1
+prefix = "hapticd"
 )toml";
 
 std::string format_number(double value) {
@@ -399,6 +409,70 @@ class Parser {
     }
   }
 
+  void parse_telemetry(const toml::table& table, TelemetryConfig& telemetry) const {
+    static const std::string accepted = join({"udp", "rate_hz", "channels", "batch", "prefix"});
+    for (const auto& [key, node] : in_file_order(table)) {
+      const std::string_view name = key->str();
+      const std::string dotted = "telemetry." + std::string(name);
+      if (name == "udp") {
+        const std::string range = "\"\" (off) or " + std::string(telemetry::endpoint_syntax());
+        telemetry.udp = get_string(*node, dotted, range);
+        if (!telemetry.udp.empty() && !telemetry::parse_endpoint(telemetry.udp)) {
+          fail(node->source(), dotted,
+               dotted + " = " + render(*node) + " is not an address; accepted: " + range);
+        }
+        telemetry.udp_where = position(node->source());
+      } else if (name == "rate_hz") {
+        // The upper bound, the loop rate, is checked once [loop] is known.
+        const std::string range =
+            "a number of samples per second from 0.1 to the loop rate (1 / loop.period)";
+        telemetry.rate_hz = get_number(*node, dotted, range);
+        if (telemetry.rate_hz < telemetry::min_rate_hz * (1.0 - 1e-12)) out_of_range(*node, dotted, range);
+        rate_node_ = node;
+      } else if (name == "channels") {
+        parse_channels(*node, dotted, telemetry);
+      } else if (name == "batch") {
+        telemetry.batch = static_cast<std::uint32_t>(get_integer(
+            *node, dotted, 1, telemetry::max_batch, "an integer from 1 to 64 (samples per datagram)"));
+      } else if (name == "prefix") {
+        const std::string range = "1 to 32 of the characters A-Z a-z 0-9 _ -";
+        telemetry.prefix = get_string(*node, dotted, range);
+        if (!telemetry::valid_prefix(telemetry.prefix)) out_of_range(*node, dotted, range);
+      } else {
+        unknown_key(*key, "telemetry", accepted);
+      }
+    }
+  }
+
+  void parse_channels(const toml::node& node, const std::string& dotted, TelemetryConfig& telemetry) const {
+    const std::string accepted =
+        "an array of channel names, e.g. [\"position\", \"applied\"] ([] for every "
+        "channel the recording has)";
+    const auto* array = node.as_array();
+    if (array == nullptr) wrong_type(node, dotted, accepted);
+    telemetry.channels.clear();
+    telemetry.channel_where.clear();
+    telemetry.channels_where = position(node.source());
+    for (const auto& entry : *array) {
+      const std::string channel = get_string(entry, dotted, accepted);
+      for (const auto& seen : telemetry.channels) {
+        if (seen == channel) fail(entry.source(), dotted, dotted + " names \"" + channel + "\" twice");
+      }
+      telemetry.channels.push_back(channel);
+      telemetry.channel_where.push_back(position(entry.source()));
+    }
+  }
+
+  /// Keys whose range depends on another section's.
+  void check_across(const DaemonConfig& config) const {
+    const double loop_rate = 1.0 / config.loop.period_s;
+    if (rate_node_ != nullptr && config.telemetry.rate_hz > loop_rate * (1.0 + 1e-9)) {
+      fail(rate_node_->source(), "telemetry.rate_hz",
+           "telemetry.rate_hz = " + render(*rate_node_) + " is out of range; accepted: 0.1 to " +
+               format_number(loop_rate) + " (the loop rate, 1 / loop.period)");
+    }
+  }
+
   toml::table parse_toml(std::string_view text) const {
     try {
       return toml::parse(text, file_);
@@ -435,7 +509,8 @@ class Parser {
     config.scene.name_where = config.scene.table_where = whole_file;
     config.control.socket_where = config.control.group_where = whole_file;
     config.recorder.directory_where = whole_file;
-    static const std::string sections = join({"loop", "device", "scene", "control", "recorder"});
+    config.telemetry.udp_where = config.telemetry.channels_where = whole_file;
+    static const std::string sections = join({"loop", "device", "scene", "control", "recorder", "telemetry"});
     for (const auto& [key, node] : in_file_order(root)) {
       const std::string_view name = key->str();
       if (name == "loop") {
@@ -450,6 +525,8 @@ class Parser {
         parse_control(section_table(*key, *node), config.control);
       } else if (name == "recorder") {
         parse_recorder(section_table(*key, *node), config.recorder);
+      } else if (name == "telemetry") {
+        parse_telemetry(section_table(*key, *node), config.telemetry);
       } else if (node->is_table()) {
         fail(key->source(), "[" + std::string(name) + "]",
              "unknown section [" + std::string(name) + "]; accepted: " + sections);
@@ -458,11 +535,14 @@ class Parser {
              "unknown key '" + std::string(name) + "' outside any section; accepted sections: " + sections);
       }
     }
+    check_across(config);
     return config;
   }
 
  private:
   std::string file_;
+  // Set while parsing (parse() is const: these are scratch, mutable).
+  mutable const toml::node* rate_node_ = nullptr;
 };
 
 }  // namespace

@@ -114,6 +114,20 @@ struct RecorderConfig {
   bool operator==(const RecorderConfig&) const = default;
 };
 
+/// [telemetry]: UDP datagrams in PlotJuggler's JSON format (docs/config.md).
+/// Unauthenticated and unencrypted: only to loopback or the address named here.
+struct TelemetryConfig {
+  std::string udp;                    ///< "" (off) or "ADDRESS:PORT" (daemon/telemetry/udp_endpoint.hpp)
+  double rate_hz = 100.0;             ///< samples per second, 0.1 .. the loop rate
+  std::vector<std::string> channels;  ///< empty: the recording's columns
+  std::vector<SourcePosition> channel_where;  ///< position of each entry of channels
+  std::uint32_t batch = 1;                    ///< samples per datagram, 1 .. 64
+  std::string prefix = "hapticd";             ///< the object holding the channels (/hapticd/position)
+  SourcePosition udp_where;                   ///< position of udp's value (file only when absent)
+  SourcePosition channels_where;              ///< position of channels' value
+  bool operator==(const TelemetryConfig&) const = default;
+};
+
 struct DaemonConfig {
   std::string source;  ///< the file name, or "<built-in default>"
   LoopConfig loop;
@@ -121,6 +135,7 @@ struct DaemonConfig {
   SceneConfig scene;
   ControlConfig control;
   RecorderConfig recorder;
+  TelemetryConfig telemetry;
 };
 
 class ConfigError : public std::runtime_error {

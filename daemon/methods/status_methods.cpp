@@ -130,7 +130,8 @@ json Service::stats() const {
              {"dropped_ring_total", rec.dropped_ring_total},
              {"dropped_write", rec.dropped_write},
              {"error", rec.error}}},
-           {"control", control::to_json(server_->stats())}};
+           {"control", control::to_json(server_->stats())},
+           {"telemetry", telemetry_counters_json()}};
   const auto dev = device_.device->status();
   out["device"] = {
       {"read_errors", dev.read_errors}, {"write_errors", dev.write_errors}, {"faults", dev.faults}};

@@ -76,6 +76,8 @@ void strip_positions(DaemonConfig& config) {
   config.control.socket_where = {};
   config.control.group_where = {};
   config.recorder.directory_where = {};
+  config.telemetry.udp_where = config.telemetry.channels_where = {};
+  config.telemetry.channel_where.clear();
   for (auto& p : config.device.parameters) p.where = {};
   for (auto& p : config.scene.parameters) p.where = {};
 }
@@ -90,6 +92,7 @@ TEST(ConfigDefaults, InstalledHapticdTomlEqualsBuiltInDefault) {
   EXPECT_EQ(shipped.scene, builtin.scene);
   EXPECT_EQ(shipped.control, builtin.control);
   EXPECT_EQ(shipped.recorder, builtin.recorder);
+  EXPECT_EQ(shipped.telemetry, builtin.telemetry);
 }
 
 TEST(ConfigValues, AllKeysParse) {
@@ -259,11 +262,12 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
 }
 
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {
-  EXPECT_EQ(error_of("[loop]\n\n[looop]\nperiod = 1"),
-            "t.toml:3:2: unknown section [looop]; accepted: loop, device, scene, control, recorder");
+  EXPECT_EQ(
+      error_of("[loop]\n\n[looop]\nperiod = 1"),
+      "t.toml:3:2: unknown section [looop]; accepted: loop, device, scene, control, recorder, telemetry");
   EXPECT_EQ(error_of("period = \"1ms\""),
             "t.toml:1:1: unknown key 'period' outside any section; accepted sections: loop, device, scene, "
-            "control, recorder");
+            "control, recorder, telemetry");
   EXPECT_EQ(error_of("loop = 3"), "t.toml:1:1: 'loop' must be a section [loop], not a value");
 }
 
