@@ -26,7 +26,7 @@ packages=(
   # issue 20: `hapticctl scope` serves its page with cpp-httplib (server-sent
   # events) and plots with Debian's dygraphs (served from
   # /usr/share/javascript/dygraphs, no CDN); headless chromium opens the page
-  # in tests/e2e/scope_browser_test (ctest label `browser`) and takes the
+  # in tests/browser/scope_browser_test.cpp (ctest label `browser`) and takes the
   # README's screenshot.
   libcpp-httplib-dev libjs-dygraphs chromium
 )
