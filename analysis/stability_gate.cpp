@@ -6,6 +6,7 @@
 
 #include "analysis/closed_loop.hpp"
 #include "analysis/wall_stability.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::analysis {
 
@@ -20,11 +21,7 @@ constexpr double drift_tolerance = 1e-7;
 // rounding (the exact and trapezoid schemes on an undamped spring).
 constexpr double scene_tolerance = 1e-12;
 
-std::string num(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
-}
+std::string num(double v) { return world::text::format_significant(v, world::text::precision::summary); }
 
 /// Pole radii live next to 1: show enough digits to see the difference.
 std::string radius(double v) {
@@ -155,6 +152,8 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
     return accepted;
   }
 
+  // How the scene asks to be judged (its description, world/<name>_scene.cpp).
+  const world::SceneDescription& rules = *accepted.plan.description;
   GateRefusal refusal;
   refusal.stability = accepted.stability;
   refusal.message = std::string(scene) + ": " + accepted.stability.summary;
@@ -168,14 +167,13 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
                          num(*refusal.stiffness_limit) + " " + unit;
     } else {
       refusal.message += "; no stiffness > 0 is stable with these parameters";
-      if (scene.starts_with("spring")) {
-        refusal.message += " (try damping=auto, i.e. b = T k (Freudenberg 2.24), or another integrator)";
-      }
+      if (!rules.unstable_hint.empty()) refusal.message += " (" + rules.unstable_hint + ")";
     }
   }
-  // The wall on a rigid device without mechanical damping is exactly Hulin's
+  // Hulin's wall on a rigid device without mechanical damping is exactly his
   // problem: say what his region allows.
-  if (scene == "wall" && device.plant.dynamics.a.rows() == 2 && device.damping == 0.0) {
+  if (rules.stability == world::StabilityRule::hulin_wall && device.plant.dynamics.a.rows() == 2 &&
+      device.damping == 0.0) {
     const int d =
         static_cast<int>(std::get<double>(accepted.plan.parameters.at("delay"))) + device.delay_samples;
     const auto verdict = analyze_wall(device.mass, device.period_s, d,

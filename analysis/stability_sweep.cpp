@@ -360,11 +360,7 @@ Measured measure(const RunOutcome& run) {
   return m;
 }
 
-std::string fmt(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.3g", v);
-  return b;
-}
+std::string fmt(double v) { return short_number(v); }
 
 void plan_gate(const SweepCase& c, SweepResult& r) {
   const GateOutcome outcome = gate_scene(c.scene, c.parameters, c.device, false);

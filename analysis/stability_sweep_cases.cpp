@@ -2,7 +2,6 @@
 // deterministic, every family of issue 12, a subset for --quick.
 
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <numbers>
 
@@ -10,6 +9,7 @@
 #include "analysis/stability_sweep.hpp"
 #include "analysis/wall_stability.hpp"
 #include "world/integrator.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::analysis {
 
@@ -20,11 +20,7 @@ constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double inf = std::numeric_limits<double>::infinity();
 constexpr double period = 1e-3;
 
-std::string g(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
+std::string g(double v) { return world::text::format_significant(v, world::text::precision::message); }
 
 /// The loopback wheel (J = 0.01 kg m^2) with a little friction, so that the
 /// released spring's common drift decays instead of staying marginal.

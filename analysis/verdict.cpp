@@ -1,8 +1,9 @@
 #include "analysis/verdict.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <limits>
+
+#include "world/text.hpp"
 
 namespace hapticd::analysis {
 
@@ -43,9 +44,7 @@ std::string_view to_string(VerdictState state) noexcept {
 }
 
 std::string short_number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.3g", value);
-  return buffer;
+  return world::text::format_significant(value, world::text::precision::coarse);
 }
 
 void NumericRecord::check_finite(std::string_view what, double value) {

@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
 #include <Eigen/Dense>
 
 #include "analysis/optimize.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::analysis {
 
@@ -63,10 +63,11 @@ CurvePoint boundary_curve(double theta, int d) {
   return {ab(0), ab(1), dab(0), dab(1)};
 }
 
+/// Hulin's figures: whole numbers from 1000 up (9000, not 9e+03), else 4 digits.
 std::string format_number(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, std::abs(x) >= 1000.0 ? "%.0f" : "%.4g", x);
-  return buf;
+  namespace text = world::text;
+  return std::abs(x) >= 1000.0 ? text::format_fixed(x, 0)
+                               : text::format_significant(x, text::precision::summary);
 }
 
 std::string format_period(double t) {

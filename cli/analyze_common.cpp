@@ -5,6 +5,7 @@
 
 #include "cli/analyze.hpp"
 #include "cli/arguments.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::cli {
 
@@ -14,9 +15,7 @@ double period_flag(const std::string& text) {
 }
 
 std::string fmt(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
-  return buffer;
+  return world::text::format_significant(value, world::text::precision::message);
 }
 
 std::string fmt_duration(double seconds) {

@@ -11,6 +11,7 @@
 #include "cli/analyze_common.hpp"
 #include "cli/arguments.hpp"
 #include "cli/usage_error.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::cli {
 
@@ -82,9 +83,7 @@ void run_integrator(const IntegratorArgs& a) {
                        ", b = " + fmt(scene.damping) + ", T = " + fmt_duration(scene.period_s) +
                        " (f_n = " + fmt(wn / (2.0 * M_PI)) + " Hz)");
     if (assessed) {
-      char mag[40];
-      std::snprintf(mag, sizeof mag, "%.12f", v.eigenvalue_magnitude);
-      t.row("|lambda| max", mag);
+      t.row("|lambda| max", world::text::format_fixed(v.eigenvalue_magnitude, 12));  // 1 - 1e-12 shows
       t.row("verdict",
             v.marginal() ? "marginal (neither grows nor decays)" : (v.stable() ? "stable" : "UNSTABLE"));
       t.row("amplitude after 1 s", std::isfinite(v.growth_per_second)

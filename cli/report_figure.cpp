@@ -14,6 +14,8 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "world/text.hpp"
+
 extern char** environ;
 
 namespace hapticd::cli {
@@ -23,9 +25,7 @@ namespace {
 std::string number_text(double x) {
   if (std::isnan(x)) return "nan";
   if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", x);
-  return buffer;
+  return world::text::format_significant(x, world::text::precision::all);
 }
 
 std::string csv_field(const Cell& cell) {

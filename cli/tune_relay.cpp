@@ -25,6 +25,7 @@
 #include "cli/report_figure.hpp"
 #include "cli/usage_error.hpp"
 #include "world/relay_scene.hpp"
+#include "world/text.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::cli {
@@ -104,9 +105,7 @@ struct Trial {
 };
 
 std::string hz(double omega) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", omega / (2.0 * std::numbers::pi));
-  return b;
+  return world::text::format_significant(omega / (2.0 * std::numbers::pi), world::text::precision::summary);
 }
 
 /// Where the measured oscillation sits among the model's crossovers, in words.
@@ -277,16 +276,13 @@ class RelayTuning {
 
 std::string fixed(double v, int decimals) {
   if (!std::isfinite(v)) return "-";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.*f", decimals, v);
-  return std::string(b) == "-0.00" ? "0.00" : b;
+  const std::string out = world::text::format_fixed(v, decimals);
+  return out == "-0.00" ? "0.00" : out;
 }
 std::string db(double v) { return fixed(v, 2); }
 std::string sig4(double v) {
   if (!std::isfinite(v)) return "-";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.4g", v);
-  return b;
+  return world::text::format_significant(v, world::text::precision::summary);
 }
 
 json trial_json(const Trial& t) {

@@ -3,10 +3,10 @@
 #include <cmath>
 #include <map>
 #include <optional>
-#include <sstream>
 
 #include "analysis/critical_stiffness.hpp"
 #include "world/scene_catalog.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::daemon {
 
@@ -18,9 +18,7 @@ using config::ParameterList;
 using config::SourcePosition;
 
 std::string number(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
+  return world::text::format_significant(value, world::text::precision::message);
 }
 
 /// The keys by name, each checked once.

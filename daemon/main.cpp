@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "daemon/config/config.hpp"
+#include "daemon/planner.hpp"
 #include "daemon/service.hpp"
 #include "daemon/version.hpp"
 #include "drivers/registry.hpp"
@@ -40,15 +41,63 @@ void list_drivers(const std::string& format) {
   }
 }
 
-void list_scenes() {
-  for (const auto& s : hapticd::world::scene_catalog()) {
+/// Every scene from the registry, as text, the markdown of docs/scenes.md,
+/// or JSON (scene.list's result, units for a device of `motion`, "current"
+/// null: no daemon runs a scene here).
+void list_scenes(const std::string& format, const std::string& motion) {
+  namespace world = hapticd::world;
+  if (format == "json") {
+    const auto m = motion == "rotary" ? world::Motion::rotary : world::Motion::linear;
+    const nlohmann::json list{{"scenes", hapticd::daemon::scene_catalog_json(m)}, {"current", nullptr}};
+    std::cout << list.dump(2) << "\n";
+    return;
+  }
+  if (format == "markdown") {
+    std::cout << hapticd::daemon::scene_catalog_markdown();
+    return;
+  }
+  for (const auto& s : world::scene_catalog()) {
     std::cout << s.name << ": " << s.summary << " [" << s.reference << "]\n";
     for (const auto& p : s.parameters) {
-      std::cout << "  " << p.name << " (" << hapticd::world::to_string(p.type)
+      std::cout << "  " << p.name << " (" << world::scene_type_name(p.type)
                 << (p.unit.empty() ? "" : ", " + p.unit) << "): " << p.help << "\n";
     }
   }
 }
+
+/// --version, --list-drivers, --list-scenes and their output options: what
+/// hapticd prints and exits on, without a config or a device.
+struct Listings {
+  bool version = false;
+  bool drivers = false;
+  bool scenes = false;
+  bool json = false;
+  std::string format = "text";
+  std::string motion = "linear";
+
+  void add_to(CLI::App& app) {
+    app.add_flag("--list-drivers", drivers, "list drivers and their parameters (ready or planned)");
+    app.add_option("--format", format, "--list-drivers or --list-scenes output: text, json or markdown")
+        ->check(CLI::IsMember({"text", "json", "markdown"}));
+    app.add_flag("--json", json, "--list-drivers or --list-scenes as JSON (same as --format json)");
+    app.add_flag("--list-scenes", scenes, "list scenes and their parameters");
+    app.add_option("--motion", motion, "--list-scenes --json: the units for a linear or rotary device")
+        ->check(CLI::IsMember({"linear", "rotary"}));
+    app.add_flag("--version", version, "print the version");
+  }
+
+  /// Prints what was asked for; false if nothing was.
+  bool print() const {
+    if (version) {
+      std::cout << "hapticd " << hapticd::version << "\n";
+    } else if (drivers) {
+      list_drivers(json ? "json" : format);
+    } else if (scenes) {
+      list_scenes(json ? "json" : format, motion);
+    }
+    return version || drivers || scenes;
+  }
+};
 
 }  // namespace
 
@@ -57,10 +106,7 @@ int main(int argc, char** argv) {
   std::string config_path;
   bool require_rt = false;
   bool check_config = false;
-  bool show_drivers = false;
-  std::string drivers_format = "text";
-  bool show_scenes = false;
-  bool show_version = false;
+  Listings listings;
   std::string clock;
   std::string duration;
   std::string record;
@@ -73,13 +119,7 @@ int main(int argc, char** argv) {
                  "record from the first cycle to this file name in the recording directory");
   app.add_option("--socket", socket, "control socket path");
   app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
-  app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters (ready or planned)");
-  app.add_option("--format", drivers_format, "--list-drivers output: text, json or markdown")
-      ->check(CLI::IsMember({"text", "json", "markdown"}));
-  bool drivers_json = false;
-  app.add_flag("--json", drivers_json, "--list-drivers as JSON (same as --format json)");
-  app.add_flag("--list-scenes", show_scenes, "list scenes and their parameters");
-  app.add_flag("--version", show_version, "print the version");
+  listings.add_to(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -87,18 +127,7 @@ int main(int argc, char** argv) {
     std::cerr << "hapticd: " << e.what() << " (see hapticd --help)\n";
     return 2;
   }
-  if (show_version) {
-    std::cout << "hapticd " << hapticd::version << "\n";
-    return 0;
-  }
-  if (show_drivers) {
-    list_drivers(drivers_json ? "json" : drivers_format);
-    return 0;
-  }
-  if (show_scenes) {
-    list_scenes();
-    return 0;
-  }
+  if (listings.print()) return 0;
 
   // Block the stop signals before any thread starts: every thread inherits
   // the mask and the main thread takes them with sigtimedwait.

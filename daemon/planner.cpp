@@ -1,8 +1,11 @@
 #include "daemon/planner.hpp"
 
 #include <cmath>
-#include <cstdio>
+#include <cstdint>
 #include <stdexcept>
+#include <variant>
+
+#include "world/text.hpp"
 
 namespace hapticd::daemon {
 
@@ -102,17 +105,142 @@ nlohmann::json to_json(const world::ParameterSet& parameters, std::string_view s
   return out;
 }
 
-const std::string& unit_on(const world::ParameterDescription& parameter, world::Motion motion) {
-  return motion == world::Motion::rotary && !parameter.rotary_unit.empty() ? parameter.rotary_unit
-                                                                           : parameter.unit;
-}
-
 nlohmann::json parameter_units(std::string_view scene, world::Motion motion) {
   nlohmann::json out = nlohmann::json::object();
   if (const auto* description = world::find_scene(scene)) {
-    for (const auto& p : description->parameters) out[p.name] = unit_on(p, motion);
+    for (const auto& p : description->parameters) out[p.name] = p.unit_on(motion);
   }
   return out;
+}
+
+namespace {
+
+nlohmann::json parameter_json(const world::ParameterSpec& p, world::Motion motion) {
+  nlohmann::json entry{{"name", p.name},
+                       {"type", world::scene_type_name(p.type)},
+                       {"unit", p.unit_on(motion)},
+                       {"help", p.help}};
+  if (p.default_value) std::visit([&](const auto& v) { entry["default"] = v; }, *p.default_value);
+  if (const auto* number = p.default_value ? std::get_if<double>(&*p.default_value) : nullptr;
+      number != nullptr && p.type == world::ParameterType::integer) {
+    entry["default"] = static_cast<std::int64_t>(std::llround(*number));
+  }
+  if (!p.accepted.empty()) entry["accepted"] = p.accepted;
+  if (p.minimum) {
+    entry["minimum"] = *p.minimum;
+    if (p.minimum_exclusive) entry["minimum_exclusive"] = true;
+  }
+  if (p.maximum) entry["maximum"] = *p.maximum;
+  return entry;
+}
+
+}  // namespace
+
+nlohmann::json scene_catalog_json(world::Motion motion) {
+  nlohmann::json scenes = nlohmann::json::array();
+  for (const auto& d : world::scene_catalog()) {
+    const world::Motion units = d.fixed_motion.value_or(motion);
+    nlohmann::json params = nlohmann::json::array();
+    for (const auto& p : d.parameters) params.push_back(parameter_json(p, units));
+    scenes.push_back({{"name", d.name},
+                      {"reference", d.reference},
+                      {"summary", d.summary},
+                      {"parameters", params},
+                      {"motion", d.fixed_motion ? nlohmann::json(world::to_string(*d.fixed_motion))
+                                                : nlohmann::json("device")},
+                      {"stability", world::to_string(d.stability)}});
+  }
+  return scenes;
+}
+
+namespace {
+
+/// A table cell: a '|' inside ("|F| <= A") must not end it.
+std::string cell(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    if (c == '|') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
+std::string markdown_range(const world::ParameterSpec& p) {
+  namespace text = world::text;
+  const auto show = [](double x) { return text::format_significant(x, text::precision::message); };
+  std::string out;
+  switch (p.type) {
+    case world::ParameterType::number:
+    case world::ParameterType::integer:
+      if (p.minimum) out = (p.minimum_exclusive ? "> " : "") + show(*p.minimum);
+      if (p.maximum) out += (out.empty() ? "<= " : " to ") + show(*p.maximum);
+      for (const auto& word : p.accepted) out += ", or `" + word + "`";
+      return out;
+    case world::ParameterType::choice: {
+      std::vector<std::string> quoted;
+      for (const auto& a : p.accepted) quoted.push_back("`" + a + "`");
+      return text::join(quoted);
+    }
+    case world::ParameterType::boolean:
+      return "`true`, `false`";
+    default:
+      return out;
+  }
+}
+
+std::string markdown_default(const world::ParameterSpec& p) {
+  if (!p.default_value) return "required";
+  if (const auto* d = std::get_if<double>(&*p.default_value)) {
+    return world::text::format_significant(*d, world::text::precision::message);
+  }
+  if (const auto* b = std::get_if<bool>(&*p.default_value)) return *b ? "`true`" : "`false`";
+  return "`" + std::get<std::string>(*p.default_value) + "`";
+}
+
+std::string markdown_unit(const world::ParameterSpec& p, const world::SceneDescription& scene) {
+  if (scene.fixed_motion) return p.unit_on(*scene.fixed_motion);
+  const std::string& linear = p.unit_on(world::Motion::linear);
+  const std::string& rotary = p.unit_on(world::Motion::rotary);
+  return linear == rotary ? linear : linear + " (" + rotary + ")";
+}
+
+std::string markdown_stability(world::StabilityRule rule) {
+  switch (rule) {
+    case world::StabilityRule::none:
+      return "not judged (no linear model: the torque limit holds)";
+    case world::StabilityRule::linear:
+      return "its linear model, held and closed with the released device";
+    case world::StabilityRule::hulin_wall:
+      return "its linear model, held and closed with the released device; Hulin's region on a rigid "
+             "undamped device";
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string scene_catalog_markdown() {
+  std::string out =
+      "<!-- scene parameters: generated by `hapticd --list-scenes --format markdown` from the scenes'\n"
+      "     own descriptions (world/<name>_scene.cpp); the test scenes_doc checks it is current -->\n";
+  for (const auto& d : world::scene_catalog()) {
+    out += "\n### " + d.name + "\n\n" + d.summary + ". Reference: " + d.reference + ".\n\n";
+    out += "Units: " +
+           (d.fixed_motion ? std::string(world::to_string(*d.fixed_motion)) + ", on any device"
+                           : std::string("the device's; rotary in parentheses")) +
+           ". Stability gate: " + markdown_stability(d.stability) + ".\n";
+    if (d.parameters.empty()) {
+      out += "\nNo parameters.\n";
+      continue;
+    }
+    out += "\n| parameter | type | unit | default | accepted | meaning |\n|---|---|---|---|---|---|\n";
+    for (const auto& p : d.parameters) {
+      out += "| `" + p.name + "` | " + std::string(world::scene_type_name(p.type)) + " | " +
+             cell(markdown_unit(p, d)) + " | " + markdown_default(p) + " | " + markdown_range(p) + " | " +
+             cell(p.help) + " |\n";
+    }
+  }
+  return out + "\n<!-- end of the generated scene parameters -->\n";
 }
 
 world::ParameterSet parameters_from_json(const nlohmann::json& object) {
@@ -134,9 +262,7 @@ world::ParameterSet parameters_from_json(const nlohmann::json& object) {
 
 std::string to_text(const world::ParameterValue& value) {
   if (const auto* d = std::get_if<double>(&value)) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.10g", *d);
-    return b;
+    return world::text::format_significant(*d, world::text::precision::parameter);
   }
   if (const auto* b = std::get_if<bool>(&value)) return *b ? "true" : "false";
   return std::get<std::string>(value);

@@ -26,9 +26,7 @@ struct DeviceModel {
   world::LinearPlant plant;   ///< info.plant, or the rigid mass with its viscous damping
   world::Sensor sensor = world::Sensor::motor;
   double period_s = 1e-3;
-  world::Motion motion() const noexcept {
-    return info.motion == drivers::Motion::rotary ? world::Motion::rotary : world::Motion::linear;
-  }
+  world::Motion motion() const noexcept { return info.motion; }
   /// The same device as the stability gate (analysis/stability_gate.hpp) sees it.
   analysis::GateDevice gate() const;
   /// "J = 0.01 kg m^2, b = 0 N m s/rad, T = 1 ms, d = 0" (or m = ... kg for a linear device).
@@ -81,10 +79,15 @@ StabilityVerdict check_stability(const world::ScenePlan& plan, const DeviceModel
 /// The parameters as a JSON object; those the scene's catalog entry types as
 /// integers (the wall's delay) are integers, not 1.0.
 nlohmann::json to_json(const world::ParameterSet& parameters, std::string_view scene = {});
-/// The unit a scene parameter is given in on a device of this motion.
-const std::string& unit_on(const world::ParameterDescription& parameter, world::Motion motion);
 /// {name: unit} for every parameter of `scene` ({} if unknown).
 nlohmann::json parameter_units(std::string_view scene, world::Motion motion);
+/// The scene catalog as scene.list's "scenes": every scene with its
+/// parameters, their units on a device of this motion, defaults and ranges,
+/// and what it needs from the device and how the gate judges it.
+nlohmann::json scene_catalog_json(world::Motion motion);
+/// docs/scenes.md's parameter tables (`hapticd --list-scenes --format
+/// markdown`), between the markers a test (scenes_doc) compares.
+std::string scene_catalog_markdown();
 /// JSON object -> parameters (numbers, booleans, strings); throws std::invalid_argument otherwise.
 world::ParameterSet parameters_from_json(const nlohmann::json& object);
 std::string to_text(const world::ParameterValue& value);

@@ -2,8 +2,6 @@
 
 namespace hapticd::drivers {
 
-std::string_view to_string(Motion motion) noexcept { return motion == Motion::rotary ? "rotary" : "linear"; }
-
 std::string_view to_string(DeviceState state) noexcept {
   switch (state) {
     case DeviceState::closed:

@@ -21,12 +21,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "world/parameter.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::drivers {
 
-enum class Motion { rotary, linear };
-std::string_view to_string(Motion motion) noexcept;  ///< "rotary", "linear"
+using world::Motion;     // the device's and the scenes' one Motion (world/parameter.hpp)
+using world::to_string;  // to_string(Motion): "rotary", "linear"
 
 /// Result of one RT-side device call (ros2_control style return code).
 enum class IoResult : std::uint8_t {

@@ -1,29 +1,19 @@
 #include "drivers/parameter.hpp"
 
-#include <charconv>
 #include <cmath>
-#include <sstream>
 
+#include "world/text.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::drivers {
 
 namespace {
 
-std::string number_text(double value) {
-  char buffer[32];  // shortest round-trip text
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-  return {buffer, ec == std::errc{} ? end : buffer};
-}
-
-std::string join(const std::vector<std::string>& items) {
-  std::string out;
-  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
-  return out;
-}
+using world::text::format_number;
+using world::text::join;
 
 std::string range_text(const ParameterSpec& spec, bool seconds) {
-  auto show = [seconds](double v) { return seconds ? world::units::format_duration(v) : number_text(v); };
+  auto show = [seconds](double v) { return seconds ? world::units::format_duration(v) : format_number(v); };
   if (spec.minimum && spec.maximum) {
     return "in " + std::string(spec.minimum_exclusive ? "(" : "[") + show(*spec.minimum) + ", " +
            show(*spec.maximum) + "]";
@@ -46,82 +36,27 @@ std::optional<double> as_number(const ParameterValue& raw) {
 
 }  // namespace
 
-std::string_view to_string(ParameterType type) noexcept {
-  switch (type) {
-    case ParameterType::number:
-      return "number";
-    case ParameterType::integer:
-      return "integer";
-    case ParameterType::boolean:
-      return "bool";
-    case ParameterType::text:
-      return "text";
-    case ParameterType::choice:
-      return "choice";
-    case ParameterType::duration:
-      return "duration";
-    case ParameterType::table:
-      return "table";
-  }
-  return "number";
+ParameterSpec motion_parameter(std::string help) {
+  return ParameterSpec::choice("motion", {"rotary", "linear"}, std::move(help)).defaults_to("rotary");
 }
 
-namespace {
-ParameterSpec spec_of(std::string name, ParameterType type, std::string unit, std::string help) {
-  ParameterSpec p;
-  p.name = std::move(name);
-  p.type = type;
-  p.unit = std::move(unit);
-  p.help = std::move(help);
-  return p;
+ParameterSpec mass_parameter(std::string help) {
+  namespace r = world::parameter_range;
+  return ParameterSpec::number("mass", "kg m^2 | kg", std::move(help))
+      .at_least(r::min_mass)
+      .at_most(r::max_mass);
 }
-}  // namespace
 
-ParameterSpec ParameterSpec::number(std::string name, std::string unit, std::string help) {
-  return spec_of(std::move(name), ParameterType::number, std::move(unit), std::move(help));
-}
-ParameterSpec ParameterSpec::integer(std::string name, std::string unit, std::string help) {
-  return spec_of(std::move(name), ParameterType::integer, std::move(unit), std::move(help));
-}
-ParameterSpec ParameterSpec::boolean(std::string name, std::string help) {
-  return spec_of(std::move(name), ParameterType::boolean, {}, std::move(help));
-}
-ParameterSpec ParameterSpec::text(std::string name, std::string help) {
-  return spec_of(std::move(name), ParameterType::text, {}, std::move(help));
-}
-ParameterSpec ParameterSpec::choice(std::string name, std::vector<std::string> accepted, std::string help) {
-  ParameterSpec p = spec_of(std::move(name), ParameterType::choice, {}, std::move(help));
-  p.accepted = std::move(accepted);
-  return p;
-}
-ParameterSpec ParameterSpec::duration(std::string name, std::string help) {
-  return spec_of(std::move(name), ParameterType::duration, "s", std::move(help));
-}
-ParameterSpec ParameterSpec::table(std::string name, std::string help) {
-  return spec_of(std::move(name), ParameterType::table, {}, std::move(help));
-}
-ParameterSpec& ParameterSpec::defaults_to(ParameterValue value, std::string note) {
-  default_value = std::move(value);
-  default_note = std::move(note);
-  return *this;
-}
-ParameterSpec& ParameterSpec::at_least(double value) {
-  minimum = value;
-  minimum_exclusive = false;
-  return *this;
-}
-ParameterSpec& ParameterSpec::above(double value) {
-  minimum = value;
-  minimum_exclusive = true;
-  return *this;
-}
-ParameterSpec& ParameterSpec::at_most(double value) {
-  maximum = value;
-  return *this;
+ParameterSpec damping_parameter(std::string help) {
+  namespace r = world::parameter_range;
+  return ParameterSpec::number("damping", "N m s/rad | N s/m", std::move(help))
+      .defaults_to(0.0)
+      .at_least(0.0)
+      .at_most(r::max_damping);
 }
 
 std::string to_text(const ParameterValue& value) {
-  if (const auto* d = std::get_if<double>(&value)) return number_text(*d);
+  if (const auto* d = std::get_if<double>(&value)) return format_number(*d);
   if (const auto* b = std::get_if<bool>(&value)) return *b ? "true" : "false";
   return "\"" + std::get<std::string>(value) + "\"";
 }
@@ -131,7 +66,9 @@ std::string accepted_text(const ParameterSpec& spec) {
   switch (spec.type) {
     case ParameterType::number: {
       const std::string range = range_text(spec, false);
-      return "a number" + (range.empty() ? "" : " " + range) + unit;
+      std::string words;
+      for (const auto& word : spec.accepted) words += " or " + word;
+      return "a number" + (range.empty() ? "" : " " + range) + unit + words;
     }
     case ParameterType::integer: {
       const std::string range = range_text(spec, false);
@@ -161,6 +98,11 @@ std::variant<ParameterValue, std::string> check(const ParameterSpec& spec, const
   switch (spec.type) {
     case ParameterType::number:
     case ParameterType::integer: {
+      if (const auto* s = std::get_if<std::string>(&raw)) {
+        for (const auto& word : spec.accepted) {
+          if (word == *s) return raw;  // a word the number takes ("auto")
+        }
+      }
       const auto v = as_number(raw);
       if (!v || !std::isfinite(*v)) return nope;
       if (spec.type == ParameterType::integer && std::trunc(*v) != *v) return nope;
@@ -185,6 +127,10 @@ std::variant<ParameterValue, std::string> check(const ParameterSpec& spec, const
     case ParameterType::choice: {
       const auto* s = std::get_if<std::string>(&raw);
       if (s == nullptr) return nope;
+      if (spec.canonical != nullptr) {
+        if (auto canonical = spec.canonical(*s)) return ParameterValue(std::move(*canonical));
+        return nope;
+      }
       for (const auto& a : spec.accepted) {
         if (a == *s) return raw;
       }

@@ -1,7 +1,8 @@
 #pragma once
 /// \file
 /// Typed driver parameters (JACK2's jack_driver_desc_t): each driver
-/// describes the keys of its [device.<driver>] table once, and the config
+/// describes the keys of its [device.<driver>] table once, with world's
+/// ParameterSpec, and the config
 /// parser, its errors, `hapticd --list-drivers`, `hapticctl device` and
 /// docs/driver-parameters.md all come from that description.
 
@@ -15,6 +16,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "world/parameter.hpp"
 
 namespace hapticd::drivers {
 
@@ -34,48 +37,25 @@ class ParameterError : public std::invalid_argument {
   std::string key_;
 };
 
-/// Same alternatives as world::ParameterValue and the config's values (a
-/// TOML integer arrives as a double).
-using ParameterValue = std::variant<double, bool, std::string>;
+// The vocabulary is world's (world/parameter.hpp), shared with the scenes
+// and the config: one ParameterValue, ParameterType and ParameterSpec.
+using world::ParameterSpec;
+using world::ParameterType;
+using world::ParameterValue;
+using world::to_string;
 
-enum class ParameterType {
-  number,    ///< a finite double
-  integer,   ///< a whole number
-  boolean,   ///< true or false
-  text,      ///< any string (a path, an interface name)
-  choice,    ///< one of `accepted`
-  duration,  ///< seconds: a number, or text with s, ms or us ("250us")
-  table,     ///< key = value pairs: a [device.<driver>.<name>] table, or the same as one text line
-};
-std::string_view to_string(ParameterType type) noexcept;  ///< "number", "integer", ...
-
-/// One key of a driver's table. Built fluently, e.g.
-///   ParameterSpec::number("mass", "kg", "moving mass").defaults_to(0.1).above(0).at_most(1e6)
-struct ParameterSpec {
-  static ParameterSpec number(std::string name, std::string unit, std::string help);
-  static ParameterSpec integer(std::string name, std::string unit, std::string help);
-  static ParameterSpec boolean(std::string name, std::string help);
-  static ParameterSpec text(std::string name, std::string help);
-  static ParameterSpec choice(std::string name, std::vector<std::string> accepted, std::string help);
-  static ParameterSpec duration(std::string name, std::string help);
-  static ParameterSpec table(std::string name, std::string help);
-  ParameterSpec& defaults_to(ParameterValue value, std::string note = {});
-  ParameterSpec& at_least(double value);  ///< minimum, inclusive
-  ParameterSpec& above(double value);     ///< minimum, exclusive
-  ParameterSpec& at_most(double value);   ///< maximum, inclusive
-
-  std::string name;  ///< key in [device.<driver>]
-  ParameterType type = ParameterType::number;
-  /// nullopt: required. For a table: empty text.
-  std::optional<ParameterValue> default_value;
-  std::string default_note;  ///< when the default depends on another key ("0.1 kg when motion = linear")
-  std::optional<double> minimum;
-  bool minimum_exclusive = false;
-  std::optional<double> maximum;
-  std::vector<std::string> accepted;  ///< choice: the values
-  std::string unit;                   ///< SI unit ("N m", "kg m^2 | kg"), "" if none
-  std::string help;
-};
+/// The keys every device takes, declared once (DRIVERS.md): the device
+/// cannot know its own moving mass, so the config says it for the stability
+/// gate, with `motion` choosing the units of everything else. Every driver
+/// lists them first; ranges are world::parameter_range's, as for the scenes.
+/// A driver may replace the help or set a default (.defaults_to()).
+ParameterSpec motion_parameter(
+    std::string help = "rotary (rad, N m, kg m^2) or linear (m, N, kg): the units of everything below");
+/// Required unless the driver gives a default.
+ParameterSpec mass_parameter(
+    std::string help = "moving inertia (rotary) or mass (linear) the stability gate uses");
+/// 0 by default.
+ParameterSpec damping_parameter(std::string help = "viscous damping to ground the stability gate uses");
 
 /// "a number in (0, 1e6] kg", "one of rigid, two-mass", "a duration in 100us..10ms".
 std::string accepted_text(const ParameterSpec& spec);

@@ -8,18 +8,7 @@ using P = ParameterSpec;
 
 /// What every real device needs for the stability gate (DRIVERS.md): the
 /// device cannot know its own moving mass, so the config says it.
-std::vector<ParameterSpec> common() {
-  return {P::choice("motion", {"rotary", "linear"},
-                    "rotary (rad, N m, kg m^2) or linear (m, N, kg): the units of everything below")
-              .defaults_to("rotary"),
-          P::number("mass", "kg m^2 | kg", "moving inertia (rotary) or mass (linear) the stability gate uses")
-              .above(0.0)
-              .at_most(1e6),
-          P::number("damping", "N m s/rad | N s/m", "viscous damping to ground the stability gate uses")
-              .defaults_to(0.0)
-              .at_least(0.0)
-              .at_most(1e6)};
-}
+std::vector<ParameterSpec> common() { return {motion_parameter(), mass_parameter(), damping_parameter()}; }
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 #include "drivers/modbus/modbus_driver.hpp"
 #include "drivers/planned.hpp"
 #include "drivers/usb_hid/usb_hid_device.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::drivers {
 
@@ -31,12 +32,11 @@ const DriverDescription* find_driver(std::string_view name) noexcept {
 }
 
 std::string driver_names(bool ready_only) {
-  std::string out;
+  std::vector<std::string> names;
   for (const auto& d : driver_registry()) {
-    if (ready_only && !d.ready) continue;
-    out += (out.empty() ? "" : ", ") + d.name;
+    if (!ready_only || d.ready) names.push_back(d.name);
   }
-  return out;
+  return world::text::join(names);
 }
 
 nlohmann::json to_json(const DriverDescription& driver) {

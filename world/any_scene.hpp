@@ -1,32 +1,50 @@
 #pragma once
 /// \file
-/// Every concrete scene type in one variant, and RT-safe helpers over it.
+/// Every concrete scene type in one variant (made from the scene registry,
+/// world/scene_registry.hpp), and RT-safe helpers over it.
 
+#include <algorithm>
 #include <cstddef>
 #include <span>
+#include <tuple>
+#include <type_traits>
+#include <utility>
 #include <variant>
 
-#include "world/chirp_scene.hpp"
-#include "world/free_scene.hpp"
-#include "world/relay_scene.hpp"
-#include "world/spring_scene.hpp"
-#include "world/wall_scene.hpp"
+#include "world/scene_registry.hpp"
 
 namespace hapticd::world {
 
-using AnyScene = std::variant<FreeScene,                                      //
-                              SpringScene<SpringDamping::none>,               //
-                              SpringScene<SpringDamping::absolute>,           //
-                              SpringScene<SpringDamping::relative>,           //
-                              WallScene<WallDamping::none, WallDelay::none>,  //
-                              WallScene<WallDamping::none, WallDelay::samples>,
-                              WallScene<WallDamping::backward_difference, WallDelay::none>,
-                              WallScene<WallDamping::backward_difference, WallDelay::samples>,
-                              RelayScene<RelayHysteresis::none>,  //
-                              RelayScene<RelayHysteresis::band>,  //
-                              RelayScene<RelayHysteresis::none, RelayDelay::samples>,
-                              RelayScene<RelayHysteresis::band, RelayDelay::samples>,  //
-                              ChirpScene>;
+namespace detail {
+/// Variant<Vs...> with each of Ts... appended unless it is there already.
+template <class Variant, class... Ts>
+struct append_unique {
+  using type = Variant;
+};
+template <class... Vs, class T, class... Ts>
+struct append_unique<std::variant<Vs...>, T, Ts...> {
+  using type = typename append_unique<
+      std::conditional_t<(std::is_same_v<T, Vs> || ...), std::variant<Vs...>, std::variant<Vs..., T>>,
+      Ts...>::type;
+};
+template <class First, class Alternatives>
+struct variant_from;
+template <class First, class... Ts>
+struct variant_from<First, std::tuple<Ts...>> {
+  using type = typename append_unique<std::variant<First>, Ts...>::type;
+};
+template <class First, class Registry>
+struct scene_variant;
+template <class First, class... Entries>
+struct scene_variant<First, SceneList<Entries...>> {
+  using type = typename variant_from<First, decltype(std::tuple_cat(
+                                                std::declval<typename Entries::alternatives>()...))>::type;
+};
+}  // namespace detail
+
+/// Every registered scene's RT types, each once, in registry order: what the
+/// RT loop steps. FreeScene first, so that a default AnyScene outputs nothing.
+using AnyScene = detail::scene_variant<FreeScene, SceneRegistry>::type;
 
 inline void reset(AnyScene& scene, double measured_position) noexcept {
   std::visit([measured_position](auto& s) noexcept { s.reset(measured_position); }, scene);
@@ -46,7 +64,16 @@ inline void channels(const AnyScene& scene, std::span<double> out) noexcept {
   std::visit([out](const auto& s) noexcept { s.channels(out); }, scene);
 }
 
+namespace detail {
+template <class Variant>
+struct max_channels;
+template <class... Scenes>
+struct max_channels<std::variant<Scenes...>> {
+  static constexpr std::size_t value = std::max({Scenes::channel_count...});
+};
+}  // namespace detail
+
 /// Largest channel_count over all alternatives: size telemetry buffers with it.
-inline constexpr std::size_t max_scene_channels = 3;
+inline constexpr std::size_t max_scene_channels = detail::max_channels<AnyScene>::value;
 
 }  // namespace hapticd::world

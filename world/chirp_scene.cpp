@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "world/scene_catalog.hpp"
+
 namespace hapticd::world {
 
 namespace {
@@ -69,6 +71,62 @@ double ChirpScene::step(double /*measured_position*/) noexcept {
   const double fade =
       0.5 - 0.5 * std::cos(std::numbers::pi * static_cast<double>(edge) / static_cast<double>(fade_steps_));
   return fade * force;
+}
+
+// The registry entry (world/scene_registry.hpp): an excitation, not a
+// feedback law, so the gate has nothing to judge; its units follow the
+// device's motion.
+
+namespace {
+
+using P = ParameterSpec;
+
+std::vector<ParameterSpec> chirp_parameters() {
+  namespace r = parameter_range;
+  const ChirpParameters c;
+  return {
+      P::number("amplitude", "N", "force amplitude A (|F| <= A)")
+          .on_rotary("N m")
+          .defaults_to(c.amplitude)
+          .above(0.0)
+          .at_most(r::max_force),
+      P::number("start_frequency", "Hz", "sweep start frequency f0")
+          .defaults_to(c.start_frequency)
+          .above(0.0)
+          .at_most(r::max_frequency_hz),
+      P::number("end_frequency", "Hz", "sweep end frequency f1 (> f0, at most 1/(2T))")
+          .defaults_to(c.end_frequency)
+          .above(0.0)
+          .at_most(r::max_frequency_hz),
+      P::number("sweep", "s", "one sweep f0 -> f1 (the excitation's period)")
+          .defaults_to(c.sweep_s)
+          .above(0.0)
+          .at_most(r::max_duration_s),
+      P::number("duration", "s", "then output 0 for good")
+          .defaults_to(c.duration_s)
+          .above(0.0)
+          .at_most(r::max_duration_s),
+  };
+}
+
+void build_chirp(ScenePlan& plan, const SceneContext& context) {
+  const ParameterSet& p = plan.parameters;
+  const ChirpParameters cp{number_of(p, "amplitude"), number_of(p, "start_frequency"),
+                           number_of(p, "end_frequency"), number_of(p, "sweep"), number_of(p, "duration")};
+  set_scene(plan, ChirpScene(cp, context.period_s), context.motion);
+}
+
+}  // namespace
+
+SceneDescription ChirpEntry::describe() {
+  return {.name = "chirp",
+          .reference = "Diaz & Gil II, Fig. 4 (swept sine for identification)",
+          .summary = "F = A sin(phi(t)): exponential sweep f0 -> f1 every `sweep` seconds, repeated",
+          .parameters = chirp_parameters(),
+          .fixed_motion = std::nullopt,
+          .stability = StabilityRule::none,
+          .unstable_hint = {},
+          .build = build_chirp};
 }
 
 }  // namespace hapticd::world

@@ -73,4 +73,10 @@ class ChirpScene {
 
 static_assert(Scene<ChirpScene>);
 
+/// `chirp` in the scene registry (world/scene_registry.hpp); chirp_scene.cpp describes it.
+struct ChirpEntry {
+  using alternatives = std::tuple<ChirpScene>;
+  static SceneDescription describe();
+};
+
 }  // namespace hapticd::world

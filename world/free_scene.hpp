@@ -23,4 +23,10 @@ class FreeScene {
 
 static_assert(Scene<FreeScene>);
 
+/// `free` in the scene registry (world/scene_registry.hpp); free_scene.cpp describes it.
+struct FreeEntry {
+  using alternatives = std::tuple<FreeScene>;
+  static SceneDescription describe();
+};
+
 }  // namespace hapticd::world

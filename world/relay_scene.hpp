@@ -136,4 +136,12 @@ static_assert(Scene<RelayScene<RelayHysteresis::band>>);
 static_assert(Scene<RelayScene<RelayHysteresis::none, RelayDelay::samples>>);
 static_assert(Scene<RelayScene<RelayHysteresis::band, RelayDelay::samples>>);
 
+/// `relay` in the scene registry (world/scene_registry.hpp); relay_scene.cpp describes it.
+struct RelayEntry {
+  using alternatives = std::tuple<RelayScene<RelayHysteresis::none>, RelayScene<RelayHysteresis::band>,
+                                  RelayScene<RelayHysteresis::none, RelayDelay::samples>,
+                                  RelayScene<RelayHysteresis::band, RelayDelay::samples>>;
+  static SceneDescription describe();
+};
+
 }  // namespace hapticd::world

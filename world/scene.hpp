@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <span>
 #include <string_view>
+#include <tuple>
 
 namespace hapticd::world {
 
@@ -31,6 +32,11 @@ concept Scene = requires(S scene, const S& const_scene, double y, std::span<doub
   requires std::same_as<std::remove_cvref_t<decltype(S::channel_names)>,
                         std::array<std::string_view, S::channel_count>>;
 };
+
+/// A scene's self-description (world/scene_description.hpp). Each scene
+/// header declares its registry entry: the RT types it may be built as
+/// (`alternatives`) and `describe()`, written in the scene's .cpp.
+struct SceneDescription;
 
 namespace detail {
 /// Stand-in for a member a scene variant does not use. Distinct tags so that

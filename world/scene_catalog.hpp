@@ -1,54 +1,31 @@
 #pragma once
 /// \file
-/// Self-description of the scenes (JACK2 style) and the off-RT planner that
-/// turns a scene name + parameters into a ready-to-run AnyScene. Used by the
-/// CLI, the config loader and the control protocol.
+/// The scene catalog (the registry's descriptions, world/scene_registry.hpp)
+/// and the off-RT planner that turns a scene name + parameters into a
+/// ready-to-run AnyScene: it validates against the scene's description and
+/// calls the scene's factory. Used by the CLI, the config loader and the
+/// control protocol.
 ///
 /// Parameter names are the CLI flag names without dashes; values are SI.
 
-#include <map>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <variant>
 #include <vector>
 
 #include "world/any_scene.hpp"
+#include "world/parameter.hpp"
+#include "world/scene_description.hpp"
 #include "world/state_space.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::world {
 
-/// Same enumerators, same order as drivers::Motion (world/ does not depend on drivers/).
-enum class Motion { rotary, linear };
-
-using ParameterValue = std::variant<double, bool, std::string>;
-using ParameterSet = std::map<std::string, ParameterValue, std::less<>>;
-
-enum class ParameterType { number, integer, enumeration, boolean };
-/// "number", "integer", "enum", "bool".
-std::string_view to_string(ParameterType type) noexcept;
-
-struct ParameterDescription {
-  std::string name;
-  ParameterType type = ParameterType::number;
-  std::string unit;         ///< SI unit for a linear device (or the scene's only motion)
-  std::string rotary_unit;  ///< SI unit when the device is rotary
-  ParameterValue default_value;
-  std::string help;
-  /// enum: the accepted values; number: accepted words besides numbers ("auto").
-  std::vector<std::string> accepted;
-  std::optional<double> minimum;
-  bool minimum_exclusive = false;
-  std::optional<double> maximum;
-};
-
-struct SceneDescription {
-  std::string name;
-  std::string reference;  ///< paper and equations
-  std::string summary;
-  std::vector<ParameterDescription> parameters;
-};
+/// The name scene.list and `hapticd --list-scenes` give a parameter's type:
+/// as to_string(type), but a choice is "enum" (protocol 1 said so first).
+std::string_view scene_type_name(ParameterType type) noexcept;
 
 struct ChannelDescription {
   std::string name;
@@ -63,6 +40,7 @@ struct SceneError {
 
 struct ScenePlan {
   std::string scene;
+  const SceneDescription* description = nullptr;  ///< the catalog's entry (lives as long as the program)
   ParameterSet parameters;  ///< complete: defaults filled, enums canonical, damping "auto" resolved to T k
   AnyScene scene_object;
   std::vector<ChannelDescription> channels;
@@ -75,32 +53,39 @@ using PlanResult = std::variant<ScenePlan, SceneError>;
 /// Validates and builds. Numbers may be given as doubles or as numeric text
 /// ("12.5"), integers as integral doubles or text, enums as text, bools as
 /// bool or "true"/"false". Unknown parameters are refused. Off the RT path.
-/// `motion` chooses the units of wall and relay (spring-wheel is always
-/// rotary, spring-mass always linear).
+/// `motion` (the device's) chooses the units of a scene without a fixed
+/// motion (wall, relay); spring-wheel is always rotary, spring-mass linear.
 PlanResult plan_scene(std::string_view name, const ParameterSet& given, double period_s,
                       Motion motion = Motion::linear);
 
+/// Every registered scene's description (world/scene_registry.hpp), in registry order.
 const std::vector<SceneDescription>& scene_catalog();
 /// nullptr if unknown.
 const SceneDescription* find_scene(std::string_view name) noexcept;
 /// "spring-wheel, spring-mass, wall, relay, chirp, free"
 std::string scene_names();
 
-/// Accepted ranges of physical parameters: generous but finite, so that a
-/// typo (a 1e-300 kg mass, a 1e308 N s/m damper) is refused instead of
-/// overflowing the analysis or the scene. Shared by the scene catalog, the
-/// loopback driver and `hapticctl analyze`; docs/scenes.md and docs/config.md
-/// list them. Linear units; the same numbers on a rotary device (N m/rad, ...).
-namespace parameter_range {
-inline constexpr double max_stiffness = 1e9;     ///< N/m: a steel bar 1 cm^2 x 2 cm is 1e9 N/m
-inline constexpr double min_mass = 1e-9;         ///< kg (kg m^2): a microgram
-inline constexpr double max_mass = 1e6;          ///< kg (kg m^2): a thousand tonnes
-inline constexpr double max_damping = 1e6;       ///< N s/m
-inline constexpr double max_force = 1e6;         ///< N (N m)
-inline constexpr double max_position = 1e6;      ///< |x| in m (rad: ~160000 turns)
-inline constexpr double max_duration_s = 1e6;    ///< s: eleven days of an experiment
-inline constexpr double max_frequency_hz = 1e6;  ///< Hz (a scene also checks it against 1/(2T))
-}  // namespace parameter_range
+/// What a scene parameter accepts, in its units on a device of this motion:
+/// "a finite number >= 0 and <= 1e+09 (N/m) or auto", "one of upper, lower".
+std::string accepted_text(const ParameterSpec& parameter, Motion motion);
+
+/// Telemetry channels of a scene type's names: positions in m or rad,
+/// velocities in m/s or rad/s, "armed" in 1.
+std::vector<ChannelDescription> describe_channels(std::span<const std::string_view> names, Motion motion);
+
+/// For a scene's factory: a validated value of one of the scene's own
+/// parameters (a number, or the text of a choice).
+double number_of(const ParameterSet& parameters, std::string_view name);
+const std::string& text_of(const ParameterSet& parameters, std::string_view name);
+
+/// For a scene's factory: the plan runs `scene`, with its linear model (if
+/// the type has one) and its telemetry channels.
+template <class S>
+void set_scene(ScenePlan& plan, S scene, Motion motion) {
+  if constexpr (requires { scene.linear_model(); }) plan.linear = scene.linear_model();
+  plan.channels = describe_channels(S::channel_names, motion);
+  plan.scene_object = std::move(scene);
+}
 
 /// Named defaults, derived from the papers (computed, not typed in).
 namespace scene_defaults {

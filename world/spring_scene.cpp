@@ -4,6 +4,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "world/scene_catalog.hpp"
+#include "world/text.hpp"
+
 namespace hapticd::world {
 
 namespace {
@@ -111,5 +114,108 @@ std::array<double, 2 * SpringScene<D>::input_count> SpringScene<D>::bd() const n
 template class SpringScene<SpringDamping::none>;
 template class SpringScene<SpringDamping::absolute>;
 template class SpringScene<SpringDamping::relative>;
+
+// The registry entries (world/scene_registry.hpp): spring-wheel is the
+// rotary wheel of Freudenberg 2.1, spring-mass the same law in linear units.
+
+namespace {
+
+using P = ParameterSpec;
+
+std::optional<std::string> canonical_integrator(std::string_view name) {
+  if (const auto i = parse_integrator(name)) return std::string(to_string(*i));
+  return std::nullopt;
+}
+
+std::vector<std::string> integrator_list() {
+  std::vector<std::string> out;
+  out.reserve(all_integrators.size());
+  for (const Integrator i : all_integrators) out.emplace_back(to_string(i));
+  return out;
+}
+
+std::vector<ParameterSpec> spring_parameters(bool rotary) {
+  namespace d = scene_defaults;
+  namespace r = parameter_range;
+  const std::string k_unit = rotary ? "N m/rad" : "N/m";
+  const std::string b_unit = rotary ? "N m s/rad" : "N s/m";
+  std::vector<ParameterSpec> out;
+  out.push_back(P::number("stiffness", k_unit, "spring k between device and virtual body")
+                    .defaults_to(rotary ? d::wheel_stiffness : d::mass_stiffness)
+                    .at_least(0.0)
+                    .at_most(r::max_stiffness));
+  out.push_back(
+      rotary ? P::number("inertia", "kg m^2", "virtual wheel inertia J_w").defaults_to(d::wheel_inertia)
+             : P::number("mass", "kg", "virtual mass m").defaults_to(d::mass_mass));
+  out.back().at_least(r::min_mass).at_most(r::max_mass);
+  out.push_back(
+      P::number("damping", b_unit,
+                "damper b; 'auto' = T k, which makes forward Euler a lossless oscillator (Freudenberg 2.24)")
+          .defaults_to(0.0)
+          .at_least(0.0)
+          .at_most(r::max_damping)
+          .or_word("auto"));
+  out.push_back(P::choice("damping_reference", {"relative", "absolute"},
+                          "relative: b on theta_w_dot - y_dot (2.19-2.22, needs a velocity estimate); "
+                          "absolute: b on theta_w_dot against the fixed frame (footnote 2)")
+                    .defaults_to("relative"));
+  out.push_back(P::choice("integrator", integrator_list(), "discretization of the virtual body")
+                    .defaults_to("exact")
+                    .canonical_by(canonical_integrator));
+  return out;
+}
+
+/// The variant that carries only what b and its reference need.
+void build_spring(ScenePlan& plan, const SceneContext& context) {
+  ParameterSet& p = plan.parameters;
+  const bool rotary = context.motion == Motion::rotary;
+  SpringParameters sp;
+  sp.stiffness = number_of(p, "stiffness");
+  sp.inertia = number_of(p, rotary ? "inertia" : "mass");
+  if (std::holds_alternative<std::string>(p["damping"])) {  // "auto", the only word accepted
+    sp.damping = context.period_s * sp.stiffness;
+    p["damping"] = sp.damping;
+    plan.notes.push_back(
+        "damping auto = T k = " + text::format_quantity(sp.damping, rotary ? "N m s/rad" : "N s/m") +
+        " (Freudenberg 2.24)");
+  } else {
+    sp.damping = number_of(p, "damping");
+  }
+  sp.integrator = *parse_integrator(text_of(p, "integrator"));
+  if (sp.damping == 0.0) {
+    set_scene(plan, SpringScene<SpringDamping::none>(sp, context.period_s), context.motion);
+  } else if (text_of(p, "damping_reference") == "absolute") {
+    set_scene(plan, SpringScene<SpringDamping::absolute>(sp, context.period_s), context.motion);
+  } else {
+    set_scene(plan, SpringScene<SpringDamping::relative>(sp, context.period_s), context.motion);
+  }
+}
+
+constexpr const char* spring_hint =
+    "try damping=auto, i.e. b = T k (Freudenberg 2.24), or another integrator";
+
+}  // namespace
+
+SceneDescription SpringWheelEntry::describe() {
+  return {.name = "spring-wheel",
+          .reference = "Freudenberg 2.1-2.4, 2.16-2.24",
+          .summary = "virtual wheel J_w on a torsional spring k (and damper b) to the device",
+          .parameters = spring_parameters(true),
+          .fixed_motion = Motion::rotary,
+          .stability = StabilityRule::linear,
+          .unstable_hint = spring_hint,
+          .build = build_spring};
+}
+
+SceneDescription SpringMassEntry::describe() {
+  return {.name = "spring-mass",
+          .reference = "Freudenberg 2, 2.19-2.24 (linear units)",
+          .summary = "virtual mass m on a spring k (and damper b) to the device",
+          .parameters = spring_parameters(false),
+          .fixed_motion = Motion::linear,
+          .stability = StabilityRule::linear,
+          .unstable_hint = spring_hint,
+          .build = build_spring};
+}
 
 }  // namespace hapticd::world

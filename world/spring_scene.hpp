@@ -127,4 +127,16 @@ static_assert(Scene<SpringScene<SpringDamping::none>>);
 static_assert(Scene<SpringScene<SpringDamping::absolute>>);
 static_assert(Scene<SpringScene<SpringDamping::relative>>);
 
+/// `spring-wheel` and `spring-mass` in the scene registry
+/// (world/scene_registry.hpp); spring_scene.cpp describes them.
+struct SpringWheelEntry {
+  using alternatives = std::tuple<SpringScene<SpringDamping::none>, SpringScene<SpringDamping::absolute>,
+                                  SpringScene<SpringDamping::relative>>;
+  static SceneDescription describe();
+};
+struct SpringMassEntry {
+  using alternatives = SpringWheelEntry::alternatives;
+  static SceneDescription describe();
+};
+
 }  // namespace hapticd::world

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include "world/text.hpp"
+
 namespace hapticd::world::units {
 
 std::optional<double> parse_finite(std::string_view text) noexcept {
@@ -40,11 +42,7 @@ std::string format_duration(double seconds) {
   const auto [scale, unit] = magnitude != 0.0 && magnitude < 1e-3  ? std::pair{1e6, "us"}
                              : magnitude != 0.0 && magnitude < 1.0 ? std::pair{1e3, "ms"}
                                                                    : std::pair{1.0, "s"};
-  char buffer[32];
-  // 12 significant digits: 250e-6 * 1e6 prints as 250, not 250.00000000000003.
-  const auto [end, ec] =
-      std::to_chars(buffer, buffer + sizeof buffer, seconds * scale, std::chars_format::general, 12);
-  return std::string(buffer, ec == std::errc{} ? end : buffer) + unit;
+  return text::format_significant(seconds * scale, text::precision::converted) + unit;
 }
 
 }  // namespace hapticd::world::units

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "world/scene_catalog.hpp"
+
 namespace hapticd::world {
 
 namespace {
@@ -74,5 +76,78 @@ template class WallScene<WallDamping::none, WallDelay::none>;
 template class WallScene<WallDamping::none, WallDelay::samples>;
 template class WallScene<WallDamping::backward_difference, WallDelay::none>;
 template class WallScene<WallDamping::backward_difference, WallDelay::samples>;
+
+// The registry entry (world/scene_registry.hpp): Hulin's wall, its units
+// following the device's motion.
+
+namespace {
+
+using P = ParameterSpec;
+
+std::vector<ParameterSpec> wall_parameters() {
+  namespace d = scene_defaults;
+  namespace r = parameter_range;
+  return {
+      P::number("stiffness", "N/m", "wall stiffness K")
+          .on_rotary("N m/rad")
+          .defaults_to(d::wall_stiffness)
+          .at_least(0.0)
+          .at_most(r::max_stiffness),
+      P::number("damping", "N s/m", "wall damping B on the backward-difference velocity")
+          .on_rotary("N m s/rad")
+          .defaults_to(d::wall_damping)
+          .at_least(0.0)
+          .at_most(r::max_damping),
+      P::number("position", "m", "wall surface x_w")
+          .on_rotary("rad")
+          .defaults_to(0.0)
+          .at_least(-r::max_position)
+          .at_most(r::max_position),
+      P::choice("side", {"upper", "lower"}, "upper: the wall occupies y > x_w; lower: y < x_w")
+          .defaults_to("upper"),
+      P::integer("delay", "samples", "output delay d in periods (Hulin d)")
+          .defaults_to(static_cast<double>(d::hulin_delay_samples))
+          .at_least(0.0)
+          .at_most(static_cast<double>(max_wall_delay_samples)),
+  };
+}
+
+/// The variant without a damper when B = 0, without a delay line when d = 0.
+void build_wall(ScenePlan& plan, const SceneContext& context) {
+  const ParameterSet& p = plan.parameters;
+  WallParameters wp;
+  wp.stiffness = number_of(p, "stiffness");
+  wp.damping = number_of(p, "damping");
+  wp.position = number_of(p, "position");
+  wp.side = text_of(p, "side") == "upper" ? WallSide::upper : WallSide::lower;
+  wp.delay_samples = static_cast<int>(number_of(p, "delay"));
+  const bool damped = wp.damping != 0.0;
+  const bool delayed = wp.delay_samples != 0;
+  using Dm = WallDamping;
+  using Dl = WallDelay;
+  const double t = context.period_s;
+  if (damped && delayed) {
+    set_scene(plan, WallScene<Dm::backward_difference, Dl::samples>(wp, t), context.motion);
+  } else if (damped) {
+    set_scene(plan, WallScene<Dm::backward_difference, Dl::none>(wp, t), context.motion);
+  } else if (delayed) {
+    set_scene(plan, WallScene<Dm::none, Dl::samples>(wp, t), context.motion);
+  } else {
+    set_scene(plan, WallScene<Dm::none, Dl::none>(wp, t), context.motion);
+  }
+}
+
+}  // namespace
+
+SceneDescription WallEntry::describe() {
+  return {.name = "wall",
+          .reference = "Hulin et al. 2006, eq. (1), section 7",
+          .summary = "unilateral PD wall: F = -K (y - x_w) - B v while penetrating, delayed d samples",
+          .parameters = wall_parameters(),
+          .fixed_motion = std::nullopt,
+          .stability = StabilityRule::hulin_wall,
+          .unstable_hint = {},
+          .build = build_wall};
+}
 
 }  // namespace hapticd::world

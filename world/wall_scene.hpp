@@ -138,4 +138,13 @@ extern template class WallScene<WallDamping::backward_difference, WallDelay::sam
 static_assert(Scene<WallScene<WallDamping::none, WallDelay::none>>);
 static_assert(Scene<WallScene<WallDamping::backward_difference, WallDelay::samples>>);
 
+/// `wall` in the scene registry (world/scene_registry.hpp); wall_scene.cpp describes it.
+struct WallEntry {
+  using alternatives = std::tuple<WallScene<WallDamping::none, WallDelay::none>,
+                                  WallScene<WallDamping::none, WallDelay::samples>,
+                                  WallScene<WallDamping::backward_difference, WallDelay::none>,
+                                  WallScene<WallDamping::backward_difference, WallDelay::samples>>;
+  static SceneDescription describe();
+};
+
 }  // namespace hapticd::world

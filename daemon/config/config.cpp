@@ -3,7 +3,6 @@
 #include "drivers/registry.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -14,6 +13,7 @@
 #include "daemon/telemetry/datagram.hpp"
 #include "daemon/telemetry/udp_endpoint.hpp"
 #include "daemon/telemetry/udp_telemetry.hpp"
+#include "world/text.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::daemon::config {
@@ -70,9 +70,8 @@ prefix = "hapticd"
 )toml";
 
 std::string format_number(double value) {
-  char buffer[64];
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-  std::string text(buffer, ec == std::errc{} ? end : buffer);
+  // TOML: a float keeps its point, so it reads back as a float.
+  std::string text = world::text::format_number(value);
   if (std::isfinite(value) && text.find_first_of(".eE") == std::string::npos) text += ".0";
   return text;
 }
@@ -103,14 +102,7 @@ std::string render(const toml::node& node) {
   return "(a date/time)";
 }
 
-std::string join(std::initializer_list<std::string_view> names) {
-  std::string out;
-  for (const auto name : names) {
-    if (!out.empty()) out += ", ";
-    out += name;
-  }
-  return out;
-}
+using world::text::join;
 
 // Driver names come from the registry: every driver describes itself once.
 std::string driver_list() { return drivers::driver_names(); }

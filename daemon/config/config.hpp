@@ -20,11 +20,12 @@
 #include <variant>
 #include <vector>
 
+#include "world/parameter.hpp"
+
 namespace hapticd::daemon::config {
 
-/// Same alternatives as world::ParameterValue (world/scene_catalog.hpp).
-/// TOML integers are stored as double.
-using ParameterValue = std::variant<double, bool, std::string>;
+/// world's one ParameterValue (world/parameter.hpp): TOML integers are stored as double.
+using world::ParameterValue;
 
 /// Where something was written. line/column are 1-based; 0 when the value
 /// comes from the built-in default.

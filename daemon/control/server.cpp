@@ -13,7 +13,6 @@
 #include <cstdio>
 #include <mutex>
 #include <optional>
-#include <sstream>
 #include <system_error>
 #include <thread>
 #include <unordered_map>
@@ -29,6 +28,7 @@
 #include "daemon/control/listening_socket.hpp"
 #include "daemon/control/peer_credentials.hpp"
 #include "daemon/system/thread_placement.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::daemon::control {
 
@@ -40,9 +40,7 @@ std::string errno_text(int e) { return std::generic_category().message(e); }
 
 /// 6 significant digits, no trailing zeros: 0.1, 1000, 1e-300.
 std::string number_text(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
+  return world::text::format_significant(value, world::text::precision::message);
 }
 }  // namespace
 

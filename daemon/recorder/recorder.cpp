@@ -1,6 +1,7 @@
 #include "daemon/recorder/recorder.hpp"
 
 #include "daemon/system/thread_placement.hpp"
+#include "world/text.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -24,11 +25,7 @@ namespace {
 
 std::string errno_text(int error) { return std::generic_category().message(error); }
 
-void append_double(std::string& out, double value) {
-  char buffer[32];
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-  out.append(buffer, ec == std::errc{} ? end : buffer);
-}
+void append_double(std::string& out, double value) { world::text::append_number(out, value); }
 
 void append_u64(std::string& out, std::uint64_t value) {
   char buffer[24];

@@ -14,17 +14,10 @@ using P = ParameterSpec;
 std::vector<ParameterSpec> make_parameters() {
   const CanopenConfig d;
   return {
-      P::choice("motion", {"rotary", "linear"},
-                "rotary (rad, N m, kg m^2) or linear (m, N, kg): the units of everything below")
-          .defaults_to("rotary"),
-      P::number("mass", "kg m^2 | kg",
-                "moving inertia (rotary) or mass (linear) the stability gate uses: the drive cannot know it")
-          .above(0.0)
-          .at_most(1e6),
-      P::number("damping", "N m s/rad | N s/m", "viscous damping to ground the stability gate uses")
-          .defaults_to(0.0)
-          .at_least(0.0)
-          .at_most(1e6),
+      motion_parameter(),
+      mass_parameter(
+          "moving inertia (rotary) or mass (linear) the stability gate uses: the drive cannot know it"),
+      damping_parameter(),
       P::text("interface", "SocketCAN interface (can0), or unix:/path of the simulated drive's bus")
           .defaults_to("can0"),
       P::integer("node_id", "", "the drive's CANopen node-ID").defaults_to(1.0).at_least(1).at_most(127),

@@ -6,19 +6,15 @@
 #include <utility>
 
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
-#include "world/scene_catalog.hpp"
+#include "world/parameter.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 namespace {
 
 constexpr std::size_t max_name_length = 31;  // uAPI: char name[32], NUL-terminated
 
-std::string number_text(double value) {
-  std::string s = std::to_string(value);
-  s.erase(s.find_last_not_of('0') + 1);
-  if (!s.empty() && s.back() == '.') s.pop_back();
-  return s;
-}
+using world::text::format_number;
 
 void require(bool ok, const char* key, const std::string& message) {
   if (!ok) throw ParameterError(key, message);
@@ -28,9 +24,9 @@ void require_finite_range(double value, const char* key, double low, double high
                           const char* unit) {
   const bool above = low_open ? value > low : value >= low;
   require(std::isfinite(value) && above && value <= high, key,
-          std::string(key) + " = " + number_text(value) + " is out of range; accepted: " +
-              (low_open ? "above " : "") + number_text(low) + (low_open ? " up to " : " to ") +
-              number_text(high) + (unit[0] != '\0' ? std::string(" ") + unit : std::string()));
+          std::string(key) + " = " + format_number(value) + " is out of range; accepted: " +
+              (low_open ? "above " : "") + format_number(low) + (low_open ? " up to " : " to ") +
+              format_number(high) + (unit[0] != '\0' ? std::string(" ") + unit : std::string()));
 }
 
 void check_required_line(const LineSpec& line, const char* key, const char* what) {
@@ -121,9 +117,9 @@ void validate(const GpioPwmConfig& c) {
   require_finite_range(c.max_duty, "max_duty", 0.0, 1.0, true, "");
   require_finite_range(c.deadband, "deadband", 0.0, 1e6, false, "N or N m");
   require(c.deadband < c.force_at_full_duty * c.max_duty, "deadband",
-          "deadband = " + number_text(c.deadband) +
+          "deadband = " + format_number(c.deadband) +
               " is not below the largest force (force_at_full_duty x max_duty = " +
-              number_text(c.force_at_full_duty * c.max_duty) + "): every command would give duty 0");
+              format_number(c.force_at_full_duty * c.max_duty) + "): every command would give duty 0");
   require_finite_range(c.counts_per_unit, "counts_per_unit", 0.0, 1e12, true,
                        "counts per revolution or metre");
   require(c.mass > 0.0, "mass",
@@ -170,15 +166,9 @@ P active_low(const char* name, const char* what) {
 
 std::vector<ParameterSpec> make_parameters() {
   return {
-      P::choice("motion", {"rotary", "linear"}, "rotary (rad, N m, kg m^2) or linear (m, N, kg)")
-          .defaults_to("rotary"),
-      P::number("mass", "kg m^2 | kg", "moving inertia (rotary) or mass (linear) the stability gate uses")
-          .at_least(range::min_mass)
-          .at_most(range::max_mass),
-      P::number("damping", "N m s/rad | N s/m", "viscous damping to ground the stability gate uses")
-          .defaults_to(0.0)
-          .at_least(0.0)
-          .at_most(range::max_damping),
+      motion_parameter(),
+      mass_parameter(),
+      damping_parameter(),
       P::text("chip", "GPIO chip of every line: path, name, number or label (gpiod_chip_open_lookup)")
           .defaults_to("gpiochip0"),
       P::text("consumer", "label the lines are requested under (shown by gpioinfo)").defaults_to("hapticd"),

@@ -4,7 +4,7 @@
 
 #include "drivers/loopback/loopback_device.hpp"
 #include "drivers/simulation/key_value.hpp"
-#include "world/scene_catalog.hpp"
+#include "world/parameter.hpp"
 
 namespace hapticd::drivers::loopback {
 
@@ -23,20 +23,14 @@ std::vector<ParameterSpec> make_parameters() {
     return "rotary; " + to_text(ParameterValue(v)) + " " + unit + " when motion = linear";
   };
   return {
-      P::choice("motion", {"rotary", "linear"},
-                "rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below")
-          .defaults_to("rotary"),
+      motion_parameter("rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below"),
       P::choice("plant", {"rigid", "two-mass", "two_mass"},
                 "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)")
           .defaults_to("rigid"),
-      P::number("mass", "kg m^2 | kg", "rigid plant: moving inertia (rotary) or mass (linear)")
-          .defaults_to(rotary.mass, note(linear.mass, "kg"))
-          .at_least(r::min_mass)
-          .at_most(r::max_mass),
-      P::number("damping", "N m s/rad | N s/m", "rigid plant: viscous damping to ground")
-          .defaults_to(rotary.damping, note(linear.damping, "N s/m"))
-          .at_least(0.0)
-          .at_most(r::max_damping),
+      mass_parameter("rigid plant: moving inertia (rotary) or mass (linear)")
+          .defaults_to(rotary.mass, note(linear.mass, "kg")),
+      damping_parameter("rigid plant: viscous damping to ground")
+          .defaults_to(rotary.damping, note(linear.damping, "N s/m")),
       P::number(
           "coulomb", "N m | N",
           "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables")

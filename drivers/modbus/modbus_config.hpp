@@ -58,8 +58,8 @@ struct ModbusConfig {
   int transactions() const noexcept { return function_23 ? 1 : 2; }
 };
 
-/// A parameter value as the config parser types it (the registry's ParameterValue).
-using ParameterValue = std::variant<double, bool, std::string>;
+/// A parameter value as the config parser types it: the one ParameterValue (world/parameter.hpp).
+using world::ParameterValue;
 
 enum class ParameterType { number, integer, boolean, text, choice, duration };
 

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <stdexcept>
 
 #include "drivers/parameter.hpp"
 #include "drivers/simulation/key_value.hpp"
+#include "world/text.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::drivers::simulation {
@@ -25,21 +25,9 @@ constexpr std::string_view all_keys =
   throw ParameterError(std::string(key), "hand script: " + message);
 }
 
-std::string join(std::initializer_list<std::string_view> names) {
-  std::string out;
-  for (const auto name : names) {
-    if (!out.empty()) out += ", ";
-    out += name;
-  }
-  return out;
-}
-
+using world::text::join;
 // Shortest text that reads back as the same double (0.1, not 0.10000000000000001).
-std::string number_text(double value) {
-  char buffer[32];
-  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
-  return {buffer, ec == std::errc{} ? end : buffer};
-}
+std::string number_text(double value) { return world::text::format_number(value); }
 
 /// The largest magnitude a key's number may have: far beyond any device, and
 /// small enough that the trajectory stays finite every period (a sine's

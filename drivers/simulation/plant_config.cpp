@@ -1,11 +1,11 @@
 #include "drivers/simulation/plant_config.hpp"
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
-#include "world/scene_catalog.hpp"
+#include "world/parameter.hpp"
+#include "world/text.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::drivers::simulation {
@@ -18,19 +18,12 @@ constexpr double linear_default_counts = 1.0 / 3.14e-6;  // LHifAM: 3.14 um per 
   throw ParameterError(std::string(key), "loopback: " + message);
 }
 
-/// Range bounds as in the scene catalog's messages: 1e-09, 1e+06.
-std::string bound_text(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
+namespace text = world::text;
 
-std::string number_text(double value) {
-  std::ostringstream out;
-  out.precision(12);
-  out << value;
-  return out.str();
-}
+/// Range bounds as in the scene catalog's messages: 1e-09, 1e+06.
+std::string bound_text(double value) { return text::format_significant(value, text::precision::message); }
+
+std::string number_text(double value) { return text::format_significant(value, text::precision::converted); }
 
 }  // namespace
 

@@ -148,7 +148,7 @@ TEST(SceneCatalog, EveryNumberHasAFiniteRange) {
       EXPECT_TRUE(std::isfinite(*p.minimum) && std::isfinite(*p.maximum)) << scene.name << "." << p.name;
       EXPECT_LT(*p.minimum, *p.maximum) << scene.name << "." << p.name;
       // The default lies inside its own range.
-      const double def = std::get<double>(p.default_value);
+      const double def = std::get<double>(*p.default_value);
       EXPECT_GE(def, *p.minimum) << scene.name << "." << p.name;
       EXPECT_LE(def, *p.maximum) << scene.name << "." << p.name;
     }
