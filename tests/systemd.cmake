@@ -27,8 +27,23 @@ add_test(NAME systemd_template_unit_verify
 add_test(NAME systemd_template_unit_verify_detects_typo
          COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_verify.sh ${HAPTICD_GENERATED_TEMPLATE_UNIT} "${_hapticd_verify_binary}"
                  --inject-typo)
+# Issue 17: `systemd-analyze security --offline=yes` exposure at most 2.0,
+# for each unit alone and with each per-driver drop-in (systemd/drivers/),
+# verify clean for each; and the same check on a unit stripped of its
+# sandboxing must see it over 2.0 (the check can fail).
+set(HAPTICD_MAX_EXPOSURE 2.0)
+add_test(NAME systemd_unit_security
+         COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_security.sh ${HAPTICD_GENERATED_UNIT} ${HAPTICD_DROPIN_SOURCE_DIR}
+                 ${HAPTICD_MAX_EXPOSURE})
+add_test(NAME systemd_template_unit_security
+         COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_security.sh ${HAPTICD_GENERATED_TEMPLATE_UNIT}
+                 ${HAPTICD_DROPIN_SOURCE_DIR} ${HAPTICD_MAX_EXPOSURE})
+add_test(NAME systemd_unit_security_detects_loosening
+         COMMAND ${CMAKE_CURRENT_LIST_DIR}/systemd_security.sh ${HAPTICD_GENERATED_UNIT} ${HAPTICD_DROPIN_SOURCE_DIR}
+                 ${HAPTICD_MAX_EXPOSURE} --loosened)
 set_tests_properties(systemd_unit_verify systemd_unit_verify_detects_typo systemd_template_unit_verify
-                     systemd_template_unit_verify_detects_typo PROPERTIES LABELS systemd)
+                     systemd_template_unit_verify_detects_typo systemd_unit_security systemd_template_unit_security
+                     systemd_unit_security_detects_loosening PROPERTIES LABELS systemd)
 set_tests_properties(systemd_unit_verify_detects_typo systemd_template_unit_verify_detects_typo
                      PROPERTIES WILL_FAIL TRUE)
 
