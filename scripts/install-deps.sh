@@ -23,6 +23,10 @@ packages=(
   # and fuzz build (tests/run_sanitizers.sh); jq reads `hapticctl stats
   # --json` in bench/latency.sh.
   clang libclang-rt-14-dev jq
+  # issue 17: the end-to-end tests run the daemon under the unit's system
+  # call filter and address families (tests/support/sandbox_exec.cpp), as
+  # systemd would, where systemd is not PID 1.
+  libseccomp-dev
 )
 
 sudo_cmd=()
