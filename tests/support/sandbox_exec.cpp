@@ -52,6 +52,16 @@ int fail(const std::string& what) {
   return 126;
 }
 
+/// The first argument compared with `value` (SCMP_A0 is a C compound literal).
+scmp_arg_cmp first_argument(scmp_compare op, int value) {
+  scmp_arg_cmp cmp{};
+  cmp.arg = 0;
+  cmp.op = op;
+  cmp.datum_a = static_cast<scmp_datum_t>(value);
+  cmp.datum_b = 0;
+  return cmp;
+}
+
 /// socket(): only the listed families; others EAFNOSUPPORT, as systemd answers.
 bool restrict_families(scmp_filter_ctx ctx, const std::string& list) {
   std::vector<int> families;
@@ -65,8 +75,7 @@ bool restrict_families(scmp_filter_ctx ctx, const std::string& list) {
   }
   if (families.empty()) return seccomp_rule_add(ctx, SCMP_ACT_ALLOW, SCMP_SYS(socket), 0) == 0;
   for (const int f : families) {
-    if (seccomp_rule_add(ctx, SCMP_ACT_ALLOW, SCMP_SYS(socket), 1,
-                         SCMP_A0(SCMP_CMP_EQ, static_cast<scmp_datum_t>(f))) != 0)
+    if (seccomp_rule_add(ctx, SCMP_ACT_ALLOW, SCMP_SYS(socket), 1, first_argument(SCMP_CMP_EQ, f)) != 0)
       return false;
   }
   // Every other family: below and above each allowed one.
@@ -76,11 +85,11 @@ bool restrict_families(scmp_filter_ctx ctx, const std::string& list) {
   for (const int f : sorted) {
     for (int g = low; g < f; ++g)
       seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EAFNOSUPPORT), SCMP_SYS(socket), 1,
-                       SCMP_A0(SCMP_CMP_EQ, static_cast<scmp_datum_t>(g)));
+                       first_argument(SCMP_CMP_EQ, g));
     low = f + 1;
   }
   return seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EAFNOSUPPORT), SCMP_SYS(socket), 1,
-                          SCMP_A0(SCMP_CMP_GE, static_cast<scmp_datum_t>(low))) == 0;
+                          first_argument(SCMP_CMP_GE, low)) == 0;
 }
 
 }  // namespace
