@@ -79,6 +79,18 @@ std::size_t power_of_two_at_least(std::size_t n) {
 
 rt::Nanos nanos(double seconds) { return rt::Nanos(static_cast<std::int64_t>(std::llround(seconds * 1e9))); }
 
+/// [device] max_velocity, else its default from the device (docs/config.md).
+engine::PositionStepRule position_rule_for(const config::DaemonConfig& cfg,
+                                           const drivers::DeviceModel& model) {
+  engine::PositionStepRule rule;
+  rule.rotary = model.motion == drivers::Motion::rotary;
+  rule.resolution = model.position_resolution > 0.0 ? model.position_resolution : 0.0;
+  rule.period_s = cfg.loop.period_s;
+  rule.max_velocity = cfg.device.max_velocity.value_or(
+      engine::default_max_velocity(rule.rotary, model.effective_mass, cfg.device.torque_limit));
+  return rule;
+}
+
 }  // namespace
 
 Service::Service(ServiceOptions options) : options_(std::move(options)) {
@@ -100,6 +112,7 @@ Service::Service(ServiceOptions options) : options_(std::move(options)) {
                         config::SourcePosition{cfg.device.model, 0, 0}),
         cfg.loop.period_s);
   }
+  position_rule_ = position_rule_for(cfg, model_.info);
   initial_requested_ = to_parameter_set(cfg.scene.parameters);
   // `force = true` in [scene] is the config's explicit override for showing
   // an instability on purpose (Freudenberg Fig. 8); it is not a scene parameter.
@@ -134,6 +147,7 @@ std::string Service::describe() const {
   out << "device: " << device_label() << ", " << model_.describe() << ", torque limit "
       << cfg.device.torque_limit << (model_.info.motion == drivers::Motion::rotary ? " N m" : " N")
       << "\nloop: period " << cfg.loop.period_s * 1e3 << " ms, clock " << config::to_string(cfg.loop.clock)
+      << "\nplausibility: " << engine::describe_rule(position_rule_, cfg.device.max_velocity.has_value())
       << "\nscene: " << initial_.plan.scene;
   for (const auto& [k, v] : initial_.plan.parameters) out << " " << k << "=" << to_text(v);
   out << "\nstability: " << initial_.stability.summary;
@@ -257,6 +271,7 @@ void Service::start_engine() {
   eo.realtime.require_rt = cfg.loop.require_rt && !virtual_clock;
   eo.realtime.hold_dma_latency = !virtual_clock;
   eo.overrun_limit = virtual_clock ? 0 : cfg.loop.overrun_limit;
+  eo.position_rule = position_rule_;
   if (cfg.loop.duration_s) eo.duration = nanos(*cfg.loop.duration_s);
   eo.telemetry_capacity = power_of_two_at_least(cfg.recorder.ring_capacity(cfg.loop.period_s));
   eo.wait_for_telemetry_space = virtual_clock;

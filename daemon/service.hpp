@@ -102,12 +102,16 @@ class Service {
   /// is redone on it. Control thread only (model_ is read there).
   nlohmann::json replace_model(DeviceModel next);
   nlohmann::json status() const;
+  nlohmann::json fault_detail() const;
   nlohmann::json stats() const;
   nlohmann::json sample_json(const TelemetrySample& sample, const std::vector<std::string>& wanted) const;
 
   ServiceOptions options_;
   BuiltDevice device_;
   DeviceModel model_;
+  /// Position plausibility for the engine: [device] max_velocity, or its
+  /// default from the device model at start (a model replaced later keeps it).
+  engine::PositionStepRule position_rule_;
   PlannedScene initial_;
   world::ParameterSet initial_requested_;
   std::unique_ptr<rt::Clock> clock_;

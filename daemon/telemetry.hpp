@@ -22,6 +22,7 @@ enum TelemetryFlag : std::uint32_t {
   flag_read_error = 1u << 2,       ///< device read failed this period
   flag_overrun = 1u << 3,          ///< this cycle woke past its deadline by more than a period
   flag_unstable_forced = 1u << 4,  ///< scene loaded with force=true although unstable
+  flag_position_jump = 1u << 5,    ///< the reading stepped beyond max_velocity: not rendered, output zero
 };
 
 struct TelemetrySample {

@@ -20,8 +20,12 @@ socket = "$socket"
 [recorder]
 directory = "$work"
 TOML
-# The built-in default plus a socket and recording directory of our own.
-sed -n '/^\[loop\]/,/^\[control\]/p' config/hapticd.toml | sed '$d' >>"$work/hapticd.toml"
+# The built-in default plus a socket and recording directory of our own,
+# and max_velocity: the scripted hand's ideal 45-degree step moves the wheel
+# 0.785 rad in one period (785 rad/s), faster than the default lets a device
+# move (docs/config.md, "Position plausibility").
+sed -n '/^\[loop\]/,/^\[control\]/p' config/hapticd.toml | sed '$d' |
+  sed 's/^\[device\]$/[device]\nmax_velocity = 1000/' >>"$work/hapticd.toml"
 
 "$hapticd" --config "$work/hapticd.toml" >"$work/hapticd.log" 2>&1 &
 pid=$!

@@ -29,6 +29,10 @@ packages=(
   # in tests/browser/scope_browser_test.cpp (ctest label `browser`) and takes the
   # README's screenshot.
   libcpp-httplib-dev libjs-dygraphs chromium
+  # issue 17: the end-to-end tests run the daemon under the unit's system
+  # call filter and address families (tests/support/sandbox_exec.cpp), as
+  # systemd would, where systemd is not PID 1.
+  libseccomp-dev
 )
 
 sudo_cmd=()

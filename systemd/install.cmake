@@ -13,6 +13,10 @@ set(HAPTICD_SYSUSERS_DIR "${CMAKE_INSTALL_PREFIX}/lib/sysusers.d" CACHE PATH
 
 set(HAPTICD_BINARY "${CMAKE_INSTALL_FULL_BINDIR}/hapticd")
 set(HAPTICD_DOC_DIR "${CMAKE_INSTALL_FULL_DOCDIR}")
+# The per-driver drop-ins (systemd/drivers/README.md), for the administrator
+# to copy into /etc/systemd/system/<unit>.d/.
+set(HAPTICD_DROPIN_DIR "${CMAKE_INSTALL_FULL_DATADIR}/hapticd/systemd")
+set(HAPTICD_DROPIN_SOURCE_DIR "${CMAKE_CURRENT_LIST_DIR}/drivers")
 # One source, two units: the plain unit for one device and the template
 # hapticd@.service for several devices on one machine (%i names the
 # instance: its config file, socket directory and recording directory).
@@ -20,14 +24,19 @@ set(HAPTICD_GENERATED_UNIT "${PROJECT_BINARY_DIR}/systemd/hapticd.service")
 set(HAPTICD_UNIT_DESCRIPTION "hapticd real-time haptics daemon")
 set(HAPTICD_CONFIG_NAME "hapticd")
 set(HAPTICD_INSTANCE_DIRECTORY "hapticd")
+set(HAPTICD_UNIT_NAME "hapticd.service")
 configure_file(${CMAKE_CURRENT_LIST_DIR}/hapticd.service.in ${HAPTICD_GENERATED_UNIT} @ONLY)
 set(HAPTICD_GENERATED_TEMPLATE_UNIT "${PROJECT_BINARY_DIR}/systemd/hapticd@.service")
 set(HAPTICD_UNIT_DESCRIPTION "hapticd real-time haptics daemon, device %i")
 set(HAPTICD_CONFIG_NAME "%i")
 set(HAPTICD_INSTANCE_DIRECTORY "hapticd/%i")
+set(HAPTICD_UNIT_NAME "hapticd@NAME.service")
 configure_file(${CMAKE_CURRENT_LIST_DIR}/hapticd.service.in ${HAPTICD_GENERATED_TEMPLATE_UNIT} @ONLY)
 
 install(FILES ${HAPTICD_GENERATED_UNIT} ${HAPTICD_GENERATED_TEMPLATE_UNIT} DESTINATION ${HAPTICD_SYSTEMD_UNIT_DIR}
+        COMPONENT systemd)
+file(GLOB _hapticd_dropins ${HAPTICD_DROPIN_SOURCE_DIR}/*.conf)
+install(FILES ${_hapticd_dropins} ${HAPTICD_DROPIN_SOURCE_DIR}/README.md DESTINATION ${HAPTICD_DROPIN_DIR}
         COMPONENT systemd)
 install(FILES ${CMAKE_CURRENT_LIST_DIR}/hapticd.sysusers DESTINATION ${HAPTICD_SYSUSERS_DIR}
         RENAME hapticd.conf COMPONENT systemd)

@@ -291,9 +291,22 @@ class Parser {
     }
   }
 
+  /// [device] max_velocity: "" (derived from the device) or a number > 0.
+  std::optional<double> get_max_velocity(const toml::node& node, const std::string& key) const {
+    const std::string accepted =
+        "\"\" (derived from the device: docs/config.md) or a number greater than 0 (m/s or rad/s)";
+    if (const auto* s = node.as_string()) {
+      if (s->get().empty()) return std::nullopt;
+      wrong_type(node, key, accepted);
+    }
+    const double value = get_number(node, key, accepted);
+    if (!(value > 0.0)) out_of_range(node, key, accepted);
+    return value;
+  }
+
   void parse_device(const toml::table& table, DeviceConfig& device) const {
     static const std::string accepted =
-        "driver, torque_limit, model, and a table [device.<driver>] for the selected driver";
+        "driver, torque_limit, max_velocity, model, and a table [device.<driver>] for the selected driver";
     const std::string drivers = driver_list();
     // The driver first: the driver table's name is checked against it.
     if (const auto* node = table.get("driver")) {
@@ -313,6 +326,9 @@ class Parser {
         const std::string range = "a number greater than 0 (N or N m)";
         device.torque_limit = get_number(*node, dotted, range);
         if (!(device.torque_limit > 0.0)) out_of_range(*node, dotted, range);
+      } else if (name == "max_velocity") {
+        device.max_velocity = get_max_velocity(*node, dotted);
+        device.max_velocity_where = position(node->source());
       } else if (name == "model") {
         const std::string accepted_model =
             "the path of a model file written by `hapticctl identify` (relative to this file), or \"\"";

@@ -72,13 +72,18 @@ struct LoopConfig {
 struct DeviceConfig {
   std::string driver = "loopback";
   double torque_limit = 1.0;  ///< N (linear) or N m (rotary), > 0
-  ParameterList parameters;   ///< the [device.<driver>] table, unvalidated
+  /// Fastest plausible motion, m/s or rad/s, > 0: a reading that steps more
+  /// than max_velocity x interval + one count latches "encoder jump /
+  /// velocity limit". nullopt: derived from the device (docs/config.md).
+  std::optional<double> max_velocity;
+  ParameterList parameters;  ///< the [device.<driver>] table, unvalidated
   /// A model file (`hapticctl identify --apply`) replacing the driver's model
   /// for the stability gate; resolved against the config file's directory. Empty: none.
   std::string model;
-  SourcePosition model_where;   ///< position of device.model's value
-  SourcePosition driver_where;  ///< position of device.driver's value, else of the [device] key
-  SourcePosition table_where;   ///< position of the [device.<driver>] key, else driver_where
+  SourcePosition model_where;         ///< position of device.model's value
+  SourcePosition max_velocity_where;  ///< position of device.max_velocity's value
+  SourcePosition driver_where;        ///< position of device.driver's value, else of the [device] key
+  SourcePosition table_where;         ///< position of the [device.<driver>] key, else driver_where
   bool operator==(const DeviceConfig&) const = default;
 };
 

@@ -15,7 +15,8 @@ Engine::Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock)
       device_(device),
       clock_(clock),
       telemetry_(options_.telemetry_capacity),
-      read_error_streak_(options_.read_error_limit) {}
+      read_error_streak_(options_.read_error_limit),
+      position_guard_(options_.position_rule) {}
 
 Engine::~Engine() { stop(); }
 
@@ -47,9 +48,9 @@ std::optional<std::uint64_t> Engine::wait_applied(std::uint64_t seq,
 }
 
 EngineCounters Engine::counters() const noexcept {
-  return {read_errors_.load(std::memory_order_relaxed), write_errors_.load(std::memory_order_relaxed),
+  return {read_errors_.load(std::memory_order_relaxed),    write_errors_.load(std::memory_order_relaxed),
           torque_limited_.load(std::memory_order_relaxed), telemetry_.dropped(),
-          faults_latched_.load(std::memory_order_relaxed)};
+          faults_latched_.load(std::memory_order_relaxed), position_jumps_.load(std::memory_order_relaxed)};
 }
 
 std::optional<std::uint64_t> Engine::reset_stats(std::chrono::milliseconds timeout) {
@@ -83,6 +84,79 @@ void Engine::thread_main() {
   finished_.store(true, std::memory_order_release);
 }
 
+void Engine::latch(FaultReason reason) noexcept {
+  if (latch_.latch(reason)) bump(faults_latched_);
+}
+
+void Engine::latch_jump(const PositionJump& jump) noexcept {
+  bump(position_jumps_);
+  // Only the first reason latched is reported: the figures are stored only
+  // when none is latched yet (an estop landing between here and the latch
+  // wins, and these figures are then never read).
+  if (latch_.latched()) return;
+  jump_version_.write_begin();
+  rt::seq_store(jump_step_, jump.step);
+  rt::seq_store(jump_limit_, jump.limit);
+  rt::seq_store(jump_interval_s_, jump.interval_s);
+  jump_version_.write_end();
+  latch(FaultReason::encoder_jump);
+}
+
+std::optional<PositionJump> Engine::position_jump() const {
+  if (latch_.reason() != FaultReason::encoder_jump) return std::nullopt;
+  PositionJump jump;
+  const bool consistent = jump_version_.read([&] {
+    jump.step = rt::seq_load(jump_step_);
+    jump.limit = rt::seq_load(jump_limit_);
+    jump.interval_s = rt::seq_load(jump_interval_s_);
+  });
+  if (!consistent) return std::nullopt;
+  return jump;
+}
+
+std::string Engine::fault_description() const {
+  const FaultReason reason = latch_.reason();
+  if (reason == FaultReason::none) return {};
+  if (const auto jump = position_jump()) return describe(*jump, options_.position_rule);
+  return std::string(to_string(reason));
+}
+
+bool Engine::read_position(const rt::WakeUp& wake, TelemetrySample& sample, double& position) noexcept {
+  drivers::Reading reading;
+  const drivers::IoResult read = device_.read(reading);
+  if (read == drivers::IoResult::fault) {
+    latch(FaultReason::device_fault);
+    return false;
+  }
+  if (read == drivers::IoResult::error) {
+    sample.flags |= flag_read_error;
+    bump(read_errors_);
+    if (read_error_streak_.record(true)) latch(FaultReason::read_error_streak);
+    return false;
+  }
+  read_error_streak_.record(false);
+  if (!std::isfinite(reading.position)) {
+    latch(FaultReason::non_finite_position);
+    return false;
+  }
+  // Beside the finite-value guard: a step no device makes in this interval
+  // is a fault of the encoder or the link, never motion. Zero output in this
+  // very period; the recording keeps the reading, flagged.
+  last_position_ = reading.position;
+  PositionJump jump;
+  if (position_guard_.implausible(reading.position, std::chrono::duration<double>(wake.woke).count(), jump)) {
+    sample.flags |= flag_position_jump;
+    latch_jump(jump);
+    return false;
+  }
+  if (reset_pending_ && plan_ != nullptr) {
+    world::reset(scene_, reading.position);
+    reset_pending_ = false;
+  }
+  position = reading.position;
+  return true;
+}
+
 void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   cycle_.store(wake.cycle, std::memory_order_relaxed);
   TelemetrySample sample;
@@ -100,35 +174,21 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
     reset_pending_ = true;
   }
   const bool latched_before = latch_.latched();
-  if (was_latched_ && !latched_before) reset_pending_ = true;
+  if (was_latched_ && !latched_before) {
+    // The scene restarts at equilibrium at the next valid reading, so a step
+    // across the clear cannot become torque: that reading is the new
+    // reference, unchecked (the device's own clear may have moved it).
+    reset_pending_ = true;
+    position_guard_.forget();
+  }
   was_latched_ = latched_before;
   // An overrun streak is known at the wake-up: zero this period's output.
   if (options_.overrun_limit != 0 && wake.overrun && stats_.overrun_streak() + 1 >= options_.overrun_limit) {
-    if (latch_.latch(FaultReason::overrun_streak)) bump(faults_latched_);
+    latch(FaultReason::overrun_streak);
   }
 
-  drivers::Reading reading;
-  const drivers::IoResult read = device_.read(reading);
-  bool position_valid = false;
-  if (read == drivers::IoResult::fault) {
-    if (latch_.latch(FaultReason::device_fault)) bump(faults_latched_);
-  } else if (read == drivers::IoResult::error) {
-    sample.flags |= flag_read_error;
-    bump(read_errors_);
-    if (read_error_streak_.record(true) && latch_.latch(FaultReason::read_error_streak))
-      bump(faults_latched_);
-  } else if (!std::isfinite(reading.position)) {
-    read_error_streak_.record(false);
-    if (latch_.latch(FaultReason::non_finite_position)) bump(faults_latched_);
-  } else {
-    read_error_streak_.record(false);
-    position_valid = true;
-    last_position_ = reading.position;
-    if (reset_pending_ && plan_ != nullptr) {
-      world::reset(scene_, reading.position);
-      reset_pending_ = false;
-    }
-  }
+  double position = 0.0;
+  const bool position_valid = read_position(wake, sample, position);
   sample.position = last_position_;
 
   // A fault.clear landing after the latch check at the top of this cycle
@@ -137,10 +197,8 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   const bool output_allowed = !latched_before && !latch_.latched();
   double command = 0.0;
   if (position_valid && plan_ != nullptr && output_allowed) {
-    command = world::step(scene_, reading.position);
-    if (!std::isfinite(command)) {
-      if (latch_.latch(FaultReason::non_finite_command)) bump(faults_latched_);
-    }
+    command = world::step(scene_, position);
+    if (!std::isfinite(command)) latch(FaultReason::non_finite_command);
   }
   // One read decides both the output and the sample's latched flag: an estop
   // from the control thread landing after it takes effect next cycle, and
@@ -157,12 +215,15 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   const drivers::IoResult write = device_.write(applied);
   if (write != drivers::IoResult::ok) {
     bump(write_errors_);
-    const FaultReason reason =
-        write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error;
-    if (latch_.latch(reason)) bump(faults_latched_);
+    latch(write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error);
     sample.flags |= flag_fault_latched;  // the output did not reach the device
   }
+  sample.command = command;
+  sample.applied = applied;
+  finish_sample(wake, sample, output_latched);
+}
 
+void Engine::finish_sample(const rt::WakeUp& wake, TelemetrySample& sample, bool output_latched) noexcept {
   if (wake.overrun) sample.flags |= flag_overrun;
   if (const auto requested = stats_reset_requested_.load(std::memory_order_acquire);
       requested != stats_reset_done_.load(std::memory_order_relaxed)) {
@@ -174,8 +235,6 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   if (output_latched) sample.flags |= flag_fault_latched;
   if (plan_ != nullptr && plan_->unstable_forced) sample.flags |= flag_unstable_forced;
 
-  sample.command = command;
-  sample.applied = applied;
   sample.compute_s = std::chrono::duration<double>(clock_.now() - wake.woke).count();
   if (plan_ != nullptr) {
     const std::size_t n = world::channel_count(scene_);

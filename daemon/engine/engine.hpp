@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <string>
 #include <thread>
 #include <utility>
 
@@ -23,6 +24,7 @@
 #include "rt/clock.hpp"
 #include "rt/cycle_stats.hpp"
 #include "rt/mailbox.hpp"
+#include "rt/seqlock.hpp"
 #include "rt/spsc_ring.hpp"
 
 namespace hapticd::daemon::engine {
@@ -32,8 +34,11 @@ struct EngineOptions {
   hapticd::daemon::system::RtOptions realtime;  ///< applied on the loop thread at start
   std::uint32_t overrun_limit = 10;             ///< consecutive overruns that latch a fault (0: never)
   std::uint32_t read_error_limit = 10;          ///< consecutive read errors that latch a fault (0: never)
-  std::optional<rt::Nanos> duration;            ///< stop by itself after this much loop time
-  std::size_t telemetry_capacity = 1u << 14;    ///< samples; a power of two
+  /// Position plausibility (max_velocity 0: not checked); the service sets
+  /// it from [device] max_velocity and the device model.
+  PositionStepRule position_rule{};
+  std::optional<rt::Nanos> duration;          ///< stop by itself after this much loop time
+  std::size_t telemetry_capacity = 1u << 14;  ///< samples; a power of two
   /// Virtual clock only: wait for ring space instead of dropping a sample.
   /// Simulated time is not real time, so a deterministic run that loses
   /// nothing is worth more than speed; never set with the real clock.
@@ -47,6 +52,7 @@ struct EngineCounters {
   std::uint64_t torque_limited = 0;
   std::uint64_t telemetry_dropped = 0;
   std::uint64_t faults_latched = 0;
+  std::uint64_t position_jumps = 0;  ///< readings refused by the position-step rule
 };
 
 class Engine {
@@ -78,6 +84,11 @@ class Engine {
   /// Clears a latched fault; the scene restarts at equilibrium at the next period.
   void clear_fault() noexcept { latch_.clear(); }
   FaultReason fault() const noexcept { return latch_.reason(); }
+  /// The figures of the latched encoder jump (nothing for any other fault).
+  std::optional<PositionJump> position_jump() const;
+  /// The latched fault in words, with its figures where it has them
+  /// (formatted here, off the RT thread); "" when none is latched.
+  std::string fault_description() const;
 
   // ---- statistics and telemetry (non-RT readers) ----
   rt::CycleStats::Snapshot stats() const { return stats_.snapshot(); }
@@ -101,6 +112,15 @@ class Engine {
 
  private:
   void thread_main();
+  /// Reads the device and applies the reading rules (fault, error streak,
+  /// finite value, position step); true when `position` may be rendered.
+  bool read_position(const rt::WakeUp& wake, TelemetrySample& sample, double& position) noexcept;
+  /// Latches `reason` (counted when this call latched it).
+  void latch(FaultReason reason) noexcept;
+  /// Stores a refused step's figures for position_jump(), then latches.
+  void latch_jump(const PositionJump& jump) noexcept;
+  /// Statistics, flags, channels and the push of this cycle's sample.
+  void finish_sample(const rt::WakeUp& wake, TelemetrySample& sample, bool output_latched) noexcept;
 
   EngineOptions options_;
   drivers::Device& device_;
@@ -117,6 +137,7 @@ class Engine {
   bool reset_pending_ = false;  ///< reset the scene at the next valid reading
   double last_position_ = 0.0;
   StreakCounter read_error_streak_;
+  PositionStepGuard position_guard_;
   rt::Nanos t0_{0};
 
   std::atomic<std::uint64_t> cycle_{0};
@@ -124,6 +145,14 @@ class Engine {
   std::atomic<std::uint64_t> write_errors_{0};
   std::atomic<std::uint64_t> torque_limited_{0};
   std::atomic<std::uint64_t> faults_latched_{0};
+  std::atomic<std::uint64_t> position_jumps_{0};
+
+  // The latched jump's figures: written by the RT thread before it latches
+  // (seqlock, never waits), read by position_jump() on a control thread.
+  rt::SeqlockVersion jump_version_;
+  std::atomic<double> jump_step_{0.0};
+  std::atomic<double> jump_limit_{0.0};
+  std::atomic<double> jump_interval_s_{0.0};
 
   // stats.reset: the control thread bumps `requested`; the RT thread resets
   // and copies it to `done` (release, after stats_since_cycle_).

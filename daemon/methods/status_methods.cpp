@@ -1,6 +1,7 @@
 #include "daemon/service.hpp"
 
 #include <chrono>
+#include <cmath>
 
 #include "daemon/methods/method_support.hpp"
 #include "daemon/version.hpp"
@@ -54,6 +55,26 @@ json Service::sample_json(const TelemetrySample& s, const std::vector<std::strin
   return out;
 }
 
+// The latched fault in words with its figures (an encoder jump's step, in
+// SI and counts, the limit, the interval), or null when it has none.
+json Service::fault_detail() const {
+  const auto jump = engine_->position_jump();
+  if (!jump) return nullptr;
+  const auto& rule = position_rule_;
+  json out{{"text", engine::describe(*jump, rule)},
+           {"unit", rule.rotary ? "rad" : "m"},
+           {"step", jump->step},
+           {"limit", jump->limit},
+           {"max_velocity", rule.max_velocity},
+           {"interval_s", jump->interval_s}};
+  if (rule.resolution > 0.0) {
+    out["resolution"] = rule.resolution;
+    if (const double counts = jump->step / rule.resolution; std::abs(counts) < 9e18)
+      out["step_counts"] = std::llround(counts);
+  }
+  return out;
+}
+
 json Service::status() const {
   const auto& cfg = options_.config;
   const CurrentScene scene = current_scene();
@@ -64,6 +85,7 @@ json Service::status() const {
       {"state", engine_->finished() ? "stopped" : (fault == engine::FaultReason::none ? "running" : "fault")},
       {"fault",
        fault == engine::FaultReason::none ? json(nullptr) : json(std::string(engine::to_string(fault)))},
+      {"fault_detail", fault_detail()},
       {"cycle", engine_->cycle()},
       {"time_s", static_cast<double>(engine_->cycle()) * cfg.loop.period_s},
       {"period_s", cfg.loop.period_s},
@@ -75,6 +97,8 @@ json Service::status() const {
         {"description", model_.describe()},
         {"effective_mass", model_.info.effective_mass},
         {"delay_samples", model_.info.delay_periods},
+        {"max_velocity", position_rule_.max_velocity},
+        {"position_step_limit", position_rule_.step_limit(position_rule_.period_s)},
         {"model_source", model_.info.source},
         {"state", std::string(drivers::to_string(device.state))},
         {"fault_reason", device.fault_reason.empty() ? json(nullptr) : json(device.fault_reason)}}},
@@ -123,6 +147,7 @@ json Service::stats() const {
            {"write_errors", c.write_errors},
            {"torque_limited", c.torque_limited},
            {"faults_latched", c.faults_latched},
+           {"position_jumps", c.position_jumps},
            {"telemetry_dropped", c.telemetry_dropped},
            {"recorder",
             {{"samples_drained", rec.samples_drained},

@@ -33,6 +33,7 @@ TEST(ConfigDefaults, EmptyFileGivesStructDefaults) {
   EXPECT_FALSE(config.loop.duration_s.has_value());
   EXPECT_EQ(config.device.driver, "loopback");
   EXPECT_DOUBLE_EQ(config.device.torque_limit, 1.0);
+  EXPECT_FALSE(config.device.max_velocity.has_value()) << "derived from the device";
   EXPECT_TRUE(config.device.parameters.empty());
   EXPECT_EQ(config.scene.name, "spring-wheel");
   EXPECT_TRUE(config.scene.parameters.empty());
@@ -253,12 +254,13 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
       error_of("[recorder]\ndir = \"x\""),
       "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
-            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, model, and a table "
+            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, max_velocity, "
+            "model, and a table "
             "[device.<driver>] for the selected driver");
-  EXPECT_EQ(
-      error_of("[device.serial]\nx = 1"),
-      "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, model, and a table "
-      "[device.<driver>] for the selected driver");
+  EXPECT_EQ(error_of("[device.serial]\nx = 1"),
+            "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, max_velocity, "
+            "model, and a table "
+            "[device.<driver>] for the selected driver");
 }
 
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {
@@ -303,6 +305,20 @@ TEST(ConfigErrors, WrongTypesAndRanges) {
   EXPECT_EQ(error_of("[device]\ntorque_limit = \"1 N\""),
             "t.toml:2:16: device.torque_limit = \"1 N\" has the wrong type; accepted: a number greater than "
             "0 (N or N m)");
+  // [device] max_velocity (issue 17): "" or a number > 0.
+  EXPECT_EQ(error_of("[device]\nmax_velocity = 0"),
+            "t.toml:2:16: device.max_velocity = 0 is out of range; accepted: \"\" (derived from the device: "
+            "docs/config.md) or a number greater than 0 (m/s or rad/s)");
+  EXPECT_EQ(
+      error_of("[device]\nmax_velocity = -inf"),
+      "t.toml:2:16: device.max_velocity = -inf is out of range; accepted: \"\" (derived from the device: "
+      "docs/config.md) or a number greater than 0 (m/s or rad/s)");
+  EXPECT_EQ(
+      error_of("[device]\nmax_velocity = \"fast\""),
+      "t.toml:2:16: device.max_velocity = \"fast\" has the wrong type; accepted: \"\" (derived from the "
+      "device: docs/config.md) or a number greater than 0 (m/s or rad/s)");
+  EXPECT_EQ(parse_config("[device]\nmax_velocity = 120\n", "t.toml").device.max_velocity, 120.0);
+  EXPECT_FALSE(parse_config("[device]\nmax_velocity = \"\"\n", "t.toml").device.max_velocity.has_value());
   EXPECT_EQ(error_of("[control]\nmax_clients = 0"),
             "t.toml:2:15: control.max_clients = 0 is out of range; accepted: an integer from 1 to 1024");
   EXPECT_EQ(error_of("[control]\nmax_message_bytes = 100"),

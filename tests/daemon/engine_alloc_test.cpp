@@ -54,6 +54,12 @@ EngineOptions quiet_options(std::size_t telemetry_capacity = 1u << 14) {
   options.realtime.lock_memory = false;
   options.realtime.hold_dma_latency = false;
   options.telemetry_capacity = telemetry_capacity;
+  // Every test here runs with the position-step rule the daemon would set
+  // for the loopback wheel (its default max_velocity, its encoder).
+  const auto config = rotary_config();
+  options.position_rule.max_velocity = hapticd::daemon::engine::default_max_velocity(true, config.mass, 1.0);
+  options.position_rule.resolution = config.resolution();
+  options.position_rule.period_s = period_s;
   return options;
 }
 
@@ -348,6 +354,42 @@ TEST(EngineAlloc, HandSineFaultsClearAndOverrunsDoNotAllocate) {
   EXPECT_GT(s.read_error, 0u);
   EXPECT_GE(s.overrun, 5u);
   EXPECT_GT(s.nonzero_applied, 1000u);  // the loop came back after the last clear
+}
+
+// The position-step rule (issue 17): a jump refused, its figures stored in
+// the latch, the latched stretch, the clear and the restart, a jump while
+// another fault is latched: nothing allocates on the RT side.
+TEST(EngineAlloc, PositionJumpsLatchAndClearWithoutAllocating) {
+  Rig rig;
+  rig.device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
+  rig.engine.publish(make_plan("spring-wheel", {{"damping", 0.5}}, 0.5));
+  std::vector<TelemetrySample> buffer(4096);
+  std::size_t allocs = rig.guarded(1000);
+  EXPECT_EQ(rig.engine.fault(), FaultReason::none) << "the hand's sine is motion";
+
+  rig.device.inject_fault(loopback::Fault::encoder_jump, std::int64_t{1} << 31);
+  allocs += rig.guarded(100);
+  EXPECT_EQ(rig.engine.fault(), FaultReason::encoder_jump);
+  {
+    AllocationGuard guard;
+    rig.engine.clear_fault();
+    for (int i = 0; i < 1000; ++i) rig.cycle();
+    rig.engine.estop();
+    rig.device.inject_fault(loopback::Fault::encoder_jump, -5000);  // refused while latched
+    for (int i = 0; i < 100; ++i) rig.cycle();
+    rig.engine.clear_fault();
+    for (int i = 0; i < 100; ++i) rig.cycle();
+    rig.device.inject_fault(loopback::Fault::encoder_jump, 5000);
+    for (int i = 0; i < 100; ++i) rig.cycle();
+    allocs += guard.count();
+  }
+  EXPECT_EQ(allocs, 0u);
+  EXPECT_EQ(rig.engine.fault(), FaultReason::encoder_jump);
+  EXPECT_EQ(rig.engine.counters().position_jumps, 3u);
+  EXPECT_EQ(rig.engine.counters().faults_latched, 2u);
+  const DrainSummary s = drain_all(rig.engine, buffer);
+  EXPECT_GT(s.fault_latched, 0u);
+  EXPECT_GT(s.nonzero_applied, 1000u);
 }
 
 TEST(EngineAlloc, FullTelemetryRingDropsWithoutAllocating) {

@@ -80,6 +80,31 @@ TEST(CheckConfig, MissingRecordingDirectoryIsCreated) {
   EXPECT_TRUE(fs::is_directory(recordings));
 }
 
+// Issue 17: the position-step rule in force, from [device] max_velocity or
+// derived from the device (docs/config.md): 50 rad/s for the hand plus
+// sqrt(2 x 1 N m x 2 pi / 0.01 kg m^2) for the loopback wheel's motor.
+TEST(CheckConfig, PrintsThePositionStepRuleInForce) {
+  TempDir dir;
+  const fs::path derived = dir.path / "derived.toml";
+  const fs::path given = dir.path / "given.toml";
+  std::ofstream(derived) << "[recorder]\ndirectory = \"" << dir.path.string() << "\"\n";
+  std::ofstream(given) << "[device]\nmax_velocity = 120\n[recorder]\ndirectory = \"" << dir.path.string()
+                       << "\"\n";
+  const auto a = run(hapticd_binary(), {"--config", derived.string(), "--check-config"});
+  const auto b = run(hapticd_binary(), {"--config", given.string(), "--check-config"});
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  EXPECT_NE(a.out.find("plausibility: max_velocity 85.4491 rad/s (derived from the device), a position step "
+                       "over 0.0858326 rad (223.8 counts) in one period of 1 ms latches \"encoder jump / "
+                       "velocity limit\""),
+            std::string::npos)
+      << a.out;
+  EXPECT_NE(b.out.find("plausibility: max_velocity 120 rad/s (device.max_velocity), a position step over "
+                       "0.120383 rad"),
+            std::string::npos)
+      << b.out;
+}
+
 // Issue 6: a file with only [control] socket and [recorder] directory was
 // refused ("spring-wheel: unstable on this device ... pole radius
 // 1.000032577"): without [device.loopback] the wheel had no damping, while

@@ -27,7 +27,9 @@ const double period = 1e-3;
 std::string wheel_config(const std::string& scene_extra, const std::string& hand, double duration_s) {
   return "[loop]\nclock = \"virtual\"\nduration = \"" + std::to_string(duration_s) +
          "s\"\n"
-         "[device]\ndriver = \"loopback\"\ntorque_limit = 1.0\n"
+         // max_velocity: the ideal 45-degree step moves 785 rad/s (docs/config.md,
+         // "Position plausibility").
+         "[device]\ndriver = \"loopback\"\ntorque_limit = 1.0\nmax_velocity = 1000\n"
          "[device.loopback]\nmotion = \"rotary\"\ndamping = 0.002\nmax_force = 1.2\nhand = \"" +
          hand + "\"\n[scene]\nname = \"spring-wheel\"\n" + scene_extra;
 }

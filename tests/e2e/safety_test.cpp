@@ -36,8 +36,8 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 
 constexpr unsigned flag_fault_latched = 1;
-constexpr unsigned flag_torque_limited = 2;
 constexpr unsigned flag_read_error = 4;
+constexpr unsigned flag_position_jump = 32;
 constexpr double torque_limit = 2.0;  // N
 
 // A linear 0.1 kg loopback with viscous damping, real clock, scene
@@ -229,29 +229,36 @@ TEST(Safety, StallLatchesWriteErrorAndZeroesFromTheNextPeriod) {
   EXPECT_GE(r.stats_during["write_errors"].get<std::uint64_t>(), 1u);
 }
 
-TEST(Safety, EncoderJumpIsBoundedByTheTorqueLimit) {
-  // A position jump is a finite reading: the daemon cannot tell it from a
-  // fast motion, so nothing latches. What it guarantees is the torque limit:
-  // 0.1 m (31847 counts) on the 79 N/m spring asks ~7.9 N, clamped to 2 N.
-  const FaultRun r = run_fault({"fault", "inject", "encoder-jump", "amount=31847"}, false);
-  EXPECT_FALSE(r.found) << "an encoder jump must not latch a fault";
-  EXPECT_TRUE(r.status_during["fault"].is_null()) << r.status_during.dump();
-  const auto applied = r.rec.values("applied_n");
-  const auto command = r.rec.values("command_n");
+// Issue 17: a position jump used to be taken as motion (no fault; the
+// torque sat at the limit; the recording showed the jump without a flag).
+// 2^31 counts of the 3.14 um encoder is 6.7 km in one period. The device's
+// default max_velocity: 5 m/s for the hand + sqrt(2 x 2 N x 0.1 m / 0.1 kg)
+// = 2 m/s for its motor = 7 m/s, so 7 mm + one count per period.
+TEST(Safety, EncoderJumpLatchesAndZeroesInTheSamePeriod) {
+  const FaultRun r = run_fault({"fault", "inject", "encoder-jump", "amount=2147483648"}, true);
+  expect_latched_fault(r, "encoder jump / velocity limit");
+  ASSERT_TRUE(r.found);
   const auto flags = r.rec.values("flags");
-  double largest_command = 0.0;
-  std::size_t limited = 0;
-  for (std::size_t i = 0; i < applied.size(); ++i) {
-    ASSERT_LE(std::abs(applied[i]), torque_limit) << "row " << i;
-    largest_command = std::max(largest_command, std::abs(command[i]));
-    if ((flags_of(flags[i]) & flag_torque_limited) != 0) {
-      ++limited;
-      EXPECT_EQ(std::abs(applied[i]), torque_limit) << "row " << i;
-    }
-  }
-  EXPECT_GT(largest_command, 5.0) << "the jump must have asked for more than the limit";
-  EXPECT_GT(limited, 0u);
-  EXPECT_GE(r.stats_during["torque_limited"].get<std::uint64_t>(), 1u);
+  const auto position = r.rec.values("position_m");
+  const auto applied = r.rec.values("applied_n");
+  EXPECT_NE(flags_of(flags[r.first]) & flag_position_jump, 0u) << "the jump's own sample is flagged";
+  EXPECT_GT(std::abs(position[r.first] - position[r.first - 1]), 6000.0) << "the recording keeps the reading";
+  for (std::size_t i = r.first; i < applied.size(); ++i)
+    ASSERT_LT(std::abs(applied[i]), torque_limit) << "row " << i << ": at the torque limit after the jump";
+  // The figures, in status while latched.
+  const json& detail = r.status_during["fault_detail"];
+  ASSERT_TRUE(detail.is_object()) << r.status_during.dump();
+  EXPECT_EQ(detail["unit"], "m");
+  // The jump plus the hand's motion over that period (a few counts).
+  EXPECT_NEAR(detail["step_counts"].get<double>(), 2147483648.0, 100.0) << detail.dump();
+  EXPECT_NEAR(detail["max_velocity"].get<double>(), 7.0, 1e-9);
+  EXPECT_GE(detail["interval_s"].get<double>(), 1e-3);
+  EXPECT_NEAR(detail["limit"].get<double>(), 7.0 * detail["interval_s"].get<double>() + 3.14e-6, 1e-9);
+  const std::string text = detail["text"].get<std::string>();
+  EXPECT_NE(text.find("encoder jump / velocity limit: the position stepped +"), std::string::npos) << text;
+  EXPECT_NE(text.find("(+21474836"), std::string::npos) << text;
+  EXPECT_NE(text.find("max_velocity 7 m/s"), std::string::npos) << text;
+  EXPECT_EQ(r.stats_during["position_jumps"].get<std::uint64_t>(), 1u) << r.stats_during.dump();
 }
 
 // ---------------------------------------------------------------------------

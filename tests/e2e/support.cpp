@@ -112,6 +112,13 @@ Daemon::Daemon(const TempDir& dir, const std::string& config_toml, std::vector<s
   std::ofstream(config_path) << config;
   std::vector<std::string> args{"--config", config_path.string()};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
+  // $HAPTICD_E2E_SANDBOX: a launcher put right before hapticd (after the
+  // test's own), e.g. "sandbox_exec POLICY --": the unit's system call filter
+  // (tests/systemd.cmake's sandboxed runs).
+  if (const char* sandbox = std::getenv("HAPTICD_E2E_SANDBOX"); sandbox != nullptr && *sandbox != '\0') {
+    std::istringstream words(sandbox);
+    for (std::string word; words >> word;) launcher.push_back(word);
+  }
   if (launcher.empty()) {
     pid_ = spawn(hapticd_binary(), args, log_, log_);
   } else {

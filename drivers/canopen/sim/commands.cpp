@@ -11,7 +11,7 @@ namespace {
 
 constexpr const char* accepted =
     "fault <code> [<register>], mute, unmute, drop-tpdo <n>|all, sdo-abort <index>[:<sub>]|any <code>, "
-    "refuse-mode on|off, bus-off, clear, status";
+    "refuse-mode on|off, bus-off, position-jump <counts>, clear, status";
 
 std::string error(const std::string& what) { return "error: " + what + "; accepted: " + accepted; }
 
@@ -105,6 +105,20 @@ std::string apply_command(SimulatedDrive& drive, const std::string& line, Micros
     drive.abort_next_sdo(address, code);
     return "ok the next SDO request" + (address ? " for " + cia301::to_string(*address) : std::string()) +
            " gets abort " + words[2] + " (" + std::string(cia301::describe_abort(code)) + ")";
+  }
+  if (verb == "position-jump" && n == 2) {
+    // A whole number of increments, either sign: up to 2^32 (a 32-bit
+    // counter's whole range); INTEGER32 0x6064 wraps.
+    try {
+      std::size_t used = 0;
+      const long long counts = std::stoll(words[1], &used, 0);
+      if (used == words[1].size() && counts != 0 && counts >= -(1LL << 32) && counts <= (1LL << 32)) {
+        drive.jump_position(counts);
+        return "ok 0x6064 jumps by " + std::to_string(counts) + " increments from the next TPDO";
+      }
+    } catch (const std::exception&) {
+    }
+    return error("position-jump needs a whole number of increments, nonzero, within +/-4294967296");
   }
   if (verb == "refuse-mode" && n == 2 && (words[1] == "on" || words[1] == "off")) {
     drive.refuse_mode(words[1] == "on");

@@ -8,6 +8,7 @@
 ///   sdo-abort <index>[:<sub>] <code> | sdo-abort any <code>   abort the next SDO request
 ///   refuse-mode on|off          acknowledge 0x6060 but keep 0x6061
 ///   bus-off                     the controller goes bus-off (error frame, then silence)
+///   position-jump <counts>      0x6064 jumps by <counts> (+/-) once, from the next TPDO on
 ///   clear                       end every switch (the drive's own fault stays until reset)
 ///   status                      one line: state, NMT, force, counters
 /// Each returns one line: "ok ..." or "error: <what was wrong>; accepted: ...".

@@ -512,7 +512,9 @@ void SimulatedDrive::send_tpdos(std::vector<Frame>& out) {
 
 void SimulatedDrive::refresh_process_values() {
   od_.set({obj402::statusword, 0}, statusword());
-  od_.set({obj402::position_actual, 0}, to_int32_units(plant_.position() * settings_.position_units_per_si));
+  od_.set({obj402::position_actual, 0},
+          to_int32_units(plant_.position() * settings_.position_units_per_si) +
+              static_cast<std::uint32_t>(static_cast<std::uint64_t>(position_offset_counts_)));
   od_.set({obj402::velocity_actual, 0}, to_int32_units(plant_.velocity() * settings_.velocity_units_per_si));
   const double rated_nm = od_.get({obj402::rated_torque, 0}) * 1e-3;
   const double permille = rated_nm > 0.0 ? applied_force_ / rated_nm * 1e3 : 0.0;

@@ -112,8 +112,12 @@ class SimulatedDrive {
   /// bus, the 0x6007 reaction, then silence (as set_mute(true)).
   void go_bus_off(Micros now, std::vector<cia301::Frame>& out);
   /// Ends every switch (mute, drops, pending abort, mode refusal). The drive's
-  /// own fault stays until a fault reset, as on a real drive.
+  /// own fault stays until a fault reset, as on a real drive; so does a
+  /// position jump (an encoder that lost counts keeps its offset).
   void clear_switches() noexcept;
+  /// 0x6064 jumps by `counts` increments from the next TPDO on, once: the
+  /// offset stays (INTEGER32 wraps, as a drive's counter does).
+  void jump_position(std::int64_t counts) noexcept { position_offset_counts_ += counts; }
 
   // ---- observation ----
   cia402::DriveState state() const noexcept { return state_; }
@@ -184,6 +188,7 @@ class SimulatedDrive {
   std::optional<cia301::ObjectAddress> abort_address_;
   std::uint32_t abort_code_ = 0;
   bool refuse_mode_ = false;
+  std::int64_t position_offset_counts_ = 0;  ///< added to 0x6064 (position-jump)
 
   DriveCounters counters_;
 };

@@ -203,7 +203,10 @@ void Amplifier::refresh_state_registers() noexcept {
   const RegisterMap& m = settings_.map;
   double position = 0.0;
   plant_.sense(position);
-  const auto counts = static_cast<std::int32_t>(std::llround(position / settings_.position_per_count));
+  // The 32-bit count wraps, offset included (position-jump).
+  const auto counts = static_cast<std::int32_t>(static_cast<std::uint32_t>(
+      static_cast<std::uint64_t>(std::llround(position / settings_.position_per_count)) +
+      static_cast<std::uint64_t>(position_offset_counts_.load(std::memory_order_relaxed))));
   std::uint16_t* p0 = state_register(m.position);
   std::uint16_t* p1 = state_register(static_cast<std::uint16_t>(m.position + 1));
   if (p0 && p1) split_words(counts, m.word_order, *p0, *p1);

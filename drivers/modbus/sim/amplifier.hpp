@@ -115,6 +115,11 @@ class Amplifier {
               std::uint8_t exception_code = exception_code::server_device_failure, int delay_ms = 0) noexcept;
   /// Sets fault bits as the amplifier's own protection would (over-current ...): power stage off.
   void inject_fault(std::uint16_t bits) noexcept;
+  /// The position registers jump by `counts` once, from the next reply on
+  /// (the offset stays; the 32-bit count wraps).
+  void jump_position(std::int64_t counts) noexcept {
+    position_offset_counts_.fetch_add(counts, std::memory_order_relaxed);
+  }
   AmplifierState state() const noexcept;
   const AmplifierSettings& settings() const noexcept { return settings_; }
 
@@ -149,6 +154,7 @@ class Amplifier {
   std::atomic<std::uint8_t> injection_code_{0};
   std::atomic<int> injection_delay_ms_{0};
   std::atomic<std::uint16_t> pending_fault_{0};
+  std::atomic<std::int64_t> position_offset_counts_{0};
 
   // Published view.
   std::atomic<bool> pub_enabled_{false}, pub_armed_{false};

@@ -11,7 +11,7 @@ namespace {
 
 constexpr const char* usage =
     "commands: exception CODE [COUNT], timeout [COUNT], crc [COUNT], drop, late MS [COUNT], fault BITS, "
-    "state, help";
+    "position-jump COUNTS, state, help";
 
 // A whole number in [lo, hi], decimal or 0x hex; throws naming `what`.
 long number(const std::string& text, const char* what, long lo, long hi) {
@@ -68,6 +68,11 @@ std::string run_peer_command(const std::string& line, AmplifierServer& server, A
       server.inject(Injection::late, count_at(2), 0, ms);
     } else if (verb == "fault" && words.size() == 2) {
       amplifier.inject_fault(static_cast<std::uint16_t>(number(words[1], "BITS", 1, 0xFFFF)));
+    } else if (verb == "position-jump" && words.size() == 2) {
+      // Either sign, up to a 32-bit counter's whole range.
+      const long counts = number(words[1], "COUNTS", -(1L << 32), 1L << 32);
+      if (counts == 0) throw std::invalid_argument("COUNTS must not be 0");
+      amplifier.jump_position(counts);
     } else if (verb == "state" && words.size() == 1) {
       return "ok " + state_json(amplifier.state());
     } else if (verb == "help") {

@@ -10,6 +10,7 @@
 ///   drop                     the connection is closed at the next request (TCP)
 ///   late MS [COUNT]          the next COUNT replies come MS milliseconds late
 ///   fault BITS               the amplifier's protection sets these fault bits (power stage off)
+///   position-jump COUNTS     the position registers jump by COUNTS (+/-) once, from the next reply on
 ///   state                    one line of JSON: enabled, fault, torque, steps, watchdog ...
 ///   help                     the commands
 ///

@@ -162,6 +162,17 @@ std::string loopback_config(const std::string& hand, int delay) {
          std::to_string(delay) + "\nhand = \"" + hand + "\"\n" + scene;
 }
 
+// The scripted hand's ideal 45-degree step moves the device 0.785 rad in
+// one period (785 rad/s at 1 ms), faster than the default max_velocity lets
+// a device move (docs/config.md, "Position plausibility"): runs with it
+// allow that speed.
+std::string allowing_ideal_steps(std::string config) {
+  const std::string device = "[device]\n";
+  const auto at = config.find(device);
+  if (at != std::string::npos) config.insert(at + device.size(), "max_velocity = 1000\n");
+  return config;
+}
+
 std::size_t first_at_least(const std::vector<double>& v, double x) {
   for (std::size_t i = 0; i < v.size(); ++i)
     if (v[i] >= x) return i;
@@ -217,7 +228,7 @@ double peak(const std::vector<double>& v) {
 
 Recording loopback_reference(const std::string& hand, int delay) {
   TempDir dir;
-  Daemon d(dir, loopback_config(hand, delay), {"--record", "run.csv"});
+  Daemon d(dir, allowing_ideal_steps(loopback_config(hand, delay)), {"--record", "run.csv"});
   EXPECT_EQ(d.wait(120s), 0) << d.log();
   return read_recording(dir.path / "run.csv");
 }
@@ -265,7 +276,8 @@ Recording canopen_step_run() {
   TempDir dir;
   SimulatedDrive drive(dir, releasing_hand);
   // tpdo_timeout: this VM stalls the drive's process for tens of ms now and then.
-  Daemon d(dir, canopen_config(drive.interface(), "duration = \"3s\"\n", 1000), {"--record", "run.csv"});
+  Daemon d(dir, allowing_ideal_steps(canopen_config(drive.interface(), "duration = \"3s\"\n", 1000)),
+           {"--record", "run.csv"});
   EXPECT_EQ(d.wait(60s), 0) << d.log();
   Recording run = read_recording(dir.path / "run.csv");
   EXPECT_NE(run.header.at("device").find("canopen"), std::string::npos);
@@ -501,7 +513,7 @@ TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
   SimulatedDrive drive(dir, step_hand);
   // 300 ms: with 100 ms the drive's consumer faulted it while hapticd was
   // alive, once, at load 11 (hapticd's loop went unscheduled that long).
-  Daemon d(dir, canopen_config(drive.interface(), "", 200, "300ms"));
+  Daemon d(dir, allowing_ideal_steps(canopen_config(drive.interface(), "", 200, "300ms")));
   ASSERT_TRUE(d.running()) << d.log();
   ASSERT_TRUE(eventually(
       [&] { return drive.command("status").find("state=\"Operation Enabled\"") != std::string::npos; }));
@@ -521,6 +533,70 @@ TEST(Canopen, AKilledHapticdLetsTheDrivesHeartbeatConsumerDisableIt) {
   EXPECT_NE(drive.command("status").find(" force=0 "), std::string::npos);
   std::cout << "drive disabled itself " << seen_ms.count()
             << " ms after hapticd was killed (consumer time 300 ms)\n";
+}
+
+// Issue 17: a TPDO whose 0x6064 jumps by 2^31 counts once used to be taken
+// as motion (no fault; torque at torque_limit until stop; no flag in the
+// recording). The engine's position-step rule (max_velocity, for this wheel
+// 50 + sqrt(2 x 1 N m x 2 pi / 0.01 kg m^2) = 85.4 rad/s) refuses it.
+// A hand that turns the wheel between 0 and 0.6 rad, never below 0: the
+// 32-bit count, once offset by 2^31, then never crosses its wrap (2^31 counts
+// with a hand about 0 would wrap at each zero crossing, a jump of 2^32 counts
+// each time: a real counter's wrap, refused too).
+const char* const turning_above_zero =
+    "mode=hold trajectory=sine position=0.3 amplitude=0.3 frequency=1 phase=-1.5707963267948966";
+
+TEST(Canopen, A2To31CountJumpOf0x6064LatchesInItsPeriodWithTheFigures) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_above_zero);
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000), {"--record", "run.csv"});
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > 1500; }));  // torque flows
+  ASSERT_TRUE(status_of(d)["fault"].is_null()) << status_of(d).dump();
+
+  EXPECT_EQ(drive.command("position-jump 2147483648"),
+            "ok 0x6064 jumps by 2147483648 increments from the next TPDO");
+  ASSERT_TRUE(eventually([&] { return !status_of(d)["fault"].is_null(); }));
+  const json s = status_of(d);
+  EXPECT_EQ(s["fault"], "encoder jump / velocity limit") << s.dump();
+  EXPECT_EQ(s["device"]["state"], "enabled") << "the drive itself has no fault";
+  const json& detail = s["fault_detail"];
+  ASSERT_TRUE(detail.is_object()) << s.dump();
+  // INTEGER32 wraps: the step is -2^31 or +2^31 counts, plus the hand's few counts of motion.
+  EXPECT_NEAR(std::abs(detail["step_counts"].get<double>()), 2147483648.0, 20.0) << detail.dump();
+  EXPECT_NEAR(std::abs(detail["step"].get<double>()), 823549.66, 1.0) << detail.dump();
+  EXPECT_NEAR(detail["max_velocity"].get<double>(), 85.45, 0.01) << detail.dump();
+  EXPECT_NEAR(detail["limit"].get<double>(),
+              detail["max_velocity"].get<double>() * detail["interval_s"].get<double>() + 2 * M_PI / 16384,
+              1e-9);
+  EXPECT_NE(detail["text"].get<std::string>().find("counts) in "), std::string::npos) << detail.dump();
+  std::this_thread::sleep_for(100ms);
+  EXPECT_NE(drive.command("status").find(" force=0 "), std::string::npos)
+      << "latched: no torque at the drive";
+
+  const auto cleared = d.ctl({"fault", "clear", "--json"});
+  ASSERT_EQ(cleared.exit_code, 0) << cleared.err;
+  EXPECT_EQ(json::parse(cleared.out)["cleared"], "encoder jump / velocity limit") << cleared.out;
+  ASSERT_TRUE(eventually([&] { return status_of(d)["fault"].is_null(); }));
+  const double cycle = status_of(d)["cycle"].get<double>();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > cycle + 500; }));
+  EXPECT_TRUE(status_of(d)["fault"].is_null()) << "the offset position is the new normal";
+  EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque flows again";
+  EXPECT_EQ(d.stop(), 0) << d.log();
+
+  const Recording rec = read_recording(dir.path / "run.csv");
+  EXPECT_EQ(check_latches_zero_and_clears_without_a_step(rec), 1);
+  const auto flags = rec.values("flags"), applied = rec.values("applied_n_m"),
+             position = rec.values("position_rad");
+  std::size_t jump = 0;
+  while (jump < flags.size() && (static_cast<unsigned>(flags[jump]) & 32u) == 0) ++jump;
+  ASSERT_LT(jump, flags.size()) << "no sample flagged position_jump";
+  ASSERT_GT(jump, 0U);
+  EXPECT_NE(static_cast<unsigned>(flags[jump]) & 1u, 0U) << "the fault flag on the jump's own sample";
+  EXPECT_EQ(applied[jump], 0.0) << "zero output from the jump's period";
+  EXPECT_GT(std::abs(position[jump] - position[jump - 1]), 800000.0);
+  for (std::size_t i = jump; i < applied.size(); ++i)
+    ASSERT_LT(std::abs(applied[i]), 1.0) << "row " << i << ": at torque_limit after the jump";
 }
 
 }  // namespace

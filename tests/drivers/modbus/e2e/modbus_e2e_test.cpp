@@ -206,17 +206,30 @@ std::size_t first_moving_row(const std::vector<double>& position) {
   return position.size();
 }
 
+// The scripted hand's ideal 45-degree step moves the device 0.785 rad in
+// one period (785 rad/s at 1 ms), faster than the default max_velocity lets
+// a device move (docs/config.md, "Position plausibility"): runs with it
+// allow that speed.
+std::string allowing_ideal_steps(std::string config) {
+  const std::string device = "[device]\n";
+  const auto at = config.find(device);
+  if (at != std::string::npos) config.insert(at + device.size(), "max_velocity = 1000\n");
+  return config;
+}
+
 class ModbusEndToEnd : public ::testing::TestWithParam<Transport> {};
 
 TEST_P(ModbusEndToEnd, SpringWheelStepMatchesTheLoopbackRun) {
   const std::string virtual_run = loop(GetParam(), "clock = \"virtual\"\nduration = \"5s\"");
   TempDir loopback_dir;
   {
-    Daemon d(loopback_dir,
-             "[device]\ndriver = \"loopback\"\ntorque_limit = 0.8\n[device.loopback]\nmotion = \"rotary\"\n"
-             "delay = 1\nhand = \"" +
-                 std::string(step_hand) + "\"\n" + virtual_run + scene,
-             {"--record", "run.csv"});
+    Daemon d(
+        loopback_dir,
+        allowing_ideal_steps(
+            "[device]\ndriver = \"loopback\"\ntorque_limit = 0.8\n[device.loopback]\nmotion = \"rotary\"\n"
+            "delay = 1\nhand = \"" +
+            std::string(step_hand) + "\"\n" + virtual_run + scene),
+        {"--record", "run.csv"});
     ASSERT_EQ(d.wait(std::chrono::seconds(300)), 0) << d.log();
   }
   // A run in which the host failed a transaction (a flagged row: a read
@@ -230,7 +243,7 @@ TEST_P(ModbusEndToEnd, SpringWheelStepMatchesTheLoopbackRun) {
   for (; runs < 3; ++runs) {
     amplifier = std::make_unique<AmplifierProcess>(GetParam(), step_hand);
     modbus_dir = std::make_unique<TempDir>();
-    Daemon d(*modbus_dir, modbus_device(*amplifier, GetParam()) + virtual_run + scene,
+    Daemon d(*modbus_dir, allowing_ideal_steps(modbus_device(*amplifier, GetParam()) + virtual_run + scene),
              {"--record", "run.csv"});
     const int status = d.wait(std::chrono::seconds(300));
     flagged = 0;
@@ -425,6 +438,76 @@ TEST_P(ModbusEndToEnd, AKilledHapticdLetsTheAmplifierWatchdogDisableIt) {
   std::printf("modbus %s, hapticd killed: the amplifier tripped after %.1f ms of silence\n",
               name_of(GetParam()).c_str(), silence * 1e3);
   EXPECT_EQ(d.stop(), -SIGKILL);
+}
+
+// Issue 17: holding registers whose position jumps by 2^31 counts once used
+// to be taken as motion (no fault; torque at torque_limit until stop; no
+// flag in the recording). The engine's position-step rule (max_velocity, for
+// this wheel 50 + sqrt(2 x 0.8 N m x 2 pi / 0.01 kg m^2) = 81.7 rad/s)
+// refuses it in the period it arrives.
+// A hand that turns the wheel between 0 and 0.6 rad, never below 0: the
+// 32-bit count, once offset by 2^31, then never crosses its wrap (2^31 counts
+// with a hand about 0 would wrap at each zero crossing, a jump of 2^32 counts
+// each time: a real counter's wrap, refused too).
+const char* const turning_above_zero =
+    "mode=hold trajectory=sine position=0.3 amplitude=0.3 frequency=1 phase=-1.5707963267948966";
+
+TEST_P(ModbusEndToEnd, A2To31CountPositionJumpLatchesInItsPeriodWithTheFigures) {
+  AmplifierProcess amplifier(GetParam(), turning_above_zero);
+  TempDir dir;
+  Daemon d(dir, modbus_device(amplifier, GetParam()) +
+                    loop(GetParam(), "clock = \"real\"\noverrun_limit = 0") + scene);
+  ASSERT_TRUE(d.running()) << d.log();
+  const auto start = d.ctl({"record", "start", "--path", "j.csv", "--json"});
+  ASSERT_EQ(start.exit_code, 0) << start.err;
+  const std::string csv = json::parse(start.out).value("path", "");
+  std::this_thread::sleep_for(1000ms);
+  ASSERT_EQ(status_of(d).value("state", ""), "running") << status_of(d).dump() << d.log();
+
+  ASSERT_EQ(amplifier.command("position-jump 2147483648"), "ok");
+  ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "fault"; })) << d.log();
+  const json during = status_of(d);
+  EXPECT_EQ(during["fault"], "encoder jump / velocity limit") << during.dump();
+  EXPECT_TRUE(during["device"]["fault_reason"].is_null()) << "the amplifier itself has no fault";
+  const json& detail = during["fault_detail"];
+  ASSERT_TRUE(detail.is_object()) << during.dump();
+  // The 32-bit count wraps: -2^31 or +2^31 counts, plus the hand's few counts of motion.
+  EXPECT_NEAR(std::abs(detail["step_counts"].get<double>()), 2147483648.0, 50.0) << detail.dump();
+  EXPECT_NEAR(detail["max_velocity"].get<double>(), 81.71, 0.01) << detail.dump();
+  EXPECT_GE(detail["interval_s"].get<double>(), period_of(GetParam())) << detail.dump();
+  EXPECT_NEAR(detail["limit"].get<double>(),
+              detail["max_velocity"].get<double>() * detail["interval_s"].get<double>() + 2 * M_PI / 16384,
+              1e-9);
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(amplifier.state()["torque_counts"], 0) << "latched: torque 0 at the amplifier";
+
+  const auto cleared = d.ctl({"fault", "clear", "--json"});
+  ASSERT_EQ(cleared.exit_code, 0) << cleared.err << cleared.out << d.log();
+  EXPECT_EQ(json::parse(cleared.out)["cleared"], "encoder jump / velocity limit") << cleared.out;
+  ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "running"; })) << d.log();
+  std::this_thread::sleep_for(500ms);
+  const json after = status_of(d);
+  EXPECT_EQ(after.value("state", ""), "running") << "the offset position is the new normal: " << after.dump();
+  ASSERT_EQ(d.ctl({"record", "stop"}).exit_code, 0);
+  EXPECT_EQ(d.stop(), 0) << d.log();
+
+  const Recording rec = read_recording(csv);
+  const auto flags = rec.values("flags"), applied = rec.values("applied_n_m"),
+             position = rec.values("position_rad");
+  const auto found = episodes(rec);
+  ASSERT_EQ(found.size(), 1U) << "one latch";
+  const auto [first, end] = found.front();
+  ASSERT_GE(first, 50U);
+  EXPECT_NE(static_cast<unsigned>(flags[first]) & 32u, 0U) << "the latch's first sample is the jump's";
+  EXPECT_GT(std::abs(position[first] - position[first - 1]), 800000.0);
+  double before = 0.0;
+  for (std::size_t i = first - 50; i < first; ++i) before = std::max(before, std::abs(applied[i]));
+  EXPECT_GT(before, 0.01) << "a torque before the jump";
+  for (std::size_t i = first; i < end; ++i) ASSERT_EQ(applied[i], 0.0) << "row " << i << " latched";
+  ASSERT_LT(end, applied.size()) << "never resumed in the recording";
+  EXPECT_LT(std::abs(applied[end]), 0.02) << "torque step at the resume, row " << end;
+  for (std::size_t i = first; i < applied.size(); ++i)
+    ASSERT_LT(std::abs(applied[i]), 0.8) << "row " << i << ": at torque_limit after the jump";
 }
 
 std::string transport_name(const ::testing::TestParamInfo<Transport>& p) {
