@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "daemon/config/config.hpp"
+#include "daemon/config/host_checks_setup.hpp"
 #include "daemon/service.hpp"
 #include "daemon/version.hpp"
 #include "drivers/registry.hpp"
@@ -50,6 +51,31 @@ void list_scenes() {
   }
 }
 
+/// hapticd --setup-check [--json]: exit 0 when every item is ok or a
+/// warning, 1 on a failure (a config that does not load is one).
+int setup_check(const std::string& config_path, bool json) {
+  namespace config = hapticd::daemon::config;
+  const config::SetupFacts facts = config::probe_setup_facts();
+  config::DaemonConfig cfg;
+  std::vector<config::SetupItem> items;
+  try {
+    cfg = config_path.empty() ? config::default_config() : config::load_config(config_path);
+    config::SetupContext context;
+    context.ip_details = config::run_ip_details;
+    context.state_directory_env = std::getenv("STATE_DIRECTORY");  // NOLINT(concurrency-mt-unsafe)
+    items = config::run_setup_check(cfg, facts, context);
+  } catch (const config::ConfigError& e) {
+    cfg.source = config_path;
+    items = {{"config", config::Verdict::fail, e.what(), "the key it names (docs/config.md)"}};
+  }
+  if (json) {
+    std::cout << config::to_json(cfg, facts, items).dump(2) << "\n";
+  } else {
+    std::cout << config::to_text(cfg, facts, items);
+  }
+  return config::overall(items) == config::Verdict::fail ? 1 : 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -73,11 +99,16 @@ int main(int argc, char** argv) {
                  "record from the first cycle to this file name in the recording directory");
   app.add_option("--socket", socket, "control socket path");
   app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
+  bool setup = false;
+  app.add_flag(
+      "--setup-check", setup,
+      "check this machine for this config (RT limits, kernel, CPUs, device access, budget), exit 1 on a "
+      "failure");
   app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters (ready or planned)");
   app.add_option("--format", drivers_format, "--list-drivers output: text, json or markdown")
       ->check(CLI::IsMember({"text", "json", "markdown"}));
   bool drivers_json = false;
-  app.add_flag("--json", drivers_json, "--list-drivers as JSON (same as --format json)");
+  app.add_flag("--json", drivers_json, "--list-drivers (same as --format json) or --setup-check as JSON");
   app.add_flag("--list-scenes", show_scenes, "list scenes and their parameters");
   app.add_flag("--version", show_version, "print the version");
   try {
@@ -99,6 +130,7 @@ int main(int argc, char** argv) {
     list_scenes();
     return 0;
   }
+  if (setup) return setup_check(config_path, drivers_json);
 
   // Block the stop signals before any thread starts: every thread inherits
   // the mask and the main thread takes them with sigtimedwait.
