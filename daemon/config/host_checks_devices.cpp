@@ -132,7 +132,7 @@ std::vector<SetupItem> check_usb(const DaemonConfig& config, const drivers::Driv
                  "plug the board in (`lsusb` lists it), or correct device.usb-hid.vendor_id/product_id")};
   }
   std::vector<SetupItem> items;
-  const std::string problem = access_problem(found->node, facts.user, true);
+  const std::string problem = access_problem(found->node, facts.user, read_write_access);
   items.push_back(
       problem.empty()
           ? item("device", Verdict::ok, "USB " + ids + " at " + found->node + ", open to " + facts.user.name)
@@ -243,7 +243,8 @@ std::vector<SetupItem> check_modbus_rtu(const DaemonConfig& config, const driver
   if (::stat(path.c_str(), &st) != 0 || !S_ISCHR(st.st_mode)) {
     items.push_back(item("device", Verdict::fail, "no serial port " + p.text("device"),
                          "plug the adapter in (`ls /dev/serial/by-id`), or correct device.modbus.device"));
-  } else if (const std::string problem = access_problem(path, facts.user, true); !problem.empty()) {
+  } else if (const std::string problem = access_problem(path, facts.user, read_write_access);
+             !problem.empty()) {
     items.push_back(item("device", Verdict::fail, problem,
                          "serial ports belong to group dialout: the unit's modbus-rtu drop-in adds "
                          "SupplementaryGroups=dialout (by hand: adduser " +
@@ -314,7 +315,8 @@ std::vector<SetupItem> check_gpio_pwm(const drivers::DriverParameters& p, const 
   } else if (!fs::exists(chip)) {
     items.push_back(item("device", Verdict::fail, "no GPIO chip " + p.text("chip") + " (" + chip + ")",
                          "gpiodetect lists the chips: correct device.gpio-pwm.chip"));
-  } else if (const std::string problem = access_problem(chip, facts.user, true); !problem.empty()) {
+  } else if (const std::string problem = access_problem(chip, facts.user, read_write_access);
+             !problem.empty()) {
     items.push_back(item("device", Verdict::fail, "GPIO chip: " + problem, udev_fix));
   } else {
     items.push_back(item("device", Verdict::ok, "GPIO chip " + chip + ", open to " + facts.user.name));
@@ -334,7 +336,7 @@ std::vector<SetupItem> check_gpio_pwm(const drivers::DriverParameters& p, const 
                          p.text("pwm_chip") + " has " + std::to_string(npwm) + " channels, pwm_channel is " +
                              std::to_string(channel),
                          "device.gpio-pwm.pwm_channel below " + std::to_string(npwm)));
-  } else if (const std::string problem = access_problem(pwm + "/export", facts.user, true);
+  } else if (const std::string problem = access_problem(pwm + "/export", facts.user, write_access);
              !problem.empty()) {
     items.push_back(item("pwm", Verdict::fail, problem, udev_fix));
   } else {
@@ -345,7 +347,7 @@ std::vector<SetupItem> check_gpio_pwm(const drivers::DriverParameters& p, const 
   if (const std::string counter = p.text("counter"); !counter.empty()) {
     const std::string count =
         under_root(counter, context) + "/count" + std::to_string(p.integer("counter_count")) + "/count";
-    const std::string problem = access_problem(count, facts.user, false);
+    const std::string problem = access_problem(count, facts.user, read_access);
     items.push_back(problem.empty() ? item("counter", Verdict::ok, count + " readable")
                                     : item("counter", Verdict::fail, problem,
                                            "load the counter driver, or correct device.gpio-pwm.counter"));

@@ -94,9 +94,13 @@ nlohmann::json to_json(const DaemonConfig& config, const SetupFacts& facts,
 /// The same for a person: one line per item, its fix below, counts last.
 std::string to_text(const DaemonConfig& config, const SetupFacts& facts, const std::vector<SetupItem>& items);
 
-/// Whether `user` may open the node at `path` for reading (and writing):
-/// its mode, owner and group against the user's uid and groups (root may).
-/// "" if it may, else why not ("/dev/x is root:root 0600").
-std::string access_problem(const std::string& path, const ServiceUser& user, bool write);
+/// What access_problem() asks for: read (4), write (2), or both (6), as in a mode.
+inline constexpr int read_access = 04;
+inline constexpr int write_access = 02;
+inline constexpr int read_write_access = 06;
+/// Whether `user` may open `path` with `need`: its mode, owner and group
+/// against the user's uid and groups (root may). "" if it may, else why not
+/// ("/dev/x is root:root 0600: user hapticd may not read and write it").
+std::string access_problem(const std::string& path, const ServiceUser& user, int need);
 
 }  // namespace hapticd::daemon::config

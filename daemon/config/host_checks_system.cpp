@@ -160,20 +160,20 @@ SetupFacts probe_setup_facts() {
   return f;
 }
 
-std::string access_problem(const std::string& path, const ServiceUser& user, bool write) {
+std::string access_problem(const std::string& path, const ServiceUser& user, int need) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) return path + ": " + std::generic_category().message(errno);
   if (user.uid == 0) return {};
-  const mode_t need = write ? 06 : 04;
   mode_t have = st.st_mode & 07;
   if (st.st_uid == user.uid) {
     have = (st.st_mode >> 6) & 07;
   } else if (in_group(user, st.st_gid)) {
     have = (st.st_mode >> 3) & 07;
   }
-  if ((have & need) == need) return {};
-  return path + " is " + owner_text(st) + ": user " + user.name + " may not " +
-         (write ? "read and write" : "read") + " it";
+  const auto wanted = static_cast<mode_t>(need);
+  if ((have & wanted) == wanted) return {};
+  const char* what = need == read_write_access ? "read and write" : need == write_access ? "write" : "read";
+  return path + " is " + owner_text(st) + ": user " + user.name + " may not " + what + " it";
 }
 
 SetupItem check_rt_priority(const DaemonConfig& config, const SetupFacts& facts,
@@ -291,7 +291,7 @@ SetupItem check_cpu_isolation(const DaemonConfig& config, const SetupContext& co
 SetupItem check_dma_latency(const SetupFacts& facts, const SetupContext& context) {
   SetupItem item{"cpu-dma-latency", Verdict::ok, "", ""};
   const std::string path = context.dev_root + "/cpu_dma_latency";
-  const std::string problem = access_problem(path, facts.user, true);
+  const std::string problem = access_problem(path, facts.user, read_write_access);
   if (problem.empty()) {
     item.finding = path + ": " + facts.user.name + " may hold it (the CPUs stay out of deep idle states)";
     return item;
