@@ -23,6 +23,11 @@ packages=(
   # and fuzz build (tests/run_sanitizers.sh); jq reads `hapticctl stats
   # --json` in bench/latency.sh.
   clang libclang-rt-14-dev jq
+  # issue 23: the Debian package (scripts/package.sh: dpkg-buildpackage with
+  # debhelper 13's cmake build system and dh_installsysusers) and its check
+  # (lintian; tests/package_test.sh installs, verifies and purges it);
+  # help2man writes the man pages from each program's --help.
+  debhelper lintian help2man
 )
 
 sudo_cmd=()
