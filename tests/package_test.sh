@@ -98,6 +98,7 @@ snapshot >"$work/after"
 comm -13 "$work/before" "$work/after" |
   grep -vxE '/var/lib/hapticd(/recordings(/kept\.csv)?)?|/etc/(passwd|group|shadow|gshadow)-' >"$work/left" || true
 comm -23 "$work/before" "$work/after" >"$work/gone"
+say "file list: $(wc -l <"$work/before") paths before, $(wc -l <"$work/after") after the purge; new and kept by design: $(comm -13 "$work/before" "$work/after" | grep -cvxF -f "$work/left" || true)"
 if [ -s "$work/left" ]; then
   fail "the purge left files:"
   cat "$work/left"

@@ -117,7 +117,7 @@ std::string passivity_words(const json& scene) {
 
 /// The verdict in words (docs/protocol.md, "Stability verdict").
 std::string verdict_words(const json& verdict) {
-  const std::string v = text_of(verdict, "verdict");
+  std::string v = text_of(verdict, "verdict");
   if (v == "marginal") return "marginal (poles on the unit circle: oscillations neither grow nor decay)";
   if (v == "unstable") return "UNSTABLE";
   if (v == "cannot_assess") return "cannot assess: " + text_of(verdict, "reason", "reason not given");

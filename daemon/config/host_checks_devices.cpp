@@ -61,7 +61,7 @@ std::optional<UsbFound> find_usb(const drivers::DriverParameters& p, const Setup
   const auto product = drivers::usb_hid::parse_usb_id(p.text("product_id"));
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(context.sys_root + "/bus/usb/devices", ec)) {
-    const fs::path dir = entry.path();
+    const fs::path& dir = entry.path();
     const std::string v = read_line(dir / "idVendor");
     if (v.empty()) continue;
     try {
@@ -100,7 +100,7 @@ std::optional<drivers::usb_hid::EndpointInfo> usb_endpoint(const UsbFound& found
   std::error_code ec;
   std::map<unsigned, drivers::usb_hid::EndpointInfo> endpoints;  // in address order: "auto" is the first
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    const fs::path ep = entry.path();
+    const fs::path& ep = entry.path();
     if (ep.filename().string().rfind("ep_", 0) != 0 || read_line(ep / "type") != "Interrupt" ||
         read_line(ep / "direction") != direction)
       continue;
@@ -279,7 +279,7 @@ std::vector<SetupItem> check_modbus(const DaemonConfig& config, const drivers::D
   addrinfo hints{};
   hints.ai_socktype = SOCK_STREAM;
   addrinfo* found = nullptr;
-  const std::string host = p.text("host");
+  const std::string& host = p.text("host");
   const int error = ::getaddrinfo(host.c_str(), std::to_string(p.integer("port")).c_str(), &hints, &found);
   if (found != nullptr) ::freeaddrinfo(found);
   std::vector<SetupItem> items;
@@ -344,7 +344,7 @@ std::vector<SetupItem> check_gpio_pwm(const drivers::DriverParameters& p, const 
                          p.text("pwm_chip") + " channel " + std::to_string(channel) +
                              ": export writable by " + facts.user.name));
   }
-  if (const std::string counter = p.text("counter"); !counter.empty()) {
+  if (const std::string& counter = p.text("counter"); !counter.empty()) {
     const std::string count =
         under_root(counter, context) + "/count" + std::to_string(p.integer("counter_count")) + "/count";
     const std::string problem = access_problem(count, facts.user, read_access);

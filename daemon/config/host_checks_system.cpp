@@ -85,10 +85,10 @@ bool in_group(const ServiceUser& user, gid_t gid) {
 std::string owner_text(const struct stat& st) {
   std::string user = std::to_string(st.st_uid);
   std::string group = std::to_string(st.st_gid);
-  if (const passwd* p = ::getpwuid(st.st_uid); p != nullptr)
-    user = p->pw_name;  // NOLINT(concurrency-mt-unsafe)
-  if (const ::group* g = ::getgrgid(st.st_gid); g != nullptr)
-    group = g->gr_name;  // NOLINT(concurrency-mt-unsafe)
+  // NOLINTBEGIN(concurrency-mt-unsafe): the check runs on one thread, before any other starts
+  if (const passwd* p = ::getpwuid(st.st_uid); p != nullptr) user = p->pw_name;
+  if (const ::group* g = ::getgrgid(st.st_gid); g != nullptr) group = g->gr_name;
+  // NOLINTEND(concurrency-mt-unsafe)
   char mode[8];
   std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
   return user + ":" + group + " " + mode;
@@ -98,8 +98,8 @@ ServiceUser current_user() {
   ServiceUser u;
   u.uid = ::geteuid();
   u.gid = ::getegid();
-  if (const passwd* p = ::getpwuid(u.uid); p != nullptr)
-    u.name = p->pw_name;  // NOLINT(concurrency-mt-unsafe)
+  // NOLINTNEXTLINE(concurrency-mt-unsafe): one thread, before any other starts
+  if (const passwd* p = ::getpwuid(u.uid); p != nullptr) u.name = p->pw_name;
   std::vector<gid_t> groups(static_cast<std::size_t>(std::max(0, ::getgroups(0, nullptr))));
   const int n = ::getgroups(static_cast<int>(groups.size()), groups.data());
   for (int i = 0; i < n; ++i) u.groups.push_back(groups[static_cast<std::size_t>(i)]);

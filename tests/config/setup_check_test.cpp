@@ -275,6 +275,7 @@ TEST_F(FakeHost, TheWholeRunItsVerdictAndJson) {
   facts.cap_sys_nice = facts.cap_ipc_lock = true;
   const auto items = run_setup_check(cfg, facts, context);
   std::vector<std::string> names;
+  names.reserve(items.size());
   for (const auto& i : items) names.push_back(i.name);
   EXPECT_EQ(names, (std::vector<std::string>{"rt-priority", "memlock", "kernel", "cpu-isolation",
                                              "cpu-dma-latency", "device", "period", "paths"}));

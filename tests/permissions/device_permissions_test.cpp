@@ -70,7 +70,7 @@ std::vector<Rule> parse_rules(const fs::path& file) {
 }
 
 /// udev's glob: * ? [...] and | between alternatives.
-bool glob(const std::string& pattern, const std::string& text) {
+bool udev_glob(const std::string& pattern, const std::string& text) {
   std::stringstream alternatives(pattern);
   std::string alt;
   while (std::getline(alternatives, alt, '|')) {
@@ -80,9 +80,7 @@ bool glob(const std::string& pattern, const std::string& text) {
         re += ".*";
       else if (c == '?')
         re += '.';
-      else if (c == '[' || c == ']' || c == '-')
-        re += c;
-      else if (std::isalnum(static_cast<unsigned char>(c)) != 0)
+      else if (c == '[' || c == ']' || c == '-' || std::isalnum(static_cast<unsigned char>(c)) != 0)
         re += c;
       else
         re += std::string("\\") + c;
@@ -122,7 +120,7 @@ bool matches(const Rule& rule, const Event& e) {
     } else {
       have = attribute(e, t.key.substr(5, t.key.size() - 6));
     }
-    if (glob(t.value, have) != (t.op == "==")) return false;
+    if (udev_glob(t.value, have) != (t.op == "==")) return false;
   }
   return true;
 }
