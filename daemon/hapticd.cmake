@@ -21,5 +21,5 @@ target_link_libraries(hapticd_daemon_core
   PRIVATE hapticd_warnings)
 
 add_executable(hapticd ${CMAKE_CURRENT_SOURCE_DIR}/main.cpp)
-target_link_libraries(hapticd PRIVATE hapticd_daemon_core CLI11::CLI11 hapticd_warnings)
+target_link_libraries(hapticd PRIVATE hapticd_daemon_core hapticd_setup_check CLI11::CLI11 hapticd_warnings)
 install(TARGETS hapticd RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})

@@ -7,6 +7,7 @@
 
 #include "daemon/config/config.hpp"
 #include "daemon/planner.hpp"
+#include "daemon/config/host_checks_setup.hpp"
 #include "daemon/service.hpp"
 #include "daemon/version.hpp"
 #include "drivers/registry.hpp"
@@ -99,6 +100,31 @@ struct Listings {
   }
 };
 
+/// hapticd --setup-check [--json]: exit 0 when every item is ok or a
+/// warning, 1 on a failure (a config that does not load is one).
+int setup_check(const std::string& config_path, bool json) {
+  namespace config = hapticd::daemon::config;
+  const config::SetupFacts facts = config::probe_setup_facts();
+  config::DaemonConfig cfg;
+  std::vector<config::SetupItem> items;
+  try {
+    cfg = config_path.empty() ? config::default_config() : config::load_config(config_path);
+    config::SetupContext context;
+    context.ip_details = config::run_ip_details;
+    context.state_directory_env = std::getenv("STATE_DIRECTORY");  // NOLINT(concurrency-mt-unsafe)
+    items = config::run_setup_check(cfg, facts, context);
+  } catch (const config::ConfigError& e) {
+    cfg.source = config_path;
+    items = {{"config", config::Verdict::fail, e.what(), "the key it names (docs/config.md)"}};
+  }
+  if (json) {
+    std::cout << config::to_json(cfg, facts, items).dump(2) << "\n";
+  } else {
+    std::cout << config::to_text(cfg, facts, items);
+  }
+  return config::overall(items) == config::Verdict::fail ? 1 : 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -120,6 +146,11 @@ int main(int argc, char** argv) {
   app.add_option("--socket", socket, "control socket path");
   app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
   listings.add_to(app);
+  bool setup = false;
+  app.add_flag(
+      "--setup-check", setup,
+      "check this machine for this config (RT limits, kernel, CPUs, device access, budget), exit 1 on a "
+      "failure; --json for JSON");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -128,6 +159,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (listings.print()) return 0;
+  if (setup) return setup_check(config_path, listings.json);
 
   // Block the stop signals before any thread starts: every thread inherits
   // the mask and the main thread takes them with sigtimedwait.

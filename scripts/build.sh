@@ -5,5 +5,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
+# Debian's hardening flags (dpkg-buildflags, as the package is built with):
+# the tests run the code the package ships, and scripts/package.sh reuses
+# this tree (debian/buildflags.sh). They apply when the tree is first
+# configured.
+. debian/buildflags.sh
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DHAPTICD_WERROR=ON "$@"
 cmake --build build -j"$jobs"

@@ -33,6 +33,11 @@ packages=(
   # call filter and address families (tests/support/sandbox_exec.cpp), as
   # systemd would, where systemd is not PID 1.
   libseccomp-dev
+  # issue 23: the Debian package (scripts/package.sh: dpkg-buildpackage with
+  # debhelper 13's cmake build system and dh_installsysusers) and its check
+  # (lintian; tests/package_test.sh installs, verifies and purges it);
+  # help2man writes the man pages from each program's --help.
+  debhelper lintian help2man
 )
 
 sudo_cmd=()

@@ -21,6 +21,7 @@ timed install-deps bash scripts/install-deps.sh
 timed build bash scripts/build.sh
 [ "$status" -eq 0 ] || { printf '%s\n' "${times[@]}"; exit 1; }
 timed ctest sh -c 'cd build && ctest --output-on-failure --timeout 900 -j2'
+timed package bash tests/package_test.sh build
 timed lint bash scripts/lint.sh
 # --- issue 14: sanitizers and fuzzing (tests/run_sanitizers.sh times its own parts)
 timed sanitizers bash tests/run_sanitizers.sh

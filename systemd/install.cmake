@@ -52,7 +52,17 @@ install(CODE "
     file(INSTALL \"${_hapticd_config_src}\" DESTINATION \"${HAPTICD_CONFIG_DIR}\" FILE_PERMISSIONS OWNER_READ OWNER_WRITE GROUP_READ WORLD_READ)
   endif()
 " COMPONENT config)
-# Every example, for reference.
+# Every example, for reference (with the docs: <prefix>/share/doc/hapticd/examples).
 file(GLOB _hapticd_examples ${CMAKE_CURRENT_LIST_DIR}/../config/*.toml)
-install(FILES ${_hapticd_examples} DESTINATION ${CMAKE_INSTALL_DATADIR}/hapticd/examples COMPONENT config)
+install(FILES ${_hapticd_examples} DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples COMPONENT config)
 install(FILES ${CMAKE_CURRENT_LIST_DIR}/../docs/config.md DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT config OPTIONAL)
+
+# issue 23: device permissions. The udev rules give the hapticd group the
+# devices the daemon drives (docs/config.md, "Device permissions"); the CAN interface's
+# systemd-networkd example goes with the other examples.
+set(HAPTICD_UDEV_RULES_DIR "${CMAKE_INSTALL_PREFIX}/lib/udev/rules.d" CACHE PATH
+    "Where the udev rules are installed (udev also reads /usr/local/lib/udev/rules.d and /etc/udev/rules.d)")
+file(GLOB _hapticd_udev_rules ${CMAKE_CURRENT_LIST_DIR}/../config/*.rules)
+install(FILES ${_hapticd_udev_rules} DESTINATION ${HAPTICD_UDEV_RULES_DIR} COMPONENT udev)
+install(FILES ${CMAKE_CURRENT_LIST_DIR}/../config/80-hapticd-can.network
+        DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples/networkd COMPONENT config)

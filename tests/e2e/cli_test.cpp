@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -177,6 +178,134 @@ TEST(CliAnalyze, InvalidInputsExitTwoWithOneLineNamingTheArgument) {
     EXPECT_NE(r.err.find(c.flag), std::string::npos) << joined << "\n" << r.err;
     EXPECT_TRUE(r.out.empty()) << joined << "\n" << r.out;
   }
+}
+
+// `hapticctl status` and `stats` for a person (issue 23 item 5): the
+// essentials in words with units, the full member dump under --verbose, the
+// daemon's result unchanged under --json.
+const char* const wall_device = R"(
+[loop]
+period = "1ms"
+clock = "real"
+overrun_limit = 0
+
+[device]
+driver = "loopback"
+torque_limit = 20.0
+
+[device.loopback]
+motion = "linear"
+mass = 0.1
+
+[scene]
+name = "wall"
+stiffness = 9000.0
+damping = 46.0
+delay = 1
+)";
+
+bool has_line_starting(const std::string& text, const std::string& start) {
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(start, 0) == 0) return true;
+  }
+  return false;
+}
+
+TEST(CliStatus, HumanFormShowsTheEssentialsWithUnits) {
+  TempDir dir;
+  Daemon d(dir, wall_device);
+  const CommandResult r = d.ctl({"status"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string& out = r.out;
+  EXPECT_EQ(out.rfind("hapticd ", 0), 0u) << out;
+  EXPECT_NE(out.find(": running"), std::string::npos) << out;
+  EXPECT_NE(out.find("period 1 ms"), std::string::npos) << out;
+  EXPECT_TRUE(has_line_starting(out, "  device:    loopback (linear), enabled")) << out;
+  EXPECT_NE(out.find("torque limit 20 N"), std::string::npos) << out;
+  // The scene with its parameters and their units.
+  EXPECT_NE(out.find("wall: "), std::string::npos) << out;
+  EXPECT_NE(out.find("stiffness 9000 N/m"), std::string::npos) << out;
+  EXPECT_NE(out.find("damping 46 N s/m"), std::string::npos) << out;
+  EXPECT_TRUE(has_line_starting(out, "  stability: stable")) << out;
+  // Loop latency and overruns come from stats.
+  EXPECT_NE(out.find("latency p50 "), std::string::npos) << out;
+  EXPECT_NE(out.find("overruns "), std::string::npos) << out;
+  EXPECT_TRUE(has_line_starting(out, "  recording: off")) << out;
+  EXPECT_NE(out.find(" m, command "), std::string::npos) << out;
+  // Not the member dump: no empty "problems:" nor growth_per_second.
+  EXPECT_EQ(out.find("growth_per_second"), std::string::npos) << out;
+  EXPECT_EQ(out.find("problems:"), std::string::npos) << out;
+  EXPECT_LE(line_count(out), 24u) << "one screen:\n" << out;
+}
+
+TEST(CliStatus, FaultIsSaidFirstWithTheWayOut) {
+  TempDir dir;
+  Daemon d(dir, wall_device);
+  ASSERT_EQ(d.ctl({"estop"}).exit_code, 0);
+  const CommandResult r = d.ctl({"status"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::istringstream in(r.out);
+  std::string first;
+  std::string second;
+  std::getline(in, first);
+  std::getline(in, second);
+  EXPECT_NE(first.find("FAULT (estop)"), std::string::npos) << r.out;
+  EXPECT_EQ(second.rfind("  fault:", 0), 0u) << r.out;
+  EXPECT_NE(second.find("hapticctl fault clear"), std::string::npos) << r.out;
+}
+
+TEST(CliStatus, JsonIsTheDaemonsResultAndVerboseEveryMember) {
+  TempDir dir;
+  Daemon d(dir, wall_device);
+  const CommandResult r = d.ctl({"status", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json status = json::parse(r.out);
+  // The daemon's own result, member for member (a raw JSON-RPC call beside
+  // it): nothing added, renamed or left out by the CLI.
+  RawConnection raw(d.socket());
+  ASSERT_TRUE(raw.send(R"({"jsonrpc":"2.0","id":1,"method":"status"})"
+                       "\n"));
+  const json direct = json::parse(raw.read_line())["result"];
+  std::vector<std::string> keys;
+  std::vector<std::string> direct_keys;
+  for (const auto& [key, value] : status.items()) keys.push_back(key);
+  for (const auto& [key, value] : direct.items()) direct_keys.push_back(key);
+  EXPECT_EQ(keys, direct_keys) << r.out;
+  EXPECT_EQ(status["scene"], direct["scene"]);
+  EXPECT_EQ(status["device"], direct["device"]);
+  EXPECT_EQ(status["scene"]["name"], "wall");
+  EXPECT_FALSE(status.contains("latency"));
+  const CommandResult verbose = d.ctl({"status", "--verbose"});
+  ASSERT_EQ(verbose.exit_code, 0) << verbose.err;
+  EXPECT_NE(verbose.out.find("growth_per_second:"), std::string::npos) << verbose.out;
+  EXPECT_NE(verbose.out.find("effective_mass:"), std::string::npos) << verbose.out;
+}
+
+TEST(CliStats, HumanFormAndUnchangedJson) {
+  TempDir dir;
+  Daemon d(dir, wall_device);
+  const CommandResult r = d.ctl({"stats"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("loop statistics since cycle 0: ", 0), 0u) << r.out;
+  EXPECT_TRUE(has_line_starting(r.out, "  latency:   p50 ")) << r.out;
+  EXPECT_NE(r.out.find(" us"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("p99.9 "), std::string::npos) << r.out;
+  EXPECT_TRUE(has_line_starting(r.out, "  overruns:  ")) << r.out;
+  EXPECT_TRUE(has_line_starting(r.out, "  device:    read errors 0")) << r.out;
+  EXPECT_EQ(r.out.find("p999"), std::string::npos) << "member names are not shown:\n" << r.out;
+  const CommandResult j = d.ctl({"stats", "--json"});
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const json stats = json::parse(j.out);
+  for (const char* key : {"since_cycle", "cycles", "overruns", "missed_periods", "latency", "compute",
+                          "recorder", "control", "device"}) {
+    EXPECT_TRUE(stats.contains(key)) << key << " in " << j.out;
+  }
+  EXPECT_TRUE(stats["latency"].contains("p50_us")) << j.out;
+  const CommandResult verbose = d.ctl({"stats", "--verbose"});
+  ASSERT_EQ(verbose.exit_code, 0) << verbose.err;
+  EXPECT_NE(verbose.out.find("dropped_ring_total:"), std::string::npos) << verbose.out;
 }
 
 }  // namespace

@@ -134,5 +134,84 @@ TEST(CheckConfig, MinimalFileRunsWhatTheBuiltInDefaultRuns) {
   EXPECT_EQ(d.stop(), 0) << d.log();
 }
 
+// hapticd --setup-check on this machine (issue 23 item 3): the facts are the
+// machine's (no PREEMPT_RT here, and so on), so this asserts the report's
+// structure and that the exit code, the verdict and the counts agree.
+void expect_consistent_setup_report(const CommandResult& r) {
+  const json report = json::parse(r.out);
+  ASSERT_TRUE(report["items"].is_array()) << r.out;
+  int ok = 0, warning = 0, fail = 0;
+  for (const auto& item : report["items"]) {
+    for (const char* key : {"name", "verdict", "finding", "fix"})
+      EXPECT_TRUE(item[key].is_string()) << item.dump();
+    const std::string verdict = item["verdict"];
+    EXPECT_TRUE(verdict == "ok" || verdict == "warning" || verdict == "fail") << item.dump();
+    EXPECT_FALSE(item["finding"].get<std::string>().empty()) << item.dump();
+    // Every item not ok says how to fix it.
+    EXPECT_EQ(verdict == "ok", item["fix"].get<std::string>().empty()) << item.dump();
+    ok += verdict == "ok";
+    warning += verdict == "warning";
+    fail += verdict == "fail";
+  }
+  EXPECT_EQ(report["counts"]["ok"], ok);
+  EXPECT_EQ(report["counts"]["warning"], warning);
+  EXPECT_EQ(report["counts"]["fail"], fail);
+  EXPECT_EQ(report["verdict"], fail > 0 ? "fail" : warning > 0 ? "warning" : "ok");
+  EXPECT_EQ(r.exit_code, fail > 0 ? 1 : 0) << r.out << r.err;
+}
+
+TEST(SetupCheck, OnThisMachineEveryItemHasAVerdictAndTheExitCodeFollows) {
+  TempDir dir;
+  const fs::path cfg = dir.path / "hapticd.toml";
+  std::ofstream(cfg) << "[control]\nsocket = \"" << (dir.path / "h.sock").string()
+                     << "\"\n[recorder]\ndirectory = \"" << dir.path.string() << "\"\n";
+  const CommandResult r = run(hapticd_binary(), {"--setup-check", "--json", "-c", cfg.string()});
+  expect_consistent_setup_report(r);
+  const json report = json::parse(r.out);
+  std::vector<std::string> names;
+  for (const auto& item : report["items"]) names.push_back(item["name"]);
+  EXPECT_EQ(names, (std::vector<std::string>{"rt-priority", "memlock", "kernel", "cpu-isolation",
+                                             "cpu-dma-latency", "device", "period", "paths"}));
+  EXPECT_EQ(report["driver"], "loopback");
+  // The text form: one line per item, the counts last, the same exit code.
+  const CommandResult text = run(hapticd_binary(), {"--setup-check", "-c", cfg.string()});
+  EXPECT_EQ(text.exit_code, r.exit_code);
+  EXPECT_NE(text.out.find("  " + report["items"][2]["verdict"].get<std::string>()), std::string::npos)
+      << text.out;
+  EXPECT_NE(text.out.find(std::to_string(report["counts"]["fail"].get<int>()) + " failures"),
+            std::string::npos)
+      << text.out;
+}
+
+TEST(SetupCheck, AnAbsentDeviceFailsWithExitOne) {
+  TempDir dir;
+  const fs::path cfg = dir.path / "usb.toml";
+  // An ID no machine here has: the device item fails, whatever else does.
+  std::ofstream(cfg) << "[control]\nsocket = \"" << (dir.path / "h.sock").string()
+                     << "\"\n[recorder]\ndirectory = \"" << dir.path.string()
+                     << "\"\n[device]\ndriver = \"usb-hid\"\n[device.usb-hid]\nvendor_id = \"0x1209\"\n"
+                        "product_id = \"0xfffe\"\n";
+  const CommandResult r = run(hapticd_binary(), {"--setup-check", "--json", "-c", cfg.string()});
+  expect_consistent_setup_report(r);
+  EXPECT_EQ(r.exit_code, 1);
+  const json report = json::parse(r.out);
+  bool device_failed = false;
+  for (const auto& item : report["items"])
+    device_failed |= item["name"] == "device" && item["verdict"] == "fail";
+  EXPECT_TRUE(device_failed) << r.out;
+}
+
+TEST(SetupCheck, AConfigThatDoesNotLoadIsAFailure) {
+  TempDir dir;
+  const fs::path cfg = dir.path / "bad.toml";
+  std::ofstream(cfg) << "[loop]\nperiod = \"5s\"\n";
+  const CommandResult r = run(hapticd_binary(), {"--setup-check", "--json", "-c", cfg.string()});
+  expect_consistent_setup_report(r);
+  const json report = json::parse(r.out);
+  ASSERT_EQ(report["items"].size(), 1u) << r.out;
+  EXPECT_EQ(report["items"][0]["name"], "config");
+  EXPECT_NE(report["items"][0]["finding"].get<std::string>().find("loop.period"), std::string::npos) << r.out;
+}
+
 }  // namespace
 }  // namespace hapticd::e2e

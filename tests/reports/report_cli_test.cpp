@@ -180,8 +180,9 @@ TEST(ReportAccuracyCli, CtrlCLeavesNothingBehind) {
   if (pid == 0) {
     const std::string program = hapticctl_binary().string();
     const std::string out_text = out.string();
-    freopen("/dev/null", "w", stdout);
-    freopen((dir.path / "err").c_str(), "w", stderr);
+    if (freopen("/dev/null", "w", stdout) == nullptr ||
+        freopen((dir.path / "err").c_str(), "w", stderr) == nullptr)
+      _exit(126);
     execl(program.c_str(), program.c_str(), "report", "accuracy", "--out", out_text.c_str(), nullptr);
     _exit(127);
   }

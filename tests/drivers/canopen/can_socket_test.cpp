@@ -59,9 +59,12 @@ TEST(CanopenCanSocket, PairCarriesFramesUnchanged) {
 TEST(CanopenCanSocket, OnTheWireItIsStructCanFrameInHostOrder) {
   auto [a, b] = CanSocket::pair();
   ASSERT_EQ(a.send(make(0x185, {0x37, 0x12, 0xFE, 0xFF, 0xFF, 0xFF})), IoStatus::ok);
-  can_frame raw{};
-  ASSERT_EQ(::recv(b.fd(), &raw, sizeof raw + 8, 0),
+  // Room for more than a can_frame, so a longer message would show as one.
+  unsigned char bytes[sizeof(can_frame) + 8] = {};
+  ASSERT_EQ(::recv(b.fd(), bytes, sizeof bytes, 0),
             static_cast<ssize_t>(sizeof(can_frame)));  // one message, 16 bytes
+  can_frame raw{};
+  std::memcpy(&raw, bytes, sizeof raw);
   EXPECT_EQ(raw.can_id, 0x185U);
   EXPECT_EQ(raw.len, 6);
   const std::uint8_t data[] = {0x37, 0x12, 0xFE, 0xFF, 0xFF, 0xFF};
