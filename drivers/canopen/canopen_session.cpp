@@ -267,7 +267,7 @@ void CanopenSession::configure(double period_s) {
   }
   try {
     SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+    SdoClient sdo(link, config_.node_id, sdo_timeout(config_), stop_);
     setup_ = setup_drive(sdo, link, setup_options(config_, period_s));
     scaling_ = canopen::scaling(config_, setup_.rated_torque_mnm);
     sdo_answers_ = std::make_unique<rt::SpscRing<Frame>>(sdo_ring_capacity);
@@ -294,14 +294,16 @@ void CanopenSession::prime() {
     const std::size_t n = exchange_->end_period(0.0, frames);
     for (std::size_t i = 0; i < n; ++i)
       if (frames[i].id != cia301::heartbeat_id(config_.master_node_id)) socket_.send(frames[i]);
-    const auto deadline = Clock::now() + wait;
+    const SlicedWait deadline(stop_, wait);
     Frame f;
-    while (!exchange_->has_position() && Clock::now() < deadline) {
+    while (!exchange_->has_position() && !deadline.expired()) {
       const IoStatus s = socket_.receive(f);
       if (s == IoStatus::ok) {
         exchange_->on_frame(f);
       } else if (s == IoStatus::would_block) {
-        socket_.wait_readable(std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now()));
+        throw_if_stopped(stop_,
+                         "canopen: waiting for node " + std::to_string(config_.node_id) + "'s first TPDO");
+        socket_.wait_readable(std::chrono::duration_cast<std::chrono::microseconds>(deadline.next_slice()));
       } else {
         break;
       }
@@ -347,15 +349,18 @@ bool CanopenSession::loop_running() const {
 void CanopenSession::enable() {
   if (!exchange_) throw std::logic_error("canopen: enable() before configure()");
   exchange_->set_enabled(true);
-  const bool ok = run_periods([this] { return exchange_->operational() || exchange_->faulted(); },
-                              periods_in(enable_timeout_s, period_s_));
-  if (!ok || exchange_->faulted()) {
+  const bool ok = run_periods(
+      [this] { return stop_.stop_requested() || exchange_->operational() || exchange_->faulted(); },
+      periods_in(enable_timeout_s, period_s_));
+  const bool stopped = stop_.stop_requested();
+  if (stopped || !ok || exchange_->faulted()) {
     const std::string why = exchange_->faulted()
                                 ? describe(exchange_->fault(), exchange_->settings())
                                 : "it is in " + status().drive_state + " after " +
                                       std::to_string(std::llround(enable_timeout_s * 1e3)) + " ms";
     exchange_->set_enabled(false);
-    run_periods([] { return false; }, 2);
+    run_periods([] { return false; }, 2);  // Disable Voltage goes out
+    if (stopped) throw StopRequested(abandoned("canopen: enabling node " + std::to_string(config_.node_id)));
     throw SetupError("node " + std::to_string(config_.node_id) + " could not be enabled: " + why, "");
   }
   enabled_.store(true, std::memory_order_release);
@@ -380,15 +385,22 @@ std::string CanopenSession::clear_fault() {
         const SessionStatus now = status();
         if (!now.resetting && (now.operational || now.faulted)) break;
       }
-      if (Clock::now() >= deadline) break;
+      if (Clock::now() >= deadline || stop_.stop_requested()) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   } else {
     run_periods(
-        [this] { return !clear_requested_.load() && (exchange_->operational() || exchange_->faulted()); },
+        [this] {
+          return stop_.stop_requested() ||
+                 (!clear_requested_.load() && (exchange_->operational() || exchange_->faulted()));
+        },
         periods_in(limit.count(), period_s_));
   }
   const SessionStatus after = status();
+  if (!after.operational && stop_.stop_requested()) {
+    clear_requested_.store(false, std::memory_order_release);
+    throw StopRequested(abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
+  }
   if (!after.operational)
     throw SetupError(
         "the drive stays in fault: " + (after.faulted ? after.fault_reason : "it is in " + after.drive_state),
@@ -422,7 +434,7 @@ void CanopenSession::close() noexcept {
   if (exchange_ && enabled()) disable();
   try {
     SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+    SdoClient sdo(link, config_.node_id, sdo_timeout(config_), stop_);
     release_drive(sdo, link, config_.node_id);
   } catch (...) {
   }
@@ -495,11 +507,11 @@ SdoAccess CanopenSession::sdo_read(cia301::ObjectAddress address, std::optional<
   std::uint32_t raw = 0;
   if (enabled()) {
     RingLink link(socket_, *sdo_answers_);
-    SdoClient sdo(link, config_.node_id, timeout);
+    SdoClient sdo(link, config_.node_id, timeout, stop_);
     raw = sdo.read(address);
   } else {
     SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, timeout);
+    SdoClient sdo(link, config_.node_id, timeout, stop_);
     raw = sdo.read(address);
   }
   return access(address, raw, type);
@@ -521,11 +533,11 @@ SdoAccess CanopenSession::sdo_write(cia301::ObjectAddress address, std::int64_t 
   const auto timeout = sdo_timeout(config_);
   if (enabled()) {
     RingLink link(socket_, *sdo_answers_);
-    SdoClient sdo(link, config_.node_id, timeout);
+    SdoClient sdo(link, config_.node_id, timeout, stop_);
     sdo.write(address, *raw, cia301::size_of(t));
   } else {
     SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, timeout);
+    SdoClient sdo(link, config_.node_id, timeout, stop_);
     sdo.write(address, *raw, cia301::size_of(t));
   }
   return access(address, *raw, t);
