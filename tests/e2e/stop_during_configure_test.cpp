@@ -161,10 +161,11 @@ TEST(StopDuringConfigure, ACanopenDriveThatNeverAnswersSdosDoesNotHoldSigterm) {
   std::memcpy(addr.sun_path, bus.c_str(), bus.size() + 1);
   ASSERT_EQ(bind(listener, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
   ASSERT_EQ(listen(listener, 1), 0);
-  Configuring hapticd(dir,
-                      "[loop]\nperiod = \"5ms\"\n[device]\ndriver = \"canopen\"\ntorque_limit = 0.8\n"
-                      "[device.canopen]\ninterface = \"unix:" +
-                          bus + "\"\nnode_id = 5\nsdo_timeout = \"10s\"\ncounts_per_unit = 16384\nmass = 0.0258\n" + scene);
+  Configuring hapticd(
+      dir,
+      "[loop]\nperiod = \"5ms\"\n[device]\ndriver = \"canopen\"\ntorque_limit = 0.8\n"
+      "[device.canopen]\ninterface = \"unix:" +
+          bus + "\"\nnode_id = 5\nsdo_timeout = \"10s\"\ncounts_per_unit = 16384\nmass = 0.0258\n" + scene);
   pollfd p{listener, POLLIN, 0};
   ASSERT_GT(poll(&p, 1, 20000), 0) << hapticd.log();
   const int peer = accept(listener, nullptr, nullptr);
