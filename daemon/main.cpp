@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   // (each inherits the mask): a SIGTERM while the device is configured or
   // enabled ends that step within drivers::stop_slice, not after its timeout.
   hapticd::drivers::StopRequest stop;
-  const hapticd::daemon::system::StopSignals stop_signals(
+  hapticd::daemon::system::StopSignals stop_signals(
       [&stop](int signal) { stop.request(hapticd::daemon::system::StopSignals::name(signal)); });
   signal(SIGPIPE, SIG_IGN);
 
@@ -141,6 +141,10 @@ int main(int argc, char** argv) {
     }
     options.record_name = record;
     options.stop = &stop;
+    if (loop.cpu >= 0) {
+      if (const auto problem = stop_signals.keep_off_cpu(loop.cpu); !problem.empty())
+        std::cerr << "hapticd: " << problem << "\n";
+    }
     std::unique_ptr<hapticd::daemon::Service> configured;
     try {
       configured = std::make_unique<hapticd::daemon::Service>(std::move(options));

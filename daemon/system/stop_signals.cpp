@@ -1,6 +1,11 @@
 #include "daemon/system/stop_signals.hpp"
 
+#include <sched.h>
 #include <signal.h>
+
+#include <system_error>
+
+#include "daemon/system/thread_placement.hpp"
 
 namespace hapticd::daemon::system {
 
@@ -30,6 +35,20 @@ StopSignals::~StopSignals() {
   thread_.join();
 }
 
+std::string StopSignals::keep_off_cpu(int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (const int e = pthread_getaffinity_np(thread_.native_handle(), sizeof set, &set); e != 0)
+    return "cannot read the signal thread's CPU affinity (" + std::generic_category().message(e) + ")";
+  if (cpu < 0 || cpu >= CPU_SETSIZE || !CPU_ISSET(static_cast<std::size_t>(cpu), &set)) return {};
+  CPU_CLR(static_cast<std::size_t>(cpu), &set);
+  if (CPU_COUNT(&set) == 0) return {};  // the loop's CPU is the only one: share it
+  if (const int e = pthread_setaffinity_np(thread_.native_handle(), sizeof set, &set); e != 0)
+    return "cannot keep the signal thread off CPU " + std::to_string(cpu) + " (" +
+           std::generic_category().message(e) + ")";
+  return {};
+}
+
 const char* StopSignals::name(int signal) noexcept {
   switch (signal) {
     case SIGTERM:
@@ -44,6 +63,7 @@ const char* StopSignals::name(int signal) noexcept {
 }
 
 void StopSignals::run() noexcept {
+  name_this_thread("hapticd-sig");
   const sigset_t set = stop_set();
   while (!quit_.load(std::memory_order_acquire)) {
     int signal = 0;

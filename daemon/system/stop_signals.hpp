@@ -11,6 +11,7 @@
 
 #include <atomic>
 #include <functional>
+#include <string>
 #include <thread>
 
 namespace hapticd::daemon::system {
@@ -23,6 +24,10 @@ class StopSignals {
   StopSignals(const StopSignals&) = delete;
   StopSignals& operator=(const StopSignals&) = delete;
 
+  /// Takes `cpu` (the loop's) out of the signal thread's allowed CPUs, as
+  /// run() does for the threads it starts later (thread_placement.hpp).
+  /// Returns "" or one line saying what failed.
+  std::string keep_off_cpu(int cpu);
   /// "SIGTERM", "SIGINT".
   static const char* name(int signal) noexcept;
 
