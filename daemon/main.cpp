@@ -4,11 +4,13 @@
 
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <memory>
 
 #include "daemon/config/config.hpp"
 #include "daemon/planner.hpp"
 #include "daemon/config/host_checks_setup.hpp"
 #include "daemon/service.hpp"
+#include "daemon/system/stop_signals.hpp"
 #include "daemon/version.hpp"
 #include "drivers/registry.hpp"
 #include "world/scene_catalog.hpp"
@@ -161,14 +163,12 @@ int main(int argc, char** argv) {
   if (listings.print()) return 0;
   if (setup) return setup_check(config_path, listings.json);
 
-  // Block the stop signals before any thread starts: every thread inherits
-  // the mask and the main thread takes them with sigtimedwait.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGHUP);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // The stop signals are taken from here on, before any other thread starts
+  // (each inherits the mask): a SIGTERM while the device is configured or
+  // enabled ends that step within drivers::stop_slice, not after its timeout.
+  hapticd::drivers::StopRequest stop;
+  hapticd::daemon::system::StopSignals stop_signals(
+      [&stop](int signal) { stop.request(hapticd::daemon::system::StopSignals::name(signal)); });
   signal(SIGPIPE, SIG_IGN);
 
   try {
@@ -201,7 +201,21 @@ int main(int argc, char** argv) {
       options.config.control.socket_where = {"--socket", 0, 0};  // errors name the flag, not the file
     }
     options.record_name = record;
-    hapticd::daemon::Service service(std::move(options));
+    options.stop = &stop;
+    if (loop.cpu >= 0) {
+      if (const auto problem = stop_signals.keep_off_cpu(loop.cpu); !problem.empty())
+        std::cerr << "hapticd: " << problem << "\n";
+    }
+    std::unique_ptr<hapticd::daemon::Service> configured;
+    try {
+      configured = std::make_unique<hapticd::daemon::Service>(std::move(options));
+    } catch (const hapticd::drivers::StopRequested& e) {
+      // The device is closed (disabled) again; a stop is not a failure.
+      std::cout << "hapticd: stopped by " << stop.why() << " during configure (" << e.what() << ")"
+                << std::endl;
+      return 0;
+    }
+    hapticd::daemon::Service& service = *configured;
     if (check_config) {
       std::cout << service.describe() << "\nconfig OK\n";
       return 0;

@@ -1,6 +1,5 @@
 #include "daemon/service.hpp"
 
-#include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -10,6 +9,7 @@
 #include <filesystem>
 #include <iostream>
 #include <sstream>
+#include <thread>
 
 #include "daemon/config/host_checks.hpp"
 #include "daemon/device_model.hpp"
@@ -93,15 +93,20 @@ engine::PositionStepRule position_rule_for(const config::DaemonConfig& cfg,
 
 }  // namespace
 
-Service::Service(ServiceOptions options) : options_(std::move(options)) {
+Service::Service(ServiceOptions options)
+    : options_(std::move(options)), stop_(options_.stop != nullptr ? *options_.stop : never_) {
   const auto& cfg = options_.config;
   // NOLINTNEXTLINE(concurrency-mt-unsafe): start-up, no setenv
   config::check_host(cfg, std::getenv("STATE_DIRECTORY"));
   device_ = build_device(cfg);
   try {
-    device_.device->configure(drivers::LoopContext{cfg.loop.period_s});
+    device_.device->configure(drivers::LoopContext{cfg.loop.period_s, stop_.token()});
   } catch (const drivers::DeviceError& e) {
     throw device_config_error(cfg.device, e);
+  } catch (const drivers::StopRequested&) {
+    device_.device->disable();
+    device_.device->close();
+    throw;
   }
   model_ = make_device_model(*device_.device, cfg.loop.period_s);
   if (!cfg.device.model.empty()) {
@@ -350,6 +355,10 @@ int Service::run() {
     std::cerr << "hapticd: device: " << e.what() << "\n";
     shutdown();
     return 1;
+  } catch (const drivers::StopRequested& e) {
+    std::cout << "hapticd: stopped by " << stop_.why() << " during enable (" << e.what() << ")" << std::endl;
+    shutdown();
+    return 0;
   }
   start_recorder();
   if (!start_telemetry()) {
@@ -391,18 +400,12 @@ int Service::supervise() {
   auto next_ping = std::chrono::steady_clock::now();
   std::uint64_t last_cycle = 0;
 
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGHUP);
   for (;;) {
-    timespec timeout{0, 50'000'000};
-    const int sig = sigtimedwait(&signals, nullptr, &timeout);
-    if (sig == SIGTERM || sig == SIGINT) {
-      std::cout << "hapticd: " << (sig == SIGTERM ? "SIGTERM" : "SIGINT") << ": stopping" << std::endl;
+    if (stop_.requested()) {
+      std::cout << "hapticd: " << stop_.why() << ": stopping" << std::endl;
       break;
     }
+    std::this_thread::sleep_for(50ms);
     if (engine_->finished()) {
       std::cout << "hapticd: loop finished after " << engine_->cycle() << " cycles" << std::endl;
       break;

@@ -29,6 +29,10 @@ namespace hapticd::daemon {
 struct ServiceOptions {
   config::DaemonConfig config;
   std::string record_name;  ///< start recording to this file name at launch (empty: no)
+  /// The daemon's stop (SIGTERM, SIGINT), set by its signal thread; it ends
+  /// configure, enable, a fault clear and run(). nullptr: never stops but by
+  /// the configured duration.
+  const drivers::StopRequest* stop = nullptr;
 };
 
 /// The scene in effect, as the control thread knows it.
@@ -48,14 +52,14 @@ class Service {
   /// Builds and configures the device (the bus is open from here on) and
   /// plans the configured scene. Throws config::ConfigError (file, line, key)
   /// on anything the config got wrong, drivers::DeviceError when the device
-  /// cannot be configured.
+  /// cannot be configured, drivers::StopRequested when the stop came during
+  /// configure (the device closed).
   explicit Service(ServiceOptions options);
   ~Service();
   Service(const Service&) = delete;
   Service& operator=(const Service&) = delete;
 
-  /// Runs until SIGTERM/SIGINT or the configured duration; returns the exit code.
-  /// Call from the main thread with SIGTERM, SIGINT and SIGHUP blocked.
+  /// Runs until the stop request or the configured duration; returns the exit code.
   int run();
 
   /// One-paragraph description of what would run (hapticd --check-config).
@@ -107,6 +111,8 @@ class Service {
   nlohmann::json sample_json(const TelemetrySample& sample, const std::vector<std::string>& wanted) const;
 
   ServiceOptions options_;
+  drivers::StopRequest never_;  ///< options_.stop when none was given
+  const drivers::StopRequest& stop_;
   BuiltDevice device_;
   DeviceModel model_;
   /// Position plausibility for the engine: [device] max_velocity, or its

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "drivers/stop_request.hpp"
 #include "world/parameter.hpp"
 #include "world/plant.hpp"
 
@@ -44,6 +45,9 @@ struct Reading {
 /// What the loop tells a driver at configure().
 struct LoopContext {
   double period_s = 1e-3;
+  /// The daemon's stop request (SIGTERM): kept by the driver for the
+  /// blocking waits of configure, enable and clear_fault (stop_request.hpp).
+  StopToken stop{};
 };
 
 /// The model of the device the stability gate uses: from the config where
@@ -118,6 +122,8 @@ class Device {
   /// Open the bus, identify the device, read its identity and limits, check
   /// the period against the link budget, arm the device's own watchdog.
   /// read() is valid from here on; write() is refused until enable().
+  /// configure(), enable() and clear_fault() give way to loop.stop within
+  /// stop_slice, device disabled, and throw StopRequested.
   virtual void configure(const LoopContext& loop) = 0;
   /// Power stage on, with zero output first.
   virtual void enable() = 0;

@@ -23,6 +23,8 @@ void Service::register_fault_methods(control::ControlServer& server) {
           device_cleared = device_.device->clear_fault();
         } catch (const drivers::DeviceError& e) {
           throw RpcError(code::refused, std::string("the device is still in fault: ") + e.what());
+        } catch (const drivers::StopRequested& e) {
+          throw RpcError(code::busy, e.what());  // SIGTERM: the daemon exits, the device is disabled
         }
         const engine::FaultReason before = engine_->fault();
         engine_->clear_fault();

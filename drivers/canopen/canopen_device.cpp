@@ -95,6 +95,7 @@ CanopenDevice::~CanopenDevice() { close(); }
 void CanopenDevice::configure(const LoopContext& loop) {
   if (state_.load() != DeviceState::closed) throw std::logic_error("canopen: configure() twice");
   auto session = std::make_unique<CanopenSession>(config_);
+  session->set_stop(loop.stop);
   try {
     session->configure(loop.period_s);
   } catch (const SetupError& e) {

@@ -320,7 +320,7 @@ void CanopenSession::configure(double period_s) {
   }
   try {
     SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+    SdoClient sdo(link, config_.node_id, sdo_timeout(config_), stop_);
     setup_ = setup_drive(sdo, link, setup_options(config_, period_s));
     rated_torque_mnm_.store(setup_.rated_torque_mnm, std::memory_order_release);
     sdo_answers_ = std::make_unique<rt::SpscRing<Frame>>(sdo_ring_capacity);
@@ -349,9 +349,9 @@ void CanopenSession::prime() {
     const std::size_t n = exchange_->end_period(0.0, frames);
     for (std::size_t i = 0; i < n; ++i)
       if (frames[i].id != cia301::heartbeat_id(config_.master_node_id)) socket_.send(frames[i]);
-    const auto deadline = Clock::now() + wait;
+    const SlicedWait deadline(stop_, wait);
     Frame f;
-    while (!exchange_->has_position() && Clock::now() < deadline) {
+    while (!exchange_->has_position() && !deadline.expired()) {
       const IoStatus s = socket_.receive(f);
       if (s == IoStatus::ok) {
         exchange_->on_frame(f);
@@ -361,7 +361,9 @@ void CanopenSession::prime() {
                              " after NMT start and SYNC: " + describe(socket_.last_malformed()),
                          "interface");
       } else if (s == IoStatus::would_block) {
-        socket_.wait_readable(std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now()));
+        throw_if_stopped(stop_,
+                         "canopen: waiting for node " + std::to_string(config_.node_id) + "'s first TPDO");
+        socket_.wait_readable(std::chrono::duration_cast<std::chrono::microseconds>(deadline.next_slice()));
       } else {
         break;
       }
@@ -412,15 +414,18 @@ void CanopenSession::enable() {
     recheck_torque_unit(link, false);  // applied by the first read() below
   }
   exchange_->set_enabled(true);
-  const bool ok = run_periods([this] { return exchange_->operational() || exchange_->faulted(); },
-                              periods_in(enable_timeout_s, period_s_));
-  if (!ok || exchange_->faulted()) {
+  const bool ok = run_periods(
+      [this] { return stop_.stop_requested() || exchange_->operational() || exchange_->faulted(); },
+      periods_in(enable_timeout_s, period_s_));
+  const bool stopped = stop_.stop_requested();
+  if (stopped || !ok || exchange_->faulted()) {
     const std::string why = exchange_->faulted()
                                 ? describe(exchange_->fault(), exchange_->settings())
                                 : "it is in " + status().drive_state + " after " +
                                       std::to_string(std::llround(enable_timeout_s * 1e3)) + " ms";
     exchange_->set_enabled(false);
-    run_periods([] { return false; }, 2);
+    run_periods([] { return false; }, 2);  // Disable Voltage goes out
+    if (stopped) throw StopRequested(abandoned("canopen: enabling node " + std::to_string(config_.node_id)));
     throw SetupError("node " + std::to_string(config_.node_id) + " could not be enabled: " + why, "");
   }
   enabled_.store(true, std::memory_order_release);
@@ -467,15 +472,22 @@ std::string CanopenSession::clear_fault() {
         const SessionStatus now = status();
         if (!now.resetting && (now.operational || now.faulted)) break;
       }
-      if (Clock::now() >= deadline) break;
+      if (Clock::now() >= deadline || stop_.stop_requested()) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   } else {
     run_periods(
-        [this] { return !clear_requested_.load() && (exchange_->operational() || exchange_->faulted()); },
+        [this] {
+          return stop_.stop_requested() ||
+                 (!clear_requested_.load() && (exchange_->operational() || exchange_->faulted()));
+        },
         periods_in(limit.count(), period_s_));
   }
   const SessionStatus after = status();
+  if (!after.operational && stop_.stop_requested()) {
+    clear_requested_.store(false, std::memory_order_release);
+    throw StopRequested(abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
+  }
   if (!after.operational)
     throw SetupError(
         "the drive stays in fault: " + (after.faulted ? after.fault_reason : "it is in " + after.drive_state),
@@ -509,7 +521,7 @@ void CanopenSession::close() noexcept {
   if (exchange_ && enabled()) disable();
   try {
     SocketLink link(socket_);
-    SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+    SdoClient sdo(link, config_.node_id, sdo_timeout(config_), stop_);
     release_drive(sdo, link, config_.node_id);
   } catch (...) {
   }
@@ -632,11 +644,11 @@ SdoAccess CanopenSession::sdo_read(cia301::ObjectAddress address, std::optional<
   std::uint32_t raw = 0;
   if (enabled()) {
     RingLink link(socket_, *sdo_answers_);
-    SdoClient sdo(link, config_.node_id, timeout);
+    SdoClient sdo(link, config_.node_id, timeout, stop_);
     raw = sdo.read(address);
   } else {
     SocketLink link(socket_, &*exchange_);
-    SdoClient sdo(link, config_.node_id, timeout);
+    SdoClient sdo(link, config_.node_id, timeout, stop_);
     raw = sdo.read(address);
   }
   return access(address, raw, type);
@@ -659,7 +671,7 @@ SdoAccess CanopenSession::sdo_write(cia301::ObjectAddress address, std::int64_t 
   std::optional<SocketLink> direct;
   FrameLink& link = was_enabled ? static_cast<FrameLink&>(ring.emplace(socket_, *sdo_answers_))
                                 : static_cast<FrameLink&>(direct.emplace(socket_, &*exchange_));
-  SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+  SdoClient sdo(link, config_.node_id, sdo_timeout(config_), stop_);
   // Any write may change 0x6076 (a restore, a manufacturer's motor object):
   // it is read back after each, also after an abort (the drive may have
   // taken part of it).

@@ -78,6 +78,9 @@ class CanopenSession {
   CanopenSession(const CanopenSession&) = delete;
   CanopenSession& operator=(const CanopenSession&) = delete;
 
+  /// The daemon's stop request: configure, enable, clear_fault and the SDO
+  /// transfers give way to it within stop_slice (StopRequested). Before configure().
+  void set_stop(StopToken stop) noexcept { stop_ = std::move(stop); }
   /// Bus budget, socket, drive setup, NMT start, first TPDO. Throws
   /// SetupError (with the config key to blame) or ConfigError.
   void configure(double period_s);
@@ -141,6 +144,7 @@ class CanopenSession {
   void apply_torque_unit() noexcept;  ///< RT: takes what recheck_torque_unit() handed over
 
   CanopenConfig config_;
+  StopToken stop_;
   double period_s_ = 0.0;
   CanSocket socket_;
   SetupResult setup_;

@@ -111,15 +111,21 @@ SdoExchange SdoClient::run(SdoExchange exchange) {
     (void)abort;  // nothing went out: nothing to abort
     return exchange;
   }
-  const auto deadline = std::chrono::steady_clock::now() + timeout_;
+  // The answer is awaited in slices: a stop request ends the wait within one.
+  const SlicedWait wait(stop_, timeout_);
   Frame frame;
   while (!exchange.done()) {
-    if (!link_.receive(frame, deadline)) {
-      link_.send(exchange.time_out());
+    if (link_.receive(frame, std::chrono::steady_clock::now() + wait.next_slice())) {
+      std::optional<Frame> reply;
+      if (exchange.on_frame(frame, reply) && reply) link_.send(*reply);
+      continue;
+    }
+    const bool stopped = !wait.expired() && link_.link_error().empty() && wait.stopped();
+    if (wait.expired() || !link_.link_error().empty() || stopped) {
+      link_.send(exchange.time_out());  // CiA 301: the client aborts what it gives up
+      if (stopped) throw StopRequested(abandoned("canopen: " + exchange.describe()));
       break;
     }
-    std::optional<Frame> reply;
-    if (exchange.on_frame(frame, reply) && reply) link_.send(*reply);
   }
   return exchange;
 }

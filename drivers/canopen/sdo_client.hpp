@@ -17,6 +17,7 @@
 #include "drivers/canopen/301/frame.hpp"
 #include "drivers/canopen/301/object.hpp"
 #include "drivers/canopen/301/sdo.hpp"
+#include "drivers/stop_request.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -92,9 +93,12 @@ class SdoError : public std::runtime_error {
 
 class SdoClient {
  public:
-  SdoClient(FrameLink& link, std::uint8_t node, std::chrono::microseconds timeout)
-      : link_(link), node_(node), timeout_(timeout) {}
+  /// `stop`: the daemon's stop request; a transfer waiting for its answer
+  /// gives way to it within stop_slice (aborted on the bus, StopRequested).
+  SdoClient(FrameLink& link, std::uint8_t node, std::chrono::microseconds timeout, StopToken stop = {})
+      : link_(link), node_(node), timeout_(timeout), stop_(std::move(stop)) {}
   /// Runs one exchange to its end (ok, abort, or timeout) and returns it.
+  /// Throws StopRequested when a stop request ended the wait.
   SdoExchange run(SdoExchange exchange);
   /// Reads a value; throws SdoError.
   std::uint32_t read(cia301::ObjectAddress address);
@@ -106,6 +110,7 @@ class SdoClient {
   FrameLink& link_;
   std::uint8_t node_;
   std::chrono::microseconds timeout_;
+  StopToken stop_;
 };
 
 }  // namespace hapticd::drivers::canopen

@@ -41,6 +41,7 @@ void GpioPwmDevice::configure(const LoopContext& loop) {
   std::lock_guard lock(lifecycle_);
   if (state_.load() != DeviceState::closed) throw std::logic_error("gpio-pwm: configure() while configured");
   if (!(loop.period_s > 0.0)) throw DeviceError("gpio-pwm: the loop period must be > 0 s", "period");
+  stop_ = loop.stop;
   try {
     chip_ = std::make_unique<GpioChip>(config_.chip);
     // One request for every output: enable inactive, direction "positive",
@@ -84,7 +85,7 @@ void GpioPwmDevice::configure(const LoopContext& loop) {
     }
     pwm_ = std::make_unique<PwmOutput>(PwmOutput::Settings{config_.pwm_chip, config_.pwm_channel,
                                                            config_.pwm_period_ns, config_.pwm_inversed,
-                                                           config_.export_timeout_s});
+                                                           config_.export_timeout_s, stop_});
     std::string position_words;
     if (config_.position_source() == PositionSource::counter) {
       counter_ = std::make_unique<CounterInput>(config_.counter, config_.counter_count);
@@ -156,17 +157,22 @@ void GpioPwmDevice::pulse_reset() {
     throw TransportError("reset_line", std::string("reset_line: setting it failed: ") + system_reason(error),
                          error);
   }
-  std::this_thread::sleep_for(std::chrono::duration<double>(config_.reset_pulse_s));
+  // The pulse in slices: a stop ends it early, the line released all the same.
+  const bool whole =
+      sleep_unless_stopped(stop_, std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                      std::chrono::duration<double>(config_.reset_pulse_s)));
   if (const int error = reset_->set(inactive); error != 0) {
     throw TransportError("reset_line",
                          std::string("reset_line: releasing it failed: ") + system_reason(error), error);
   }
+  if (!whole) throw StopRequested(abandoned("gpio-pwm: the reset pulse on reset_line"));
   // The amplifier's fault output follows the reset: give it the pulse's
   // width again (bounded) to go inactive.
   if (fault_) {
     const auto deadline = std::chrono::steady_clock::now() +
                           std::chrono::duration<double>(std::max(config_.reset_pulse_s, 0.001));
     while (fault_line_active() && std::chrono::steady_clock::now() < deadline) {
+      throw_if_stopped(stop_, "gpio-pwm: waiting for fault_line to go inactive after the reset pulse");
       std::this_thread::sleep_for(std::chrono::microseconds(100));
     }
   }

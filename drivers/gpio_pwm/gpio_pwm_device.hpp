@@ -78,6 +78,7 @@ class GpioPwmDevice final : public Device {
   void release() noexcept;
 
   GpioPwmConfig config_;
+  StopToken stop_;  ///< from configure(): the reset pulse and the export wait give way to it
   DriveScaling scaling_;
   double position_per_count_ = 0.0;
   std::string fault_reason_;

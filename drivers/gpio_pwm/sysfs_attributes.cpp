@@ -123,6 +123,7 @@ void PwmOutput::export_channel(const Settings& s) {
               " s after the export (is the channel owned by a kernel driver, or is udev slow to "
               "set permissions?)");
     }
+    throw_if_stopped(s.stop, "gpio-pwm: waiting for " + enable + " after the export");
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
 }

@@ -20,6 +20,7 @@
 
 #include "drivers/gpio_pwm/pwm_plan.hpp"
 #include "drivers/gpio_pwm/transport_error.hpp"
+#include "drivers/stop_request.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 
@@ -64,6 +65,7 @@ class PwmOutput {
     std::uint64_t period_ns = 50'000;
     bool inversed = false;
     double export_timeout_s = 1.0;
+    StopToken stop{};  ///< the export wait gives way to it (StopRequested)
   };
   /// Exports the channel if needed (and waits, bounded, for its directory:
   /// udev may still be fixing permissions), sets the polarity, the period

@@ -122,7 +122,7 @@ std::vector<ModbusParameter> make_table() {
        {},
        "s",
        "TCP connect and reconnect bound; also how long an exchange off the loop (configure, enable, fault "
-       "clear, disable) waits for its reply"},
+       "clear, disable) waits for its reply; SIGTERM ends either wait within 0.1 s"},
       {"link_budget",
        P::number,
        0.5,
@@ -270,17 +270,19 @@ std::vector<ModbusParameter> make_table() {
        65535.0,
        {},
        "",
-       "written to arm the watchdog and at every refresh, in the amplifier's unit (the simulated one: ms)"},
+       "write: written to arm the watchdog and at every refresh, in the amplifier's unit (the simulated one: "
+       "ms); counter: the alive counter's first value"},
       {"watchdog_refresh",
        P::choice,
        std::string("write"),
        "",
        {},
        {},
-       {"write", "any-frame"},
+       {"write", "any-frame", "counter"},
        "",
        "write: the register is rewritten every period (next to torque_register); any-frame: the "
-       "amplifier restarts it on every valid frame"},
+       "amplifier restarts it on every valid frame; counter: an alive counter, one more every period "
+       "(wrapping 0xFFFF -> 0; next to torque_register), for an amplifier that trips on an unchanged value"},
       {"enable",
        P::choice,
        std::string("register-bit"),
@@ -511,8 +513,10 @@ ModbusConfig build_modbus_config(const std::map<std::string, ParameterValue>& va
   m.torque = static_cast<std::uint16_t>(v.integer("torque_register"));
   m.watchdog = v.optional_register("watchdog_register");
   m.watchdog_value = static_cast<std::uint16_t>(v.integer("watchdog_value"));
-  m.watchdog_refresh =
-      v.text("watchdog_refresh") == "write" ? WatchdogRefresh::write : WatchdogRefresh::any_frame;
+  const std::string refresh = v.text("watchdog_refresh");
+  m.watchdog_refresh = refresh == "write"     ? WatchdogRefresh::write
+                       : refresh == "counter" ? WatchdogRefresh::counter
+                                              : WatchdogRefresh::any_frame;
   const std::string enable = v.text("enable");
   m.enable = enable == "none"   ? EnableKind::none
              : enable == "coil" ? EnableKind::coil

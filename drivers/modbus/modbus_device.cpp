@@ -148,6 +148,8 @@ void ModbusDevice::configure(const LoopContext& loop) {
   if (state_.load() != DeviceState::closed) throw std::logic_error("modbus: configure() twice");
   if (!(loop.period_s > 0.0)) throw std::logic_error("modbus: configure() with a period <= 0");
   period_s_ = loop.period_s;
+  stop_ = loop.stop;
+  link_->set_stop(loop.stop);
   check_period(loop.period_s);
   try {
     // The one-off exchanges of configure (and of the control thread) wait
@@ -180,10 +182,13 @@ void ModbusDevice::configure(const LoopContext& loop) {
     measure_round_trip();
     link_->set_response_timeout(control_timeout_s());
     // Armed last, then fed at once by the keep-alive until the loop runs.
+    // An alive counter starts at watchdog_value; it cannot be disarmed.
+    const bool counter = config_.map.watchdog_refresh == WatchdogRefresh::counter;
+    alive_count_ = config_.map.watchdog_value;
     if (config_.map.watchdog) {
-      const LinkResult r = link_->write_register(*config_.map.watchdog, config_.map.watchdog_value);
+      const LinkResult r = link_->write_register(*config_.map.watchdog, watchdog_word());
       if (!r.ok()) fail("arming the watchdog", r, "watchdog_register");
-      armed = true;
+      armed = !counter;
     }
     link_->set_response_timeout(budget_.response_timeout_s);
     command_counts_.store(0);
@@ -222,7 +227,7 @@ void ModbusDevice::keepalive_loop() noexcept {
                                         std::memory_order_relaxed))
       continue;  // someone else is talking to the amplifier: that feeds the watchdog too
     if (!link_down_ && !rt_active_.load(std::memory_order_acquire)) {
-      if (transact(0, config_.map.watchdog_value).ok())
+      if (transact(0, watchdog_word()).ok())
         publish_sample(decode_sample(config_.map, layout_, std::span<const std::uint16_t>(read_block_)));
     }
     owner_.store(free_owner, std::memory_order_release);
@@ -245,6 +250,7 @@ void ModbusDevice::measure_round_trip() {
   int failed = 0;
   LinkResult last_failure;
   for (int i = 0; i < samples; ++i) {
+    throw_if_stopped(stop_, "modbus: measuring the round trip to " + link_->endpoint());
     std::this_thread::sleep_until(next);
     next += period;
     const LinkResult r = transact(0, 0);  // torque 0, watchdog off (not armed yet)
@@ -296,6 +302,11 @@ void ModbusDevice::measure_round_trip() {
 
 // ---- RT ----
 
+std::uint16_t ModbusDevice::watchdog_word() noexcept {
+  if (config_.map.watchdog_refresh != WatchdogRefresh::counter) return config_.map.watchdog_value;
+  return alive_count_++;  // unsigned 16 bits: 0xFFFF -> 0
+}
+
 LinkResult ModbusDevice::transact(std::int16_t torque, std::uint16_t watchdog) noexcept {
   encode_command(layout_, torque, watchdog, write_block_);
   const std::span<const std::uint16_t> write(write_block_.data(), layout_.write_count);
@@ -333,6 +344,9 @@ IoResult ModbusDevice::latch(FaultCause cause, const LinkResult& last, const Amp
     rt::seq_store(f_function_, last.function);
     rt::seq_store(f_exception_, last.exception_code);
     rt::seq_store(f_errno_, last.error_number);
+    rt::seq_store(f_problem_, last.problem);
+    rt::seq_store(f_got_, last.got);
+    rt::seq_store(f_expected_, last.expected);
     rt::seq_store(f_streak_, streak_);
     rt::seq_store(f_status_, s.status);
     rt::seq_store(f_fault_, s.fault);
@@ -348,8 +362,8 @@ IoResult ModbusDevice::exchange(Reading& out) noexcept {
   const bool latched = latched_.load(std::memory_order_acquire);
   if (link_down_) return IoResult::fault;  // latched when it went down; fault clear reconnects
   const bool powered = expect_enabled_.load(std::memory_order_relaxed) && !latched;
-  const LinkResult r = transact(powered ? command_counts_.load(std::memory_order_relaxed) : std::int16_t{0},
-                                config_.map.watchdog_value);
+  const LinkResult r =
+      transact(powered ? command_counts_.load(std::memory_order_relaxed) : std::int16_t{0}, watchdog_word());
   ++period_;
   if (r.ok()) {
     streak_ = 0;
@@ -462,6 +476,8 @@ void ModbusDevice::set_timeout(double seconds) noexcept {
 }
 
 void ModbusDevice::fail(const std::string& doing, const LinkResult& r, const std::string& key) const {
+  if (r.outcome == LinkOutcome::stopped)
+    throw StopRequested(abandoned("modbus: " + link_->endpoint() + ": " + doing));
   std::string hint, k = key;
   switch (r.outcome) {
     case LinkOutcome::timeout:
@@ -495,6 +511,7 @@ AmplifierSample ModbusDevice::read_state(const char* doing, int retries) {
   // it: let those replies arrive, drop them (the link flushes before the
   // next request after a failure) and ask again.
   for (int i = 0; i < retries && r.outcome == LinkOutcome::bad_frame; ++i) {
+    throw_if_stopped(stop_, "modbus: " + std::string(doing));
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     r = link_->read_registers(config_.map.read_table, layout_.read_address, block);
   }
@@ -505,7 +522,7 @@ AmplifierSample ModbusDevice::read_state(const char* doing, int retries) {
 }
 
 void ModbusDevice::write_zero_command(const char* doing) {
-  encode_command(layout_, 0, config_.map.watchdog_value, write_block_);
+  encode_command(layout_, 0, watchdog_word(), write_block_);
   const LinkResult r = link_->write_registers(
       layout_.write_address, std::span<const std::uint16_t>(write_block_.data(), layout_.write_count));
   if (!r.ok()) fail(doing, r, "torque_register");
@@ -531,6 +548,7 @@ void ModbusDevice::set_power_stage(bool on) {
 void ModbusDevice::wait_enabled(const char* doing) {
   const auto deadline = Clock::now() + enable_wait;
   for (;;) {
+    throw_if_stopped(stop_, "modbus: " + std::string(doing));
     const AmplifierSample s = read_state(doing);
     if (s.faulted)
       throw DeviceError("modbus: " + std::string(doing) + ": the amplifier reports a fault: " +
@@ -633,14 +651,22 @@ void ModbusDevice::disable() noexcept {
   command_counts_.store(0);
   rt_active_.store(false,
                    std::memory_order_release);  // the loop has stopped: the keep-alive feeds the watchdog
+  // Each step on its own: after a stop every exchange has one slice, and a
+  // torque 0 answered late must not keep the power stage on.
+  bool off = false;
   if (!link_down_) {
     try {
       write_zero_command("writing torque 0");
+    } catch (...) {
+    }
+    try {
       set_power_stage(false);
+      off = true;
     } catch (...) {
       // The amplifier's watchdog takes over when the link is dead.
     }
   }
+  power_off_confirmed_ = off;
   if (state_.load() == DeviceState::enabled) state_.store(DeviceState::configured);
   release_control();
 }
@@ -655,8 +681,10 @@ void ModbusDevice::close() noexcept {
     return;
   }
   // A clean exit disarms the watchdog, so the amplifier does not report a
-  // watchdog fault for an orderly stop.
-  if (!link_down_ && config_.map.watchdog) (void)link_->write_register(*config_.map.watchdog, 0);
+  // watchdog fault for an orderly stop; not while the power stage may be on.
+  if (!link_down_ && power_off_confirmed_ && config_.map.watchdog &&
+      config_.map.watchdog_refresh != WatchdogRefresh::counter)
+    (void)link_->write_register(*config_.map.watchdog, 0);
   link_->close();
   link_down_ = false;
   state_.store(DeviceState::closed);
@@ -673,6 +701,9 @@ ModbusDevice::FaultRecord ModbusDevice::fault_record() const {
     f.last.function = rt::seq_load(f_function_);
     f.last.exception_code = rt::seq_load(f_exception_);
     f.last.error_number = rt::seq_load(f_errno_);
+    f.last.problem = rt::seq_load(f_problem_);
+    f.last.got = rt::seq_load(f_got_);
+    f.last.expected = rt::seq_load(f_expected_);
     f.streak = rt::seq_load(f_streak_);
     f.status = rt::seq_load(f_status_);
     f.fault_word = rt::seq_load(f_fault_);
@@ -730,6 +761,7 @@ DeviceStatus ModbusDevice::status() const {
                 {"exceptions", c.exceptions.load()},
                 {"malformed_replies", c.bad_frames.load()},
                 {"late_replies", c.late_replies.load()},
+                {"wrong_unit_replies", c.wrong_unit.load()},
                 {"connections_closed", c.closed.load()},
                 {"io_errors", c.io_errors.load()},
                 {"reconnects", c.reconnects.load()},

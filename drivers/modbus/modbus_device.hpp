@@ -107,6 +107,8 @@ class ModbusDevice final : public Device {
   // Owner of the context only.
   IoResult exchange(Reading& out) noexcept;
   LinkResult transact(std::int16_t torque, std::uint16_t watchdog) noexcept;
+  /// The watchdog register's next value: watchdog_value, or the alive counter's next count.
+  std::uint16_t watchdog_word() noexcept;
   IoResult latch(FaultCause cause, const LinkResult& last, const AmplifierSample& s) noexcept;
   void publish_sample(const AmplifierSample& s) noexcept;
   AmplifierSample read_state(const char* doing, int retries = 0);  ///< non-RT, throws DeviceError
@@ -132,6 +134,7 @@ class ModbusDevice final : public Device {
   void keepalive_loop() noexcept;
 
   ModbusConfig config_;
+  StopToken stop_;  ///< the daemon's stop request, from configure's LoopContext
   BlockLayout layout_;
   std::unique_ptr<ModbusLink> link_;
   LinkBudget budget_;
@@ -151,6 +154,8 @@ class ModbusDevice final : public Device {
   double transact_round_trip_s_ = 0.0;  ///< of the last transact(): the link's round trip(s)
   int streak_ = 0;
   std::uint64_t period_ = 0;
+  std::uint16_t alive_count_ = 0;     ///< watchdog_refresh = counter: the next value (wraps in 16 bits)
+  bool power_off_confirmed_ = false;  ///< disable() switched the power stage off: close() may disarm
   std::array<std::uint16_t, 2> write_block_{};
   std::array<std::uint16_t, 125> read_block_{};
 
@@ -159,6 +164,8 @@ class ModbusDevice final : public Device {
   std::atomic<FaultCause> f_cause_{FaultCause::none};
   std::atomic<LinkOutcome> f_outcome_{LinkOutcome::ok};
   std::atomic<std::uint8_t> f_function_{0}, f_exception_{0};
+  std::atomic<FrameProblem> f_problem_{FrameProblem::none};
+  std::atomic<std::uint16_t> f_got_{0}, f_expected_{0};
   std::atomic<int> f_errno_{0}, f_streak_{0};
   std::atomic<std::uint16_t> f_status_{0}, f_fault_{0};
 

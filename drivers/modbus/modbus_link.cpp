@@ -1,12 +1,19 @@
 #include "drivers/modbus/modbus_link.hpp"
 
+#include <fcntl.h>
 #include <modbus.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/ip.h>
+#include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -94,9 +101,35 @@ const char* outcome_name(LinkOutcome outcome) noexcept {
       return "connection closed";
     case LinkOutcome::io_error:
       return "I/O error";
+    case LinkOutcome::stopped:
+      return "stopped";
   }
   return "?";
 }
+
+namespace {
+
+std::string frame_problem_text(const LinkResult& r) {
+  char text[160];
+  switch (r.problem) {
+    case FrameProblem::wrong_unit:
+      std::snprintf(text, sizeof text, "from unit %u, not the unit %u it was sent to", unsigned{r.got},
+                    unsigned{r.expected});
+      return text;
+    case FrameProblem::protocol_id:
+      std::snprintf(text, sizeof text, "MBAP protocol id 0x%04X, not 0 (Modbus)", unsigned{r.got});
+      return text;
+    case FrameProblem::length:
+      std::snprintf(text, sizeof text, "MBAP length %u, where the reply has %u (an exception 3)",
+                    unsigned{r.got}, unsigned{r.expected});
+      return text;
+    case FrameProblem::none:
+      break;
+  }
+  return modbus_strerror(r.error_number);
+}
+
+}  // namespace
 
 std::string describe(const LinkResult& r) {
   char fc[8];
@@ -116,11 +149,13 @@ std::string describe(const LinkResult& r) {
     case LinkOutcome::crc_error:
       return "CRC error" + to;
     case LinkOutcome::bad_frame:
-      return "malformed reply" + to + " (" + system_error(r.error_number) + ")";
+      return "malformed reply" + to + " (" + frame_problem_text(r) + ")";
     case LinkOutcome::closed:
       return "connection closed (" + system_error(r.error_number) + ")";
     case LinkOutcome::io_error:
       return "I/O error (" + system_error(r.error_number) + ")";
+    case LinkOutcome::stopped:
+      return "abandoned, hapticd is stopping (function " + std::string(fc) + ")";
   }
   return "?";
 }
@@ -183,15 +218,10 @@ void ModbusLink::set_response_timeout(double seconds) {
 
 void ModbusLink::open() {
   if (open_) return;
-  // libmodbus 3.1.6 bounds a TCP connect() by the response timeout.
-  const TimeoutParts connect = split_seconds(settings_.connect_timeout_s);
-  modbus_set_response_timeout(ctx_, connect.sec, connect.usec);
-  if (modbus_connect(ctx_) != 0) {
+  if (settings_.transport == Transport::tcp) {
+    connect_tcp();
+  } else if (modbus_connect(ctx_) != 0) {  // RTU: open(2) and termios, no wait
     const int e = errno;
-    if (settings_.transport == Transport::tcp)
-      throw LinkError("host", "cannot connect to Modbus TCP " + settings_.host + ":" +
-                                  std::to_string(settings_.port) + " within " +
-                                  seconds_text(settings_.connect_timeout_s) + ": " + system_error(e));
     throw LinkError("device", "cannot open serial device " + settings_.device + ": " + system_error(e));
   }
   open_ = true;
@@ -214,6 +244,71 @@ void ModbusLink::open() {
     close();
     throw;
   }
+}
+
+namespace {
+
+/// A connect() in flight on a non-blocking socket, waited for in slices.
+/// 0 when connected, else the errno; ETIMEDOUT when `wait` expired.
+int wait_connected(int fd, const SlicedWait& wait) {
+  for (;;) {
+    if (wait.expired()) return ETIMEDOUT;
+    const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wait.next_slice()).count();
+    const timespec slice{static_cast<time_t>(ns / 1000000000L), static_cast<long>(ns % 1000000000L)};
+    pollfd p{fd, POLLOUT, 0};
+    const int ready = ppoll(&p, 1, &slice, nullptr);
+    if (ready < 0 && errno != EINTR) return errno;
+    if (ready > 0) {
+      int error = 0;
+      socklen_t size = sizeof error;
+      if (getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &size) != 0) return errno;
+      return error;
+    }
+    if (wait.stopped()) return ECANCELED;
+  }
+}
+
+}  // namespace
+
+// libmodbus 3.1.6 waits for a TCP connect() in one select() of the whole
+// timeout; this is its connect (non-blocking socket, TCP_NODELAY, low-delay
+// TOS) with the wait in slices, and the socket handed to the context.
+void ModbusLink::connect_tcp() {
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_NUMERICSERV;
+  addrinfo* found = nullptr;
+  const std::string service = std::to_string(settings_.port);
+  if (const int e = getaddrinfo(settings_.host.c_str(), service.c_str(), &hints, &found); e != 0)
+    throw LinkError("host", "cannot resolve Modbus TCP host " + settings_.host + ": " + gai_strerror(e));
+  const auto timeout = std::chrono::duration_cast<SlicedWait::Clock::duration>(
+      std::chrono::duration<double>(settings_.connect_timeout_s));
+  const SlicedWait wait(stop_, timeout);
+  int fd = -1, error = ETIMEDOUT;
+  for (const addrinfo* a = found; a != nullptr && fd < 0 && error != ECANCELED; a = a->ai_next) {
+    fd = ::socket(a->ai_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, a->ai_protocol);
+    if (fd < 0) {
+      error = errno;
+      continue;
+    }
+    const int on = 1, tos = IPTOS_LOWDELAY;
+    (void)setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+    if (a->ai_family == AF_INET) (void)setsockopt(fd, IPPROTO_IP, IP_TOS, &tos, sizeof tos);
+    error = ::connect(fd, a->ai_addr, a->ai_addrlen) == 0 ? 0 : errno;
+    if (error == EINPROGRESS) error = wait_connected(fd, wait);
+    if (error != 0) {
+      ::close(fd);
+      fd = -1;
+    }
+  }
+  freeaddrinfo(found);
+  if (error == ECANCELED)
+    throw StopRequested(abandoned("modbus: connecting to Modbus TCP " + settings_.host + ":" + service));
+  if (fd < 0)
+    throw LinkError("host", "cannot connect to Modbus TCP " + settings_.host + ":" + service + " within " +
+                                seconds_text(settings_.connect_timeout_s) + ": " + system_error(error));
+  modbus_set_socket(ctx_, fd);
 }
 
 void ModbusLink::close() noexcept {
@@ -269,6 +364,8 @@ LinkResult ModbusLink::fail(LinkOutcome outcome, std::uint8_t function, int erro
       break;
     case LinkOutcome::io_error:
       bump(counters_.io_errors);
+      break;
+    case LinkOutcome::stopped:
       break;
   }
   return r;
@@ -332,7 +429,93 @@ void ModbusLink::drop_received() noexcept {
   modbus_flush(ctx_);  // recv(MSG_DONTWAIT) until empty
 }
 
-LinkResult ModbusLink::tcp_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function) noexcept {
+namespace {
+
+std::uint16_t get16(const std::uint8_t* p) noexcept { return static_cast<std::uint16_t>((p[0] << 8) | p[1]); }
+
+/// The time left to `deadline` (monotonic s) as a ppoll() timeout, at most one stop slice.
+timespec slice_until(double deadline) noexcept {
+  const double slice = std::chrono::duration<double>(stop_slice).count();
+  const double left = std::clamp(deadline - monotonic_s(), 0.0, slice);
+  const auto ns = static_cast<long>(left * 1e9);
+  return {ns / 1000000000L, ns % 1000000000L};
+}
+
+}  // namespace
+
+bool ModbusLink::framed_here() const noexcept {
+  return settings_.transport == Transport::tcp ||
+         settings_.response_timeout_s > std::chrono::duration<double>(stop_slice).count();
+}
+
+LinkResult ModbusLink::framed_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function,
+                                       std::size_t reply_size) noexcept {
+  return settings_.transport == Transport::tcp ? tcp_exchange(pdu, function, reply_size)
+                                               : rtu_exchange(pdu, function, reply_size);
+}
+
+LinkResult ModbusLink::frame_problem(FrameProblem problem, std::uint8_t function, std::uint16_t got,
+                                     std::uint16_t expected) noexcept {
+  LinkResult r =
+      fail(LinkOutcome::bad_frame, function, problem == FrameProblem::wrong_unit ? EMBBADSLAVE : EMBBADDATA);
+  r.problem = problem;
+  r.got = got;
+  r.expected = expected;
+  return r;
+}
+
+// Frames every complete ADU buffered: this request's reply (true), a late
+// one or one from another unit (dropped, counted), or a header that puts
+// the stream out of step (true, `failure` says why; the buffer is dropped).
+bool ModbusLink::take_tcp_reply(std::uint8_t function, std::size_t reply_size, LinkResult& failure,
+                                int& wrong_unit) noexcept {
+  for (;;) {
+    const std::span<const std::uint8_t> stream(received_.data(), received_size_);
+    if (stream.size() < 7) return false;
+    const std::uint16_t protocol = get16(&stream[2]), length = get16(&stream[4]);
+    const bool ours = get16(&stream[0]) == transaction_;
+    // TCP 3.1.3: the length counts the unit id and the PDU; this request's
+    // reply has the normal reply's or an exception's (AP 7: 2-byte PDU).
+    const bool fits = !ours || length == mbap_length(reply_size) || length == mbap_length(2);
+    bool invalid = false;
+    const std::size_t size = tcp_adu_length(stream, invalid);
+    if (invalid || !fits) {
+      drop_received();
+      failure = protocol != 0
+                    ? frame_problem(FrameProblem::protocol_id, function, protocol, 0)
+                    : frame_problem(FrameProblem::length, function, length, mbap_length(reply_size));
+      return true;
+    }
+    if (size == 0) return false;  // the rest is still on its way
+    // The length must be the one of what the PDU is: an exception (AP 7:
+    // function | 0x80, code) or the normal reply.
+    const bool exception = (stream[7] & function_code::exception_flag) != 0;
+    if (ours && length != (exception ? mbap_length(2) : mbap_length(reply_size))) {
+      drop_received();
+      failure = frame_problem(FrameProblem::length, function, length, mbap_length(reply_size));
+      return true;
+    }
+    const Adu adu = parse_tcp_adu(stream.first(size));
+    const bool from_unit = adu.unit == settings_.slave_id;
+    const bool mine = ours && from_unit && adu.status == AduStatus::ok;
+    if (mine) {
+      reply_size_ = adu.pdu.size();
+      std::copy(adu.pdu.begin(), adu.pdu.end(), reply_.begin());
+    } else if (ours && !from_unit) {
+      counters_.wrong_unit.fetch_add(1, std::memory_order_relaxed);
+      wrong_unit = adu.unit;
+    } else {
+      counters_.late_replies.fetch_add(1, std::memory_order_relaxed);
+    }
+    std::copy(received_.begin() + static_cast<std::ptrdiff_t>(size),
+              received_.begin() + static_cast<std::ptrdiff_t>(received_size_), received_.begin());
+    received_size_ -= size;
+    if (mine) return true;
+  }
+}
+
+LinkResult ModbusLink::tcp_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function,
+                                    std::size_t reply_size) noexcept {
   std::array<std::uint8_t, limits::max_tcp_adu> request{};
   transaction_ = static_cast<std::uint16_t>(transaction_ + 1);
   const std::size_t size =
@@ -352,54 +535,41 @@ LinkResult ModbusLink::tcp_exchange(std::span<const std::uint8_t> pdu, std::uint
   if (static_cast<std::size_t>(sent) != size) return fail(LinkOutcome::io_error, function, EAGAIN);
 
   const double deadline = started + settings_.response_timeout_s;
+  int wrong_unit = -1;  // the unit id of a reply dropped for it
   for (;;) {
-    // Every complete ADU buffered: this request's reply, or a late one.
-    for (;;) {
-      bool invalid = false;
-      const std::span<const std::uint8_t> stream(received_.data(), received_size_);
-      const std::size_t length = tcp_adu_length(stream, invalid);
-      if (invalid) {
-        drop_received();
-        return fail(LinkOutcome::bad_frame, function, EMBBADDATA);
-      }
-      if (length == 0) break;
-      const Adu adu = parse_tcp_adu(stream.first(length));
-      const bool ours = adu.status == AduStatus::ok && adu.transaction == transaction_;
-      if (ours) {
-        reply_size_ = adu.pdu.size();
-        std::copy(adu.pdu.begin(), adu.pdu.end(), reply_.begin());
-      } else {
+    LinkResult failure;
+    if (take_tcp_reply(function, reply_size, failure, wrong_unit)) {
+      if (!failure.ok()) return failure;
+      const double measured = monotonic_s() - started;
+      const double stamped = received_at - sent_at;
+      // poll() reports data that came after its timeout if this thread
+      // ran late: the kernel's receive time says whether it was in time.
+      if (stamped > settings_.response_timeout_s) {
         counters_.late_replies.fetch_add(1, std::memory_order_relaxed);
+        return fail(LinkOutcome::timeout, function, ETIMEDOUT);
       }
-      std::copy(received_.begin() + static_cast<std::ptrdiff_t>(length),
-                received_.begin() + static_cast<std::ptrdiff_t>(received_size_), received_.begin());
-      received_size_ -= length;
-      if (ours) {
-        const double measured = monotonic_s() - started;
-        const double stamped = received_at - sent_at;
-        // poll() reports data that came after its timeout if this thread
-        // ran late: the kernel's receive time says whether it was in time.
-        if (stamped > settings_.response_timeout_s) {
-          counters_.late_replies.fetch_add(1, std::memory_order_relaxed);
-          return fail(LinkOutcome::timeout, function, ETIMEDOUT);
-        }
-        counters_.responses.fetch_add(1, std::memory_order_relaxed);
-        last_round_trip_s_ = stamped > 0.0 && stamped <= measured ? stamped : measured;
-        LinkResult r;
-        r.function = function;
-        return r;
-      }
+      counters_.responses.fetch_add(1, std::memory_order_relaxed);
+      last_round_trip_s_ = stamped > 0.0 && stamped <= measured ? stamped : measured;
+      LinkResult r;
+      r.function = function;
+      return r;
     }
-    const double left = deadline - monotonic_s();
-    if (left <= 0.0) return fail(LinkOutcome::timeout, function, ETIMEDOUT);
-    const auto ns = static_cast<long>(left * 1e9);
-    const timespec wait{ns / 1000000000L, ns % 1000000000L};
+    if (monotonic_s() >= deadline) {
+      if (wrong_unit >= 0)
+        return frame_problem(FrameProblem::wrong_unit, function, static_cast<std::uint16_t>(wrong_unit),
+                             static_cast<std::uint16_t>(settings_.slave_id));
+      return fail(LinkOutcome::timeout, function, ETIMEDOUT);
+    }
+    const timespec wait = slice_until(deadline);
     pollfd p{fd, POLLIN, 0};
     const int ready = ppoll(&p, 1, &wait, nullptr);
     if (ready < 0 && errno != EINTR) {
       const int e = errno;
       return fail(socket_outcome(e), function, e);
     }
+    // Only a wait longer than a slice (off the loop) ever gets here with time left.
+    if (ready == 0 && monotonic_s() < deadline && stop_.stop_requested())
+      return fail(LinkOutcome::stopped, function, ECANCELED);
     if (ready <= 0) continue;
     const ssize_t got = receive_stamped(fd, received_.data() + received_size_,
                                         received_.size() - received_size_, received_at);
@@ -413,7 +583,66 @@ LinkResult ModbusLink::tcp_exchange(std::span<const std::uint8_t> pdu, std::uint
   }
 }
 
-LinkResult ModbusLink::tcp_outcome(PduStatus status, std::uint8_t function,
+// RTU with a long response timeout (off the loop): libmodbus frames and
+// sends the request (RTU CRC, its serial settings) but would wait for the
+// reply in one select() of the whole timeout; the reply is read here in
+// slices, framed by the request (SL 2.5.1: address, PDU, CRC; an exception
+// is address, function | 0x80, code, CRC) and checked by the codec.
+LinkResult ModbusLink::rtu_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function,
+                                    std::size_t reply_size) noexcept {
+  std::array<std::uint8_t, limits::max_pdu + 1> raw{};
+  raw[0] = static_cast<std::uint8_t>(settings_.slave_id);
+  std::copy(pdu.begin(), pdu.end(), raw.begin() + 1);
+  counters_.requests.fetch_add(1, std::memory_order_relaxed);
+  const double started = monotonic_s();
+  if (modbus_send_raw_request(ctx_, raw.data(), static_cast<int>(pdu.size() + 1)) < 0) {
+    const int e = errno;
+    return fail(socket_outcome(e), function, e);
+  }
+  const int fd = modbus_get_socket(ctx_);
+  const double deadline = started + settings_.response_timeout_s;
+  std::size_t need = reply_size + 3, have = 0;
+  received_size_ = 0;
+  for (;;) {
+    if (have >= 2 && received_[1] == (function | function_code::exception_flag)) need = 5;
+    if (have >= need) break;
+    if (monotonic_s() >= deadline) return fail(LinkOutcome::timeout, function, ETIMEDOUT);
+    const timespec wait = slice_until(deadline);
+    pollfd p{fd, POLLIN, 0};
+    const int ready = ppoll(&p, 1, &wait, nullptr);
+    if (ready < 0 && errno != EINTR) {
+      const int e = errno;
+      return fail(socket_outcome(e), function, e);
+    }
+    if (ready == 0 && monotonic_s() < deadline && stop_.stop_requested())
+      return fail(LinkOutcome::stopped, function, ECANCELED);
+    if (ready <= 0) continue;
+    const ssize_t got = ::read(fd, received_.data() + have, need - have);
+    if (got == 0) return fail(LinkOutcome::closed, function, EIO);
+    if (got < 0) {
+      const int e = errno;
+      if (e == EAGAIN || e == EINTR) continue;
+      return fail(socket_outcome(e), function, e);
+    }
+    have += static_cast<std::size_t>(got);
+  }
+  const Adu adu = parse_rtu_adu(std::span<const std::uint8_t>(received_.data(), need));
+  if (adu.status != AduStatus::ok) return fail(LinkOutcome::crc_error, function, EMBBADCRC);
+  if (adu.unit != settings_.slave_id) {
+    counters_.wrong_unit.fetch_add(1, std::memory_order_relaxed);
+    return frame_problem(FrameProblem::wrong_unit, function, adu.unit,
+                         static_cast<std::uint16_t>(settings_.slave_id));
+  }
+  reply_size_ = adu.pdu.size();
+  std::copy(adu.pdu.begin(), adu.pdu.end(), reply_.begin());
+  counters_.responses.fetch_add(1, std::memory_order_relaxed);
+  last_round_trip_s_ = monotonic_s() - started;
+  LinkResult r;
+  r.function = function;
+  return r;
+}
+
+LinkResult ModbusLink::pdu_outcome(PduStatus status, std::uint8_t function,
                                    std::uint8_t exception_code) noexcept {
   switch (status) {
     case PduStatus::ok: {
@@ -422,7 +651,7 @@ LinkResult ModbusLink::tcp_outcome(PduStatus status, std::uint8_t function,
       return r;
     }
     case PduStatus::exception: {
-      // Counted once as a response by tcp_exchange: take it back from there.
+      // Counted once as a response by the exchange: take it back from there.
       counters_.responses.fetch_sub(1, std::memory_order_relaxed);
       if (exception_code == 0 || exception_code >= MODBUS_EXCEPTION_MAX)
         return fail(LinkOutcome::bad_frame, function, EMBBADEXC);
@@ -441,16 +670,17 @@ LinkResult ModbusLink::write_and_read(std::uint16_t write_address, std::span<con
                                       std::uint16_t read_address, std::span<std::uint16_t> out) noexcept {
   constexpr std::uint8_t fc = function_code::write_and_read_registers;
   if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
-  if (settings_.transport == Transport::tcp) {
+  if (framed_here()) {
     std::array<std::uint8_t, limits::max_pdu> pdu{};
     const std::size_t n = build_write_and_read_request(
         pdu, read_address, static_cast<std::uint16_t>(out.size()), write_address, values);
     if (n == 0) return fail(LinkOutcome::io_error, fc, EMBMDATA);
-    const LinkResult r = tcp_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
+    const LinkResult r =
+        framed_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc, 2 + 2 * out.size());
     if (!r.ok()) return r;
     std::uint8_t code = 0;
     const PduStatus status = parse_read_response(reply_pdu(), fc, out, code);
-    return tcp_outcome(status, fc, code);
+    return pdu_outcome(status, fc, code);
   }
   const double started = monotonic_s();
   const int rc =
@@ -463,16 +693,16 @@ LinkResult ModbusLink::write_registers(std::uint16_t address,
                                        std::span<const std::uint16_t> values) noexcept {
   constexpr std::uint8_t fc = function_code::write_multiple_registers;
   if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
-  if (settings_.transport == Transport::tcp) {
+  if (framed_here()) {
     std::array<std::uint8_t, limits::max_pdu> pdu{};
     const std::size_t n = build_write_multiple_request(pdu, address, values);
     if (n == 0) return fail(LinkOutcome::io_error, fc, EMBMDATA);
-    const LinkResult r = tcp_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
+    const LinkResult r = framed_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc, 5);
     if (!r.ok()) return r;
     std::uint8_t code = 0;
     const PduStatus status =
         parse_write_multiple_response(reply_pdu(), address, static_cast<std::uint16_t>(values.size()), code);
-    return tcp_outcome(status, fc, code);
+    return pdu_outcome(status, fc, code);
   }
   const double started = monotonic_s();
   const int rc = modbus_write_registers(ctx_, address, static_cast<int>(values.size()), values.data());
@@ -485,15 +715,16 @@ LinkResult ModbusLink::read_registers(ReadTable table, std::uint16_t address,
                                                       : function_code::read_input_registers;
   if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
   const int n = static_cast<int>(out.size());
-  if (settings_.transport == Transport::tcp) {
+  if (framed_here()) {
     std::array<std::uint8_t, 8> pdu{};
     const std::size_t size = build_read_registers_request(pdu, fc, address, static_cast<std::uint16_t>(n));
     if (size == 0) return fail(LinkOutcome::io_error, fc, EMBMDATA);
-    const LinkResult r = tcp_exchange(std::span<const std::uint8_t>(pdu.data(), size), fc);
+    const LinkResult r =
+        framed_exchange(std::span<const std::uint8_t>(pdu.data(), size), fc, 2 + 2 * out.size());
     if (!r.ok()) return r;
     std::uint8_t code = 0;
     const PduStatus status = parse_read_response(reply_pdu(), fc, out, code);
-    return tcp_outcome(status, fc, code);
+    return pdu_outcome(status, fc, code);
   }
   const double started = monotonic_s();
   const int rc = table == ReadTable::holding ? modbus_read_registers(ctx_, address, n, out.data())
@@ -501,21 +732,21 @@ LinkResult ModbusLink::read_registers(ReadTable table, std::uint16_t address,
   return finish(rc, fc, started);
 }
 
-// fc 5 and 6 over TCP: the reply echoes the request (V1.1b3 6.5, 6.6).
-LinkResult ModbusLink::tcp_echo_exchange(std::span<const std::uint8_t> pdu, std::uint8_t fc) noexcept {
-  const LinkResult r = tcp_exchange(pdu, fc);
+// fc 5 and 6: the reply echoes the request (V1.1b3 6.5, 6.6).
+LinkResult ModbusLink::echo_exchange(std::span<const std::uint8_t> pdu, std::uint8_t fc) noexcept {
+  const LinkResult r = framed_exchange(pdu, fc, pdu.size());
   if (!r.ok()) return r;
   std::uint8_t code = 0;
-  return tcp_outcome(parse_echo_response(reply_pdu(), pdu, code), fc, code);
+  return pdu_outcome(parse_echo_response(reply_pdu(), pdu, code), fc, code);
 }
 
 LinkResult ModbusLink::write_register(std::uint16_t address, std::uint16_t value) noexcept {
   constexpr std::uint8_t fc = function_code::write_single_register;
   if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
-  if (settings_.transport == Transport::tcp) {
+  if (framed_here()) {
     std::array<std::uint8_t, 8> pdu{};
     const std::size_t n = build_write_single_register_request(pdu, address, value);
-    return tcp_echo_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
+    return echo_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
   }
   const double started = monotonic_s();
   return finish(modbus_write_register(ctx_, address, value), fc, started);
@@ -524,10 +755,10 @@ LinkResult ModbusLink::write_register(std::uint16_t address, std::uint16_t value
 LinkResult ModbusLink::write_coil(std::uint16_t address, bool on) noexcept {
   constexpr std::uint8_t fc = function_code::write_single_coil;
   if (!ready()) return {LinkOutcome::closed, fc, 0, EBADF};
-  if (settings_.transport == Transport::tcp) {
+  if (framed_here()) {
     std::array<std::uint8_t, 8> pdu{};
     const std::size_t n = build_write_single_coil_request(pdu, address, on);
-    return tcp_echo_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
+    return echo_exchange(std::span<const std::uint8_t>(pdu.data(), n), fc);
   }
   const double started = monotonic_s();
   return finish(modbus_write_bit(ctx_, address, on ? 1 : 0), fc, started);

@@ -16,9 +16,22 @@
 /// (modbus_frame.hpp) on the socket libmodbus connected: a reply to an
 /// earlier request that timed out (a late reply) is dropped and counted,
 /// and the wait for this request's reply goes on within the same response
-/// timeout. RTU frames carry no id: the link flushes the receive queue
-/// before every request, so a late reply can be taken for at most the one
-/// transaction that follows it (README.md, "Late replies").
+/// timeout. A reply with this transaction id from another unit id is
+/// dropped and counted the same way (TCP 3.1.3: the server copies the unit
+/// id); a header that does not fit the request (protocol id not 0, a length
+/// no reply to it has) puts the stream out of step: a malformed reply.
+/// RTU frames carry no id: the link flushes the receive queue before every
+/// request, so a late reply can be taken for at most the one transaction
+/// that follows it (README.md, "Late replies").
+///
+/// Stop (drivers/stop_request.hpp). The waits longer than stop_slice -- the
+/// TCP connect, and the exchanges off the loop, which wait up to
+/// connect_timeout -- are cut into slices and end with LinkOutcome::stopped
+/// (open(): StopRequested) when a stop is requested. The TCP connect is the
+/// link's own non-blocking connect() for that (libmodbus's blocks for the
+/// whole timeout), and so is an RTU exchange with such a timeout: the
+/// request through libmodbus, the reply read and checked by the codec. The
+/// loop's exchanges (response timeout < one period) are untouched.
 ///
 /// RT rule: the transaction calls (write_and_read, write_registers,
 /// read_registers, write_register, write_coil) allocate nothing (fixed
@@ -40,6 +53,7 @@
 #include "drivers/modbus/modbus_frame.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/rtu_timing.hpp"
+#include "drivers/stop_request.hpp"
 
 typedef struct _modbus modbus_t;  // NOLINT: libmodbus's own forward declaration
 
@@ -57,13 +71,24 @@ enum class LinkOutcome : std::uint8_t {
               ///< step
   closed,     ///< TCP connection closed or reset, serial device gone
   io_error,   ///< any other system error (error_number)
+  stopped,    ///< a stop request ended the wait (exchanges off the loop only)
+};
+
+/// What was wrong with a malformed reply, when the link framed it itself.
+enum class FrameProblem : std::uint8_t {
+  none,
+  wrong_unit,   ///< the reply came from unit (slave) `got`, not `expected`
+  protocol_id,  ///< MBAP protocol id `got`, not 0 (Modbus)
+  length,       ///< MBAP length `got`: no reply to the request has it (`expected`, or 3 for an exception)
 };
 
 struct LinkResult {
   LinkOutcome outcome = LinkOutcome::ok;
-  std::uint8_t function = 0;        ///< the request's function code
-  std::uint8_t exception_code = 0;  ///< with LinkOutcome::exception
-  int error_number = 0;             ///< errno as libmodbus left it (0 when ok)
+  std::uint8_t function = 0;                  ///< the request's function code
+  std::uint8_t exception_code = 0;            ///< with LinkOutcome::exception
+  int error_number = 0;                       ///< errno as libmodbus left it (0 when ok)
+  FrameProblem problem = FrameProblem::none;  ///< with bad_frame
+  std::uint16_t got = 0, expected = 0;        ///< the figures of `problem`
   bool ok() const noexcept { return outcome == LinkOutcome::ok; }
 };
 
@@ -74,6 +99,10 @@ LinkOutcome classify_error(int error_number, std::uint8_t& exception_code) noexc
 const char* outcome_name(LinkOutcome outcome) noexcept;
 /// One line, non-RT: "exception 0x02 (illegal data address) in reply to function 0x17".
 std::string describe(const LinkResult& result);
+/// The MBAP length a reply PDU of `pdu_size` bytes carries (unit id + PDU).
+constexpr std::uint16_t mbap_length(std::size_t pdu_size) noexcept {
+  return static_cast<std::uint16_t>(pdu_size + 1);
+}
 
 struct LinkSettings {
   Transport transport{};
@@ -98,6 +127,8 @@ struct LinkCounters {
   std::atomic<std::uint64_t> exceptions{0};
   std::atomic<std::uint64_t> bad_frames{0};
   std::atomic<std::uint64_t> late_replies{0};  ///< TCP: replies to an earlier, timed-out request, dropped
+  std::atomic<std::uint64_t> wrong_unit{
+      0};  ///< replies from another unit id (slave), dropped (TCP) or refused
   std::atomic<std::uint64_t> closed{0};
   std::atomic<std::uint64_t> io_errors{0};
   std::atomic<std::uint64_t> reconnects{0};
@@ -122,8 +153,10 @@ class ModbusLink {
 
   /// Connects (TCP within connect_timeout) or opens the serial device, then
   /// RS-485 mode if asked, error recovery none, the slave id and timeouts.
-  /// Throws LinkError.
+  /// Throws LinkError, or StopRequested when a stop ends the connect.
   void open();
+  /// The stop request the long waits give way to (see the file comment).
+  void set_stop(StopToken stop) noexcept { stop_ = std::move(stop); }
   /// Closes the socket or device; idempotent.
   void close() noexcept;
   /// close() + open() (TCP reconnect, off the RT thread). Throws LinkError.
@@ -165,20 +198,36 @@ class ModbusLink {
                   std::uint8_t exception_code = 0) noexcept;
   void apply_timeouts();
 
-  // TCP: one transaction framed by the codec. Sends `pdu` with the next
-  // transaction id and waits for the reply carrying it (earlier ids are
-  // dropped); on ok, reply_pdu() is the reply's PDU.
-  LinkResult tcp_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function) noexcept;
+  void connect_tcp();  ///< non-blocking connect() in slices; throws LinkError, StopRequested
+  /// TCP always; RTU when the response timeout is longer than a slice.
+  bool framed_here() const noexcept;
+  /// One transaction framed by the codec (TCP or RTU); on ok, reply_pdu()
+  /// is the reply's PDU. `reply_size`: the PDU size a normal reply has.
+  LinkResult framed_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function,
+                             std::size_t reply_size) noexcept;
+  // TCP: sends `pdu` with the next transaction id and waits for the reply
+  // carrying it (earlier ids and other units are dropped).
+  LinkResult tcp_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function,
+                          std::size_t reply_size) noexcept;
+  /// Frames what tcp_exchange buffered: true when this request's reply was found.
+  bool take_tcp_reply(std::uint8_t function, std::size_t reply_size, LinkResult& failure,
+                      int& wrong_unit) noexcept;
+  // RTU: the request through libmodbus, the reply read in slices and checked by the codec.
+  LinkResult rtu_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function,
+                          std::size_t reply_size) noexcept;
   /// A reply PDU checked against its request (parse_read_response ...).
-  LinkResult tcp_outcome(PduStatus status, std::uint8_t function, std::uint8_t exception_code) noexcept;
+  LinkResult pdu_outcome(PduStatus status, std::uint8_t function, std::uint8_t exception_code) noexcept;
+  LinkResult frame_problem(FrameProblem problem, std::uint8_t function, std::uint16_t got,
+                           std::uint16_t expected) noexcept;
   /// fc 5 and 6: a request whose reply must echo it (V1.1b3 6.5, 6.6).
-  LinkResult tcp_echo_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function) noexcept;
+  LinkResult echo_exchange(std::span<const std::uint8_t> pdu, std::uint8_t function) noexcept;
   std::span<const std::uint8_t> reply_pdu() const noexcept {
     return std::span<const std::uint8_t>(reply_.data(), reply_size_);
   }
   void drop_received() noexcept;  ///< a TCP stream out of step: nothing buffered can be trusted
 
   LinkSettings settings_;
+  StopToken stop_;
   modbus_t* ctx_ = nullptr;
   bool open_ = false;
   LinkCounters counters_;

@@ -40,7 +40,7 @@ LayoutResult plan_blocks(const RegisterMap& map) {
   l.write_address = map.torque;
   l.write_count = 1;
   l.torque_index = 0;
-  if (map.watchdog && map.watchdog_refresh == WatchdogRefresh::write) {
+  if (map.watchdog && written_every_period(map.watchdog_refresh)) {
     const int w = *map.watchdog, t = map.torque;
     if (w == t + 1) {
       l.write_count = 2;

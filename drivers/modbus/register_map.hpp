@@ -40,7 +40,13 @@ enum class EnableKind : std::uint8_t {
 enum class WatchdogRefresh : std::uint8_t {
   write,      ///< the watchdog register is rewritten every period (it must sit next to the torque register)
   any_frame,  ///< the amplifier restarts its timer on every valid frame: armed at configure only
+  counter,    ///< an alive counter: one more every exchange, 0xFFFF -> 0 (next to the torque register too)
 };
+
+/// The watchdog register sits in the periodic write block (write, counter).
+constexpr bool written_every_period(WatchdogRefresh refresh) noexcept {
+  return refresh != WatchdogRefresh::any_frame;
+}
 
 struct FaultBit {
   int bit = 0;       ///< 0..15
@@ -53,7 +59,7 @@ struct RegisterMap {
   std::optional<std::uint16_t> velocity;  ///< first of two registers, signed 32-bit counts/s
   std::uint16_t torque = 0;               ///< signed 16-bit command counts
   std::optional<std::uint16_t> watchdog;  ///< written with watchdog_value at configure and every period
-  std::uint16_t watchdog_value = 0;
+  std::uint16_t watchdog_value = 0;       ///< counter: the counter's first value
   WatchdogRefresh watchdog_refresh = WatchdogRefresh::write;
   EnableKind enable = EnableKind::none;
   std::uint16_t enable_address = 0;

@@ -17,11 +17,12 @@ SessionLimits limits_for(const UsbHidConfig& config, double period_s) {
   return limits;
 }
 
+/// False on the timeout, or as soon as `stop` is requested.
 template <class Done>
-bool wait_until(double timeout_s, Done done) {
+bool wait_until(double timeout_s, Done done, const StopToken& stop = {}) {
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (!done()) {
-    if (std::chrono::steady_clock::now() >= give_up) return false;
+    if (std::chrono::steady_clock::now() >= give_up || stop.stop_requested()) return false;
     std::this_thread::sleep_for(std::chrono::microseconds(200));
   }
   return true;
@@ -81,9 +82,10 @@ void BoardLink::reopen_checks() {
   }
   transport_->start();
   const double wait_s = std::max(0.5, 50.0 * period_s_);
-  if (!transport_->wait_for_in(wait_s)) {
+  if (!transport_->wait_for_in(wait_s, stop_)) {
     transport_->stop();
     transport_->close();
+    throw_if_stopped(stop_, "usb-hid: waiting for the first IN report of " + board_.description);
     throw LinkError("no IN report from the board (" + board_.description + ") within " +
                     format_duration(wait_s) + " after it was claimed");
   }
@@ -94,16 +96,18 @@ void BoardLink::enable() {
   if (session_.faulted()) {
     // A tripped dead-man is what a previous hapticd leaves when it dies.
     session_.begin_reset();
-    if (!run_reset_handshake(std::max(20, 4 * config_.timeout_periods)) || session_.faulted())
+    if (!run_reset_handshake(std::max(20, 4 * config_.timeout_periods)) || session_.faulted()) {
+      throw_if_stopped(stop_, "usb-hid: resetting the board's fault before enabling");
       throw LinkError("the board (" + board_.description +
                       ") did not clear its fault: " + session_.describe(session_.fault()));
+    }
   }
   enabled_.store(true, std::memory_order_release);
 }
 
 bool BoardLink::run_reset_handshake(int periods) {
   const auto period = std::chrono::duration<double>(period_s_);
-  for (int p = 0; p < periods; ++p) {
+  for (int p = 0; p < periods && !stop_.stop_requested(); ++p) {
     exchange_write(0.0);
     std::this_thread::sleep_for(period);
     Reading r;
@@ -269,14 +273,20 @@ std::string BoardLink::clear_fault() {
   if (rt_running) {
     unpark();
     const double answer_s = 0.5 + 4.0 * config_.timeout_periods * period_s_;
-    if (!wait_until(answer_s, [this] { return !resetting_.load(std::memory_order_acquire); }))
+    if (!wait_until(
+            answer_s, [this] { return !resetting_.load(std::memory_order_acquire); }, stop_)) {
+      throw_if_stopped(stop_, "usb-hid: waiting for the board's answer to the fault reset");
       throw LinkError("the board did not answer the fault reset within " + format_duration(answer_s));
+    }
   } else {
     // No RT loop calls read()/write() (stopped engine, a test): drive the
     // handshake here, still holding the transport.
     const bool decided = run_reset_handshake(std::max(20, 4 * config_.timeout_periods));
     unpark();
-    if (!decided && session_.resetting()) throw LinkError("the board did not answer the fault reset");
+    if (!decided && session_.resetting()) {
+      throw_if_stopped(stop_, "usb-hid: resetting the board's fault");
+      throw LinkError("the board did not answer the fault reset");
+    }
   }
   const LinkStatus now = status();
   if (now.fault.reason != LinkFault::none) throw LinkError("the board is still in fault: " + now.fault_text);

@@ -61,6 +61,9 @@ class BoardLink {
   BoardLink(const BoardLink&) = delete;
   BoardLink& operator=(const BoardLink&) = delete;
 
+  /// The daemon's stop request: configure's first-report wait, enable's
+  /// reset handshake and clear_fault's waits give way to it (StopRequested).
+  void set_stop(StopToken stop) noexcept { stop_ = std::move(stop); }
   /// Opens and claims the board, checks the endpoints against the period,
   /// queues the IN transfers and waits (bounded) for the first IN report.
   /// Throws LinkError. read() is valid afterwards.
@@ -103,6 +106,7 @@ class BoardLink {
   bool run_reset_handshake(int periods);
 
   UsbHidConfig config_;
+  StopToken stop_;
   double period_s_ = 1e-3;
   std::uint32_t deadman_us_ = 0;
   std::unique_ptr<UsbTransport> transport_;

@@ -13,6 +13,7 @@ UsbHidDevice::~UsbHidDevice() { close(); }
 void UsbHidDevice::configure(const LoopContext& loop) {
   if (state_.load(std::memory_order_acquire) != DeviceState::closed)
     throw std::logic_error("usb-hid: configure() twice");
+  link_.set_stop(loop.stop);
   try {
     link_.configure(loop.period_s);
   } catch (const LinkError& e) {

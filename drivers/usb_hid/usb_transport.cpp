@@ -440,11 +440,11 @@ bool UsbTransport::present(const UsbSelector& selector) {
   return found;
 }
 
-bool UsbTransport::wait_for_in(double timeout_s) {
+bool UsbTransport::wait_for_in(double timeout_s, const StopToken& stop) {
   Impl& s = *impl_;
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (s.in_ring.empty()) {
-    if (std::chrono::steady_clock::now() >= give_up) return false;
+    if (std::chrono::steady_clock::now() >= give_up || stop.stop_requested()) return false;
     if (s.event_thread.joinable())
       std::this_thread::sleep_for(std::chrono::microseconds(200));
     else

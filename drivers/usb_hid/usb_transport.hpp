@@ -28,6 +28,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "drivers/stop_request.hpp"
 #include "drivers/usb_hid/host_session.hpp"
 #include "drivers/usb_hid/link_budget.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
@@ -120,8 +121,9 @@ class UsbTransport {
   /// Is a board matching the selector on the bus now (after a re-plug)?
   bool present(const UsbSelector& selector);
   /// Handles events for up to `timeout_s` until an IN completion is queued
-  /// (configure's wait for the first report). Non-RT.
-  bool wait_for_in(double timeout_s);
+  /// (configure's wait for the first report); false also when `stop` was
+  /// requested meanwhile. Non-RT.
+  bool wait_for_in(double timeout_s, const StopToken& stop = {});
 
   // ---- RT ----
   /// loop mode: libusb_handle_events_timeout_completed with a zero timeout

@@ -49,6 +49,8 @@ AmplifierState Amplifier::state() const noexcept {
   s.watchdog_trips = pub_trips_.load(std::memory_order_relaxed);
   s.resets = pub_resets_.load(std::memory_order_relaxed);
   s.trip_silence_s = pub_trip_silence_.load(std::memory_order_relaxed);
+  s.watchdog_register = pub_watchdog_value_.load(std::memory_order_relaxed);
+  s.alive_jumps = pub_alive_jumps_.load(std::memory_order_relaxed);
   return s;
 }
 
@@ -62,12 +64,33 @@ void Amplifier::publish() noexcept {
   pub_trips_.store(trips_, std::memory_order_relaxed);
   pub_resets_.store(resets_, std::memory_order_relaxed);
   pub_trip_silence_.store(trip_silence_s_, std::memory_order_relaxed);
+  pub_watchdog_value_.store(watchdog_value_, std::memory_order_relaxed);
+  pub_alive_jumps_.store(alive_jumps_, std::memory_order_relaxed);
   pub_enabled_.store(enabled_, std::memory_order_release);
 }
 
-void Amplifier::set_enable(bool on) noexcept {
+void Amplifier::set_enable(bool on, double now_s) noexcept {
   // An amplifier in fault keeps its power stage off until a reset.
+  const bool was = enabled_;
   enabled_ = on && fault_ == 0;
+  if (settings_.alive_counter_s > 0.0 && enabled_ != was) {
+    // The alive counter is watched while the power stage is on.
+    watchdog_armed_ = enabled_;
+    watchdog_period_s_ = settings_.alive_counter_s;
+    watchdog_deadline_s_ = now_s + watchdog_period_s_;
+  }
+}
+
+void Amplifier::on_alive_count(std::uint16_t value, double now_s) noexcept {
+  if (watchdog_armed_) {
+    if (value == watchdog_value_) {
+      trip_watchdog(now_s);  // the value did not change: hapticd's cycle is not alive
+    } else {
+      if (value != static_cast<std::uint16_t>(watchdog_value_ + 1)) ++alive_jumps_;
+      watchdog_deadline_s_ = now_s + watchdog_period_s_;
+    }
+  }
+  watchdog_value_ = value;
 }
 
 void Amplifier::trip_watchdog(double now_s) noexcept {
@@ -98,16 +121,21 @@ void Amplifier::apply_write(std::uint16_t address, std::uint16_t value, double n
   if (std::uint16_t* r = holding(address)) *r = value;
   if (address == m.torque) torque_counts_ = static_cast<std::int16_t>(value);
   if (m.watchdog && address == *m.watchdog) {
-    watchdog_armed_ = value != 0;
-    watchdog_period_s_ = value * 1e-3;
-    watchdog_deadline_s_ = now_s + watchdog_period_s_;
+    if (settings_.alive_counter_s > 0.0) {
+      on_alive_count(value, now_s);
+    } else {
+      watchdog_value_ = value;
+      watchdog_armed_ = value != 0;
+      watchdog_period_s_ = value * 1e-3;
+      watchdog_deadline_s_ = now_s + watchdog_period_s_;
+    }
   }
   if (m.reset && address == *m.reset && value == m.reset_value) {
     fault_ = 0;
     ++resets_;
   }
   if (m.enable == EnableKind::register_bit && address == m.enable_address)
-    set_enable(((value >> m.enable_bit) & 1u) != 0);
+    set_enable(((value >> m.enable_bit) & 1u) != 0, now_s);
 }
 
 Decision Amplifier::on_request(std::span<const std::uint8_t> pdu, double now_s) noexcept {
@@ -187,7 +215,7 @@ Decision Amplifier::on_request(std::span<const std::uint8_t> pdu, double now_s) 
       const bool on = req.write_value(0) == 0xFF00;
       coils_[req.write_address] = on ? 1 : 0;
       if (settings_.map.enable == EnableKind::coil && req.write_address == settings_.map.enable_address)
-        set_enable(on);
+        set_enable(on, now_s);
     }
   } else if (writes_registers) {
     for (std::size_t i = 0; i < req.write_count; ++i)

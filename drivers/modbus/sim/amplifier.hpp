@@ -26,6 +26,13 @@
 /// The watchdog expires in wall time (tick()): power stage off, torque 0,
 /// the watchdog fault bit set, until a reset and a new enable.
 ///
+/// With alive_counter_s > 0 the watchdog register is an alive counter
+/// instead (the amplifiers hapticd drives with watchdog_refresh =
+/// "counter"): watched while the power stage is on, a write that leaves its
+/// value unchanged trips the watchdog at once, and so does no new value for
+/// alive_counter_s of wall time. A value that changes by other than +1
+/// (mod 2^16) is counted (alive_jumps), not tripped on.
+///
 /// Threads: on_request()/tick()/build_reply() from the server thread; the
 /// switches and state() from any thread (atomics).
 
@@ -60,6 +67,7 @@ struct AmplifierSettings {
   int watchdog_fault_bit = 2;         ///< fault-word bit set when the watchdog expires
   std::uint16_t register_count = 64;  ///< holding and input tables, addresses 0..register_count-1
   std::uint16_t coil_count = 16;
+  double alive_counter_s = 0.0;  ///< > 0: the watchdog register is an alive counter (file comment), s
 };
 
 enum class Injection : std::uint8_t {
@@ -92,6 +100,8 @@ struct AmplifierState {
   /// At the last watchdog trip: wall time since the last refresh, s (what
   /// the amplifier saw of the silence; >= the watchdog time by design).
   double trip_silence_s = 0.0;
+  std::uint16_t watchdog_register = 0;  ///< the value last written to it
+  std::uint64_t alive_jumps = 0;        ///< alive counter: changes other than +1 while watched
 };
 
 class Amplifier {
@@ -127,7 +137,8 @@ class Amplifier {
   std::uint16_t* holding(std::uint16_t address) noexcept;
   std::uint16_t* state_register(std::uint16_t address) noexcept;  ///< the read table
   void apply_write(std::uint16_t address, std::uint16_t value, double now_s) noexcept;
-  void set_enable(bool on) noexcept;
+  void set_enable(bool on, double now_s) noexcept;
+  void on_alive_count(std::uint16_t value, double now_s) noexcept;
   void trip_watchdog(double now_s) noexcept;
   void refresh_state_registers() noexcept;
   void publish() noexcept;
@@ -147,6 +158,8 @@ class Amplifier {
   double applied_ = 0.0;
   std::uint64_t steps_ = 0, requests_ = 0, trips_ = 0, resets_ = 0;
   double trip_silence_s_ = 0.0;
+  std::uint16_t watchdog_value_ = 0;
+  std::uint64_t alive_jumps_ = 0;
 
   // Switches.
   std::atomic<Injection> injection_{Injection::none};
@@ -158,10 +171,11 @@ class Amplifier {
 
   // Published view.
   std::atomic<bool> pub_enabled_{false}, pub_armed_{false};
-  std::atomic<std::uint16_t> pub_fault_{0};
+  std::atomic<std::uint16_t> pub_fault_{0}, pub_watchdog_value_{0};
   std::atomic<std::int16_t> pub_counts_{0};
   std::atomic<double> pub_applied_{0.0}, pub_trip_silence_{0.0};
-  std::atomic<std::uint64_t> pub_steps_{0}, pub_requests_{0}, pub_trips_{0}, pub_resets_{0};
+  std::atomic<std::uint64_t> pub_steps_{0}, pub_requests_{0}, pub_trips_{0}, pub_resets_{0},
+      pub_alive_jumps_{0};
 };
 
 }  // namespace hapticd::drivers::modbus::sim

@@ -28,6 +28,7 @@ struct Options {
   std::string hand;
   std::string map;
   bool no_function_23 = false;
+  double alive_counter_s = 0.0;
   int priority = 0;
 };
 
@@ -71,6 +72,7 @@ int run(const Options& o) {
     s.position_per_count = config.position_per_count();
     s.torque_per_count = config.torque_per_count;
     s.function_23 = !o.no_function_23;
+    s.alive_counter_s = o.alive_counter_s;
     Amplifier amplifier(s, plant);
     auto server = o.transport == "rtu" ? AmplifierServer::rtu_pty(amplifier)
                                        : AmplifierServer::tcp(amplifier, o.host, o.port);
@@ -114,6 +116,11 @@ devsim::SimulatedPeer modbus_peer() {
             cmd->add_option("--map", options->map,
                             "register map, as [device.modbus] keys: \"torque_register=10 ...\"");
             cmd->add_flag("--no-function-23", options->no_function_23, "answer fc 23 with exception 01");
+            cmd->add_option("--alive-counter", options->alive_counter_s,
+                            "the watchdog register is an alive counter watched while enabled: an unchanged "
+                            "value trips at once, no new value for this many s trips (0: off; hapticd's "
+                            "watchdog_refresh = \"counter\")")
+                ->check(CLI::Range(0.0, 60.0));
             cmd->add_option("--priority", options->priority,
                             "SCHED_FIFO priority of the server thread, as an amplifier is its own hardware "
                             "(0: none; without the privilege it says so and runs plain)")

@@ -31,16 +31,17 @@ long number(const std::string& text, const char* what, long lo, long hi) {
 }  // namespace
 
 std::string state_json(const AmplifierState& s) {
-  char text[448];
+  char text[512];
   std::snprintf(text, sizeof text,
                 "{\"enabled\":%s,\"fault\":%u,\"torque\":%.17g,\"torque_counts\":%d,\"steps\":%llu,"
                 "\"requests\":%llu,\"watchdog_armed\":%s,\"watchdog_trips\":%llu,\"resets\":%llu,"
-                "\"trip_silence_s\":%.6f}",
+                "\"trip_silence_s\":%.6f,\"watchdog_register\":%u,\"alive_jumps\":%llu}",
                 s.enabled ? "true" : "false", static_cast<unsigned>(s.fault), s.applied_torque,
                 static_cast<int>(s.torque_counts), static_cast<unsigned long long>(s.steps),
                 static_cast<unsigned long long>(s.requests), s.watchdog_armed ? "true" : "false",
                 static_cast<unsigned long long>(s.watchdog_trips), static_cast<unsigned long long>(s.resets),
-                s.trip_silence_s);
+                s.trip_silence_s, static_cast<unsigned>(s.watchdog_register),
+                static_cast<unsigned long long>(s.alive_jumps));
   return text;
 }
 

@@ -12,6 +12,7 @@
 
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
 #include "drivers/gpio_pwm/sim/board.hpp"
+#include "drivers/stop_request.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
@@ -198,6 +199,34 @@ TEST_F(GpioPwmDeviceTest, FaultLineLatchesZeroesInThatPeriodAndClearsWithAResetP
   EXPECT_EQ(device.write(0.4), IoResult::ok);
   EXPECT_DOUBLE_EQ(board_->history().back().motor_force, 0.4);
   EXPECT_EQ(device.clear_fault(), "");  // nothing latched
+}
+
+// Issue 17 item 9: a fault clear's reset pulse (up to 1 s, and as long again
+// for the fault line to follow) gives way to the daemon's stop, the reset
+// line released all the same.
+TEST_F(GpioPwmDeviceTest, AResetPulseGivesWayToAStopAndReleasesTheLine) {
+  make_board(true);
+  GpioPwmConfig c = device_config(true);
+  c.reset_pulse_s = 1.0;
+  GpioPwmDevice device(c);
+  StopRequest stop;
+  device.configure({period, stop.token()});
+  device.enable();
+  Reading r;
+  ASSERT_EQ(device.read(r), IoResult::ok);
+  ASSERT_EQ(device.write(0.4), IoResult::ok);
+  board_->trip("over-current");
+  ASSERT_EQ(device.read(r), IoResult::fault);
+  stop.request("the test");
+  try {
+    device.clear_fault();
+    FAIL() << "cleared";
+  } catch (const StopRequested& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "gpio-pwm: the reset pulse on reset_line: abandoned, hapticd is stopping");
+  }
+  EXPECT_FALSE(line(7)) << "the reset line was left active";
+  EXPECT_EQ(device.status().state, DeviceState::fault);
 }
 
 TEST_F(GpioPwmDeviceTest, AnActiveFaultAtConfigureIsResetOnceThenRefused) {

@@ -13,6 +13,7 @@
 
 #include "drivers/gpio_pwm/sim/sysfs_peripherals.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
+#include "drivers/stop_request.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
@@ -191,6 +192,31 @@ TEST(PwmOutput, ExportThatNeverAppearsTimesOut) {
     FAIL();
   } catch (const TransportError& e) {
     EXPECT_EQ(e.key(), "export_timeout");
+  }
+}
+
+// Issue 17 item 9: the wait for the exported channel (export_timeout, up to
+// 10 s) gives way to the daemon's stop.
+TEST(PwmOutput, TheExportWaitGivesWayToAStop) {
+  TempRoot root;
+  const std::string chip = root.path() + pwm_chip_path;
+  fs::create_directories(chip);
+  std::ofstream(chip + "/npwm") << "1\n";
+  std::ofstream(chip + "/export") << "";
+  auto s = settings(root);
+  s.export_timeout_s = 10.0;
+  StopRequest stop;
+  stop.request("the test");
+  s.stop = stop.token();
+  try {
+    PwmOutput pwm(s);
+    FAIL();
+  } catch (const StopRequested& e) {
+    EXPECT_NE(std::string(e.what()).find("after the export: abandoned, hapticd is stopping"),
+              std::string::npos)
+        << e.what();
+  } catch (const TransportError& e) {
+    FAIL() << "waited the whole export_timeout: " << e.what();
   }
 }
 

@@ -16,14 +16,19 @@
 #include "drivers/modbus/modbus_device.hpp"
 #include "drivers/modbus/sim/amplifier_server.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
+#include "drivers/stop_request.hpp"
+#include "hostile_server.hpp"
 #include "loopback_plant.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace mb = hapticd::drivers::modbus;
 using hapticd::drivers::DeviceError;
+using hapticd::drivers::DeviceState;
 using hapticd::drivers::IoResult;
 using hapticd::drivers::LoopContext;
 using hapticd::drivers::Reading;
+using hapticd::drivers::StopRequest;
+using hapticd::drivers::StopRequested;
 using Values = std::map<std::string, mb::ParameterValue>;
 
 namespace {
@@ -83,7 +88,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
   mb::ModbusDevice& configure(Values values = {}) {
     if (!amplifier_) start_amplifier(amplifier_settings(amplifier_config_));
     device_ = std::make_unique<mb::ModbusDevice>(device_config(std::move(values)));
-    device_->configure(LoopContext{test_period_s});
+    device_->configure(LoopContext{test_period_s, stop_.token()});
     return *device_;
   }
 
@@ -92,6 +97,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
     return *device_;
   }
 
+  hapticd::drivers::StopRequest stop_;  ///< the daemon's stop, as configure() gets it
   mb::ModbusConfig amplifier_config_;
   mb::testing::LoopbackPlant plant_;
   std::unique_ptr<mb::sim::Amplifier> amplifier_;
@@ -442,4 +448,172 @@ TEST_P(RtuDeviceTest, ACrcErrorIsATransientReadError) {
   EXPECT_EQ(d.read(r), IoResult::fault);
   EXPECT_EQ(d.status().fault_reason,
             "3 failed transactions in a row, the last: CRC error in reply to function 0x17");
+}
+
+// ---- issue 17 item 8: an amplifier whose watchdog wants an alive counter ----
+
+namespace {
+
+mb::sim::AmplifierSettings alive_counter_amplifier(const mb::ModbusConfig& c) {
+  mb::sim::AmplifierSettings s = amplifier_settings(c);
+  s.alive_counter_s = 5.0;  // and an unchanged value trips at once
+  return s;
+}
+
+/// Periods of torque `force` until one is not ok; how many were ok.
+int periods_ok(mb::ModbusDevice& d, int periods, double force, IoResult& last) {
+  Reading r;
+  for (int i = 0; i < periods; ++i) {
+    (void)d.write(force);
+    last = d.read(r);
+    if (last != IoResult::ok) return i;
+  }
+  return periods;
+}
+
+}  // namespace
+
+// What the issue found: watchdog_refresh = "write" rewrites watchdog_value,
+// the same value every period, and such an amplifier trips while hapticd runs.
+TEST_P(DeviceTest, AnAliveCounterAmplifierTripsOnTheRewrittenWatchdogValue) {
+  start_amplifier(alive_counter_amplifier(amplifier_config_));
+  mb::ModbusDevice& d = enabled();
+  IoResult last = IoResult::ok;
+  EXPECT_LT(periods_ok(d, 20, 0.1, last), 20);
+  EXPECT_EQ(last, IoResult::fault);
+  EXPECT_EQ(amplifier_->state().watchdog_trips, 1u);
+  EXPECT_FALSE(amplifier_->state().enabled);
+  EXPECT_EQ(d.status().fault_reason, "amplifier fault: watchdog (fault register 0x0004), status 0x0002");
+}
+
+TEST_P(DeviceTest, WatchdogRefreshCounterKeepsAnAliveCounterAmplifierEnabled) {
+  start_amplifier(alive_counter_amplifier(amplifier_config_));
+  mb::ModbusDevice& d = enabled({{"watchdog_refresh", std::string("counter")}});
+  IoResult last = IoResult::ok;
+  EXPECT_EQ(periods_ok(d, 50, 0.1, last), 50) << d.status().fault_reason;
+  const mb::sim::AmplifierState s = amplifier_->state();
+  EXPECT_EQ(s.watchdog_trips, 0u);
+  EXPECT_TRUE(s.enabled);
+  EXPECT_DOUBLE_EQ(s.applied_torque, 0.1);
+  EXPECT_EQ(s.alive_jumps, 0u) << "the counter moved by other than one";
+  d.disable();  // the counter is watched while the power stage is on
+  d.close();
+  EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
+}
+
+TEST_P(DeviceTest, TheAliveCounterWrapsFrom0xFFFFTo0) {
+  start_amplifier(alive_counter_amplifier(amplifier_config_));
+  // watchdog_value is the counter's first value: 65530, ... 65535, 0, 1 ...
+  mb::ModbusDevice& d = enabled({{"watchdog_refresh", std::string("counter")}, {"watchdog_value", 65530.0}});
+  IoResult last = IoResult::ok;
+  EXPECT_EQ(periods_ok(d, 20, 0.1, last), 20) << d.status().fault_reason;
+  const mb::sim::AmplifierState s = amplifier_->state();
+  EXPECT_LT(s.watchdog_register, 65530) << "not wrapped";
+  EXPECT_EQ(s.alive_jumps, 0u) << "0xFFFF -> 0 is one step";
+  EXPECT_EQ(s.watchdog_trips, 0u);
+}
+
+// ---- issue 17 item 9: the lifecycle's waits give way to the daemon's stop ----
+
+// configure(), enable() and clear_fault() wait up to connect_timeout (10 s
+// here) for each exchange; a stop ends the wait after one slice.
+TEST_P(DeviceTest, EnableGivesWayToAStopOnASilentAmplifier) {
+  mb::ModbusDevice& d = configure({{"connect_timeout", 10.0}});
+  server_->inject(mb::sim::Injection::timeout, 1000000);
+  stop_.request("the test");
+  EXPECT_THROW(d.enable(), StopRequested);
+  EXPECT_FALSE(amplifier_->state().enabled);
+  d.close();
+}
+
+TEST_P(DeviceTest, FaultClearGivesWayToAStopOnASilentAmplifier) {
+  mb::ModbusDevice& d = enabled({{"connect_timeout", 10.0}});
+  server_->inject(mb::sim::Injection::timeout, 1000000);
+  IoResult last = IoResult::ok;
+  Reading r;
+  for (int i = 0; i < 10 && last != IoResult::fault; ++i) last = d.read(r);
+  ASSERT_EQ(last, IoResult::fault);
+  stop_.request("the test");
+  try {
+    d.clear_fault();
+    FAIL() << "cleared";
+  } catch (const StopRequested& e) {
+    EXPECT_NE(std::string(e.what()).find("clearing the fault: abandoned, hapticd is stopping"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(d.status().state, DeviceState::fault);
+  d.close();
+}
+
+namespace {
+
+template <class Condition>
+bool eventually(Condition condition) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!condition() && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  return condition();
+}
+
+}  // namespace
+
+// The amplifier of the issue: it accepts the connection and never answers.
+// The stop comes while configure() waits for its first reply.
+TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
+  mb::testing::HostileServer server;
+  server.silent = true;
+  StopRequest stop;
+  mb::ModbusDevice d(mb::build_modbus_config(
+      {{"port", static_cast<double>(server.port())}, {"connect_timeout", 10.0}, {"link_budget", 0.9}}));
+  std::thread stopper([&] {
+    EXPECT_TRUE(eventually([&] { return server.requests.load() >= 1; }));
+    stop.request("the test");
+  });
+  try {
+    d.configure(LoopContext{test_period_s, stop.token()});
+    FAIL() << "configured";
+  } catch (const StopRequested& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "modbus: tcp 127.0.0.1:" + std::to_string(server.port()) +
+                  " unit 1: reading the amplifier's state: abandoned, hapticd is stopping");
+  } catch (const DeviceError& e) {
+    ADD_FAILURE() << "waited the whole connect_timeout: " << e.what();
+  }
+  stopper.join();
+  EXPECT_EQ(d.status().state, DeviceState::closed);
+}
+
+// ---- issue 17 item 7: replies from another unit id ----
+
+// The driver took a reply with its transaction id but unit id 7 as unit
+// 1's, period after period. Now each such exchange fails (a malformed reply,
+// naming the unit), the streak latches, and the device status counts them.
+TEST(ModbusDeviceHostile, RepliesFromAnotherUnitAreRefusedCountedAndLatch) {
+  mb::testing::HostileServer server;
+  mb::ModbusDevice d(mb::build_modbus_config({{"port", static_cast<double>(server.port())},
+                                              {"link_budget", 0.9},
+                                              {"rtt_samples", 20.0},
+                                              {"failure_streak", 3.0},
+                                              {"watchdog_value", 1000.0}}));
+  d.configure(LoopContext{test_period_s});
+  d.enable();
+  Reading r;
+  ASSERT_EQ(d.read(r), IoResult::ok);
+  server.reply_unit = 7;
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::error);
+  EXPECT_EQ(d.read(r), IoResult::fault);
+  const hapticd::drivers::DeviceStatus s = d.status();
+  EXPECT_EQ(
+      s.fault_reason,
+      "3 failed transactions in a row, the last: malformed reply in reply to function 0x17 (from unit 7, "
+      "not the unit 1 it was sent to)");
+  std::uint64_t wrong_unit = 0;
+  for (const auto& c : s.counters)
+    if (c.name == "wrong_unit_replies") wrong_unit = c.value;
+  EXPECT_GE(wrong_unit, 3u);
+  server.reply_unit = -1;
+  EXPECT_FALSE(d.clear_fault().empty());
+  EXPECT_EQ(d.read(r), IoResult::ok);
 }

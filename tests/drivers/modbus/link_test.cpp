@@ -512,7 +512,8 @@ TEST(ModbusLinkTcp, RepliesArePairedByTransactionIdAcrossSegments) {
     ASSERT_EQ(::write(peer, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
   });
   EXPECT_EQ(r.outcome, LinkOutcome::bad_frame);
-  EXPECT_EQ(mb::describe(r), "malformed reply in reply to function 0x03 (Invalid data)");
+  EXPECT_EQ(mb::describe(r),
+            "malformed reply in reply to function 0x03 (MBAP protocol id 0x0001, not 0 (Modbus))");
   r = answer([&](std::uint16_t id) {
     const Bytes bytes = tcp(id, 0x11, value);
     ASSERT_EQ(::write(peer, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));

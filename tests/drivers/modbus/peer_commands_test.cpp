@@ -36,7 +36,8 @@ TEST(ModbusPeerCommands, InjectionsAndState) {
   p.amplifier.tick(0.0);
   EXPECT_EQ(p.run("state"),
             "ok {\"enabled\":false,\"fault\":1,\"torque\":0,\"torque_counts\":0,\"steps\":0,\"requests\":0,"
-            "\"watchdog_armed\":false,\"watchdog_trips\":0,\"resets\":0,\"trip_silence_s\":0.000000}");
+            "\"watchdog_armed\":false,\"watchdog_trips\":0,\"resets\":0,\"trip_silence_s\":0.000000,"
+            "\"watchdog_register\":0,\"alive_jumps\":0}");
 }
 
 TEST(ModbusPeerCommands, BadCommandsSayWhatIsAccepted) {

@@ -346,6 +346,12 @@ TEST_P(ModbusEndToEnd, AnExceptionAndATimeoutStreakZeroTheOutputAndFaultClearRes
                       "function 0x17");
   ASSERT_EQ(d.ctl({"record", "stop"}).exit_code, 0);
   EXPECT_EQ(d.stop(), 0) << d.log();
+  // SIGTERM: every exchange after the stop has one slice (100 ms), enough
+  // for a live amplifier: torque 0, power stage off, watchdog disarmed.
+  const json after = amplifier.state();
+  EXPECT_FALSE(after["enabled"].get<bool>()) << after.dump();
+  EXPECT_EQ(after["torque_counts"], 0) << after.dump();
+  EXPECT_FALSE(after["watchdog_armed"].get<bool>()) << after.dump();
 
   const Recording rec = read_recording(csv);
   const auto applied = rec.values("applied_n_m");
@@ -508,6 +514,40 @@ TEST_P(ModbusEndToEnd, A2To31CountPositionJumpLatchesInItsPeriodWithTheFigures) 
   EXPECT_LT(std::abs(applied[end]), 0.02) << "torque step at the resume, row " << end;
   for (std::size_t i = first; i < applied.size(); ++i)
     ASSERT_LT(std::abs(applied[i]), 0.8) << "row " << i << ": at torque_limit after the jump";
+}
+
+// Issue 17 item 9: a fault clear on the control thread waits up to
+// connect_timeout for each exchange with the amplifier; one that stopped
+// answering held the daemon's exit that long after SIGTERM. The amplifier
+// here drops every request from the latch on; the clear is under way when
+// SIGTERM comes. The design bound is 1 s; 3 s is asserted on this shared
+// machine, and the figure printed.
+TEST(ModbusSigterm, ASigtermDuringAFaultClearOnASilentAmplifierEndsTheDaemon) {
+  AmplifierProcess amplifier(Transport::tcp, swing_hand);
+  TempDir dir;
+  Daemon d(dir, modbus_device(amplifier, Transport::tcp) + "connect_timeout = \"20s\"\n" +
+                    loop(Transport::tcp, "clock = \"real\"\noverrun_limit = 0") + scene);
+  ASSERT_TRUE(d.running()) << d.log();
+  std::this_thread::sleep_for(300ms);
+  ASSERT_EQ(amplifier.command("timeout 1000000"), "ok");
+  ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "fault"; })) << d.log();
+  CommandResult clear;
+  std::thread clearing([&] { clear = d.ctl({"fault", "clear"}); });
+  std::this_thread::sleep_for(500ms);  // the clear waits (20 s) for the silent amplifier
+  const auto sent = std::chrono::steady_clock::now();
+  const int status = d.stop();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - sent).count();
+  clearing.join();
+  EXPECT_EQ(status, 0) << d.log();
+  std::printf(
+      "modbus tcp, fault clear waiting on a silent amplifier (connect_timeout 20 s): SIGTERM to exit "
+      "%.3f s\n",
+      seconds);
+  EXPECT_LT(seconds, 3.0) << "the design bound is 1 s: " << d.log();
+  EXPECT_NE(clear.exit_code, 0) << "the clear cannot have succeeded: " << clear.out;
+  // Nothing reached the silent amplifier: its own watchdog (200 ms) takes the power stage off.
+  EXPECT_TRUE(within(2000ms, [&] { return !amplifier.state()["enabled"].get<bool>(); }))
+      << amplifier.state().dump();
 }
 
 std::string transport_name(const ::testing::TestParamInfo<Transport>& p) {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <thread>
 
+#include "drivers/stop_request.hpp"
 #include "drivers/usb_hid/board_link.hpp"
 #include "emulated_board_fixture.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -236,6 +237,37 @@ TEST_F(EmulatedBoardTest, DeadManLeftByAPreviousHostIsResetAtEnable) {
   EXPECT_EQ(second.read(r), IoResult::ok);
   EXPECT_EQ(second.write(0.2), IoResult::ok);
   EXPECT_TRUE(board->snapshot().output_on);
+}
+
+// Issue 17 item 9: enable's reset handshake with a tripped board runs up to
+// 4 x timeout_periods periods (seconds with a long timeout); it gives way to
+// the daemon's stop and leaves the output off.
+TEST_F(EmulatedBoardTest, TheResetHandshakeAtEnableGivesWayToAStop) {
+  {
+    BoardLink first(sim_config());
+    first.configure(1e-3);
+    first.enable();
+    Reading r;
+    first.read(r);
+    first.write(0.2);
+    board->advance_time_us(10'000);  // the host went quiet with the output on: the dead-man trips
+    first.write(0.2);
+    ASSERT_EQ(first.read(r), IoResult::fault);
+  }
+  StopRequest stop;
+  BoardLink second(sim_config());
+  second.set_stop(stop.token());
+  second.configure(1e-3);
+  stop.request("the test");
+  try {
+    second.enable();
+    FAIL() << "enabled";
+  } catch (const StopRequested& e) {
+    EXPECT_STREQ(e.what(),
+                 "usb-hid: resetting the board's fault before enabling: abandoned, hapticd is stopping");
+  }
+  EXPECT_FALSE(second.status().enabled);
+  EXPECT_FALSE(board->snapshot().output_on);
 }
 
 TEST_F(EmulatedBoardTest, HostThatGoesQuietIsStoppedByTheBoardsDeadMan) {
