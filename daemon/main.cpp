@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "daemon/config/config.hpp"
+#include "daemon/planner.hpp"
 #include "daemon/service.hpp"
 #include "daemon/version.hpp"
 #include "drivers/registry.hpp"
@@ -40,7 +41,15 @@ void list_drivers(const std::string& format) {
   }
 }
 
-void list_scenes() {
+/// --json: scene.list's result, its units for a device of `motion`, and
+/// "current" null (no daemon runs a scene here).
+void list_scenes(bool as_json, const std::string& motion) {
+  if (as_json) {
+    const auto m = motion == "rotary" ? hapticd::world::Motion::rotary : hapticd::world::Motion::linear;
+    const nlohmann::json list{{"scenes", hapticd::daemon::scene_catalog_json(m)}, {"current", nullptr}};
+    std::cout << list.dump(2) << "\n";
+    return;
+  }
   for (const auto& s : hapticd::world::scene_catalog()) {
     std::cout << s.name << ": " << s.summary << " [" << s.reference << "]\n";
     for (const auto& p : s.parameters) {
@@ -76,9 +85,12 @@ int main(int argc, char** argv) {
   app.add_flag("--list-drivers", show_drivers, "list drivers and their parameters (ready or planned)");
   app.add_option("--format", drivers_format, "--list-drivers output: text, json or markdown")
       ->check(CLI::IsMember({"text", "json", "markdown"}));
-  bool drivers_json = false;
-  app.add_flag("--json", drivers_json, "--list-drivers as JSON (same as --format json)");
+  bool as_json = false;
+  app.add_flag("--json", as_json, "--list-drivers (same as --format json) or --list-scenes as JSON");
   app.add_flag("--list-scenes", show_scenes, "list scenes and their parameters");
+  std::string scenes_motion = "linear";
+  app.add_option("--motion", scenes_motion, "--list-scenes --json: the units for a linear or rotary device")
+      ->check(CLI::IsMember({"linear", "rotary"}));
   app.add_flag("--version", show_version, "print the version");
   try {
     app.parse(argc, argv);
@@ -92,11 +104,11 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (show_drivers) {
-    list_drivers(drivers_json ? "json" : drivers_format);
+    list_drivers(as_json ? "json" : drivers_format);
     return 0;
   }
   if (show_scenes) {
-    list_scenes();
+    list_scenes(as_json, scenes_motion);
     return 0;
   }
 

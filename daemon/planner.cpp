@@ -1,8 +1,10 @@
 #include "daemon/planner.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <stdexcept>
+#include <variant>
 
 namespace hapticd::daemon {
 
@@ -120,6 +122,34 @@ nlohmann::json parameter_units(std::string_view scene, world::Motion motion) {
     for (const auto& p : description->parameters) out[p.name] = unit_on(p, motion);
   }
   return out;
+}
+
+nlohmann::json scene_catalog_json(world::Motion motion) {
+  nlohmann::json scenes = nlohmann::json::array();
+  for (const auto& d : world::scene_catalog()) {
+    nlohmann::json params = nlohmann::json::array();
+    for (const auto& p : d.parameters) {
+      nlohmann::json entry{{"name", p.name},
+                           {"type", world::to_string(p.type)},
+                           {"unit", unit_on(p, motion)},
+                           {"help", p.help}};
+      std::visit([&](const auto& v) { entry["default"] = v; }, p.default_value);
+      if (const auto* number = std::get_if<double>(&p.default_value);
+          number != nullptr && p.type == world::ParameterType::integer) {
+        entry["default"] = static_cast<std::int64_t>(std::llround(*number));
+      }
+      if (!p.accepted.empty()) entry["accepted"] = p.accepted;
+      if (p.minimum) {
+        entry["minimum"] = *p.minimum;
+        if (p.minimum_exclusive) entry["minimum_exclusive"] = true;
+      }
+      if (p.maximum) entry["maximum"] = *p.maximum;
+      params.push_back(entry);
+    }
+    scenes.push_back(
+        {{"name", d.name}, {"reference", d.reference}, {"summary", d.summary}, {"parameters", params}});
+  }
+  return scenes;
 }
 
 world::ParameterSet parameters_from_json(const nlohmann::json& object) {

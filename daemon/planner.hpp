@@ -85,6 +85,10 @@ nlohmann::json to_json(const world::ParameterSet& parameters, std::string_view s
 const std::string& unit_on(const world::ParameterDescription& parameter, world::Motion motion);
 /// {name: unit} for every parameter of `scene` ({} if unknown).
 nlohmann::json parameter_units(std::string_view scene, world::Motion motion);
+/// The scene catalog as scene.list's "scenes": every scene with its
+/// parameters, their units on a device of this motion, defaults and ranges
+/// (docs/protocol.md, "scene.list"; also `hapticd --list-scenes --json`).
+nlohmann::json scene_catalog_json(world::Motion motion);
 /// JSON object -> parameters (numbers, booleans, strings); throws std::invalid_argument otherwise.
 world::ParameterSet parameters_from_json(const nlohmann::json& object);
 std::string to_text(const world::ParameterValue& value);

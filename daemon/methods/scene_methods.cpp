@@ -17,30 +17,7 @@ void Service::register_scene_methods(control::ControlServer& server) {
   server.register_method(
       "scene.list",
       [this](const json&, const PeerInfo&) {
-        json scenes = json::array();
-        for (const auto& d : world::scene_catalog()) {
-          json params = json::array();
-          for (const auto& p : d.parameters) {
-            json entry{{"name", p.name},
-                       {"type", world::to_string(p.type)},
-                       {"unit", unit_on(p, model_.motion())},
-                       {"help", p.help}};
-            std::visit([&](const auto& v) { entry["default"] = v; }, p.default_value);
-            if (const auto* number = std::get_if<double>(&p.default_value);
-                number != nullptr && p.type == world::ParameterType::integer) {
-              entry["default"] = static_cast<std::int64_t>(std::llround(*number));
-            }
-            if (!p.accepted.empty()) entry["accepted"] = p.accepted;
-            if (p.minimum) {
-              entry["minimum"] = *p.minimum;
-              if (p.minimum_exclusive) entry["minimum_exclusive"] = true;
-            }
-            if (p.maximum) entry["maximum"] = *p.maximum;
-            params.push_back(entry);
-          }
-          scenes.push_back(
-              {{"name", d.name}, {"reference", d.reference}, {"summary", d.summary}, {"parameters", params}});
-        }
+        json scenes = scene_catalog_json(model_.motion());
         std::lock_guard lock(scene_mutex_);
         return json{{"scenes", scenes}, {"current", scene_.name}};
       },
