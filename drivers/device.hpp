@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "rpc/params.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::drivers {
@@ -105,6 +106,9 @@ struct DeviceMethod {
   bool needs_write = true;  ///< only writers may call it (else any reader)
   std::string summary;
   std::function<nlohmann::json(const nlohmann::json& params)> handler;
+  /// The params members it takes, each with its type: the daemon refuses
+  /// any other member, or a wrong type, before the handler runs.
+  rpc::ParamMembers members{};
 };
 
 class Device {
