@@ -30,6 +30,31 @@ std::string radius(double v) {
   return b;
 }
 
+/// 3 significant digits in s, ms or us.
+std::string duration(double seconds) {
+  char b[48];
+  if (seconds >= 1.0) {
+    std::snprintf(b, sizeof b, "%.3g s", seconds);
+  } else if (seconds >= 1e-3) {
+    std::snprintf(b, sizeof b, "%.3g ms", seconds * 1e3);
+  } else {
+    std::snprintf(b, sizeof b, "%.3g us", seconds * 1e6);
+  }
+  return b;
+}
+
+/// How fast the worst mode grows, for a person: the time it takes to double,
+/// and the factor per second while that is a readable number (at most 1e6),
+/// else per period; never a factor near overflow (2.1e+303 per second is a
+/// mode that doubles about every period).
+std::string growth_text(const SceneStability& v, double worst, double period_s) {
+  if (!(v.doubling_time_s < std::numeric_limits<double>::infinity()))
+    return "the amplitude does not decay (pole radius " + radius(worst) + ")";
+  std::string text = "the amplitude doubles every " + duration(v.doubling_time_s);
+  if (v.growth_per_second <= 1e6) return text + " (x" + num(v.growth_per_second) + " per second)";
+  return text + " (x" + num(worst) + " per period of " + duration(period_s) + ")";
+}
+
 std::string stiffness_unit(const world::ScenePlan& plan) {
   if (const auto* d = world::find_scene(plan.scene)) {
     for (const auto& p : d->parameters) {
@@ -109,18 +134,23 @@ SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDev
   v.scene_radius = held.radius;
   v.closed_loop_radius = closed.pole_radius;
   if (!verdict.assessed()) {
-    v.growth_per_second = std::numeric_limits<double>::quiet_NaN();
+    v.growth_per_second = v.growth_per_second_log10 = v.doubling_time_s =
+        std::numeric_limits<double>::quiet_NaN();
     v.summary = "stability cannot be assessed on this device (" + device.describe() + "): " + verdict.reason;
     return v;
   }
   const double worst = std::max(v.scene_radius, v.closed_loop_radius);
   v.growth_per_second = std::pow(worst, 1.0 / device.period_s);
+  v.growth_per_second_log10 = std::log10(worst) / device.period_s;
+  // log1p: a radius of 1 + 1e-12 keeps its digits.
+  v.doubling_time_s = worst > 1.0 ? device.period_s * std::log(2.0) / std::log1p(worst - 1.0)
+                                  : std::numeric_limits<double>::infinity();
   if (v.stable) {
     v.summary = "stable on this device: pole radius " + radius(v.closed_loop_radius) + " (released), " +
                 radius(v.scene_radius) + " (held)";
   } else {
-    v.summary = "unstable on this device (" + device.describe() + "): pole radius " + radius(worst) +
-                ", amplitude grows x" + num(v.growth_per_second) + " per second";
+    v.summary = "unstable on this device (" + device.describe() + "): pole radius " + radius(worst) + ", " +
+                growth_text(v, worst, device.period_s);
   }
   return v;
 }

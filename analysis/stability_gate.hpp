@@ -10,6 +10,7 @@
 /// Hulin 2). Unstable sets are refused with the limit that would have held,
 /// unless forced (to show an instability on purpose).
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -49,8 +50,14 @@ struct SceneStability {
   bool stable = true;
   double scene_radius = 0.0;        ///< largest |eigenvalue| of the scene alone (device held)
   double closed_loop_radius = 0.0;  ///< largest |pole| with the device released (worst case, Hulin 2)
-  double growth_per_second = 1.0;   ///< amplitude factor per second of the worst mode
-  std::string summary;              ///< one sentence
+  double growth_per_second = 1.0;   ///< amplitude factor per second of the worst mode (may be inf)
+  /// log10(worst radius) / T: finite even when the factor overflows (as
+  /// `analyze integrator`'s); -inf for a zero radius, NaN when not assessed.
+  double growth_per_second_log10 = 0.0;
+  /// T ln 2 / ln(worst radius): the time the worst mode takes to double its
+  /// amplitude; +inf when it does not grow, NaN when not assessed.
+  double doubling_time_s = std::numeric_limits<double>::infinity();
+  std::string summary;  ///< one sentence
 };
 
 /// Stability of an already validated plan on the device.

@@ -1,5 +1,6 @@
 #include "client/client.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <system_error>
@@ -8,6 +9,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -35,6 +37,34 @@ std::string errno_text(int e) { return std::generic_category().message(e); }
                             : std::string(rpc::code_name(c));
   throw RpcError(c, std::move(message), err.contains("data") ? err["data"] : nlohmann::json());
 }
+
+/// connect() within `timeout`: 0 or the errno. Blocking, with the timeout
+/// as SO_SNDTIMEO: while the daemon's listen backlog is full (a connect
+/// flood) the kernel queues a blocking connect() until there is room or the
+/// timeout; a non-blocking one fails with EAGAIN and is not queued (poll()
+/// would then report the unconnected socket writable, and the first send()
+/// fail with ENOTCONN). Then the socket is made non-blocking.
+int connect_within(int fd, const sockaddr_un& addr, std::chrono::milliseconds timeout) {
+  // At least 1 us: an SO_SNDTIMEO of 0 waits forever.
+  const auto us =
+      std::max<long long>(1, std::chrono::duration_cast<std::chrono::microseconds>(timeout).count());
+  timeval wait{static_cast<time_t>(us / 1'000'000), static_cast<suseconds_t>(us % 1'000'000)};
+  if (::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &wait, sizeof(wait)) != 0) return errno;
+  int e = 0;
+  while (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
+    e = errno;
+    if (e != EINTR) break;
+    e = 0;
+  }
+  if (e == EAGAIN || e == EINPROGRESS) return ETIMEDOUT;  // no room in the backlog within the timeout
+  if (e != 0) return e;
+  const timeval none{};
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &none, sizeof(none)) != 0 || flags < 0 ||
+      ::fcntl(fd, F_SETFL, flags | O_NONBLOCK) != 0)
+    return errno;
+  return 0;
+}
 }  // namespace
 
 Client Client::connect(const std::string& path, std::chrono::milliseconds timeout) {
@@ -46,28 +76,22 @@ Client Client::connect(const std::string& path, std::chrono::milliseconds timeou
                        path, ENAMETOOLONG);
   }
   std::memcpy(addr.sun_path, path.data(), path.size());
-  int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) {
     int e = errno;
     throw ConnectError("socket: " + errno_text(e), path, e);
   }
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) != 0) {
-    int e = errno;
-    if (e == EINPROGRESS || e == EAGAIN) {
-      // A Unix socket whose backlog is full: wait for it to be accepted.
-      pollfd p{fd, POLLOUT, 0};
-      int n = ::poll(&p, 1, static_cast<int>(timeout.count()));
-      socklen_t len = sizeof(e);
-      if (n == 1 && ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &e, &len) == 0 && e == 0) {
-        return Client(fd, path, timeout);
-      }
-      if (n == 0) e = ETIMEDOUT;
-    }
+  if (const int e = connect_within(fd, addr, timeout); e != 0) {
     ::close(fd);
     if (e == EACCES || e == EPERM) {
       throw ConnectError("not allowed to connect to hapticd at " + path + " (connect: " + errno_text(e) +
                              "); ask to be added to the daemon's group",
                          path, e);
+    }
+    if (e == ETIMEDOUT) {
+      throw ConnectError(
+          "hapticd at " + path + " did not accept the connection in time (its listen backlog is full)", path,
+          e);
     }
     throw ConnectError("hapticd is not running at " + path + " (connect: " + errno_text(e) + ")", path, e);
   }

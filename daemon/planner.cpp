@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <stdexcept>
 #include <variant>
 
@@ -74,13 +75,20 @@ std::string refusal_text(const PlanRefusal& refusal, std::string_view how) {
 nlohmann::json to_json(const StabilityVerdict& v) {
   // NaN (not assessed) and inf (growth that overflows) as null, explicitly.
   const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  // A factor above this is null: 2e+303 is no number to compute with (one
+  // more multiplication overflows); growth_per_second_log10 and
+  // doubling_time_s say it, finite.
+  constexpr double max_growth_per_second = 1e15;
+  const double growth = v.growth_per_second <= max_growth_per_second ? v.growth_per_second : NAN;
   return {{"checked", v.checked},
           {"verdict", v.checked ? nlohmann::json(analysis::to_string(v.verdict)) : nlohmann::json(nullptr)},
           {"reason", v.reason.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.reason)},
           {"stable", v.stable},
           {"scene_radius", number(v.scene_radius)},
           {"closed_loop_radius", number(v.closed_loop_radius)},
-          {"growth_per_second", number(v.growth_per_second)},
+          {"growth_per_second", number(growth)},
+          {"growth_per_second_log10", number(v.growth_per_second_log10)},
+          {"doubling_time_s", number(v.doubling_time_s)},
           {"summary", v.summary}};
 }
 

@@ -23,6 +23,7 @@
 
 #include "drivers/stop_request.hpp"
 #include "world/parameter.hpp"
+#include "rpc/params.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::drivers {
@@ -110,6 +111,9 @@ struct DeviceMethod {
   bool needs_write = true;  ///< only writers may call it (else any reader)
   std::string summary;
   std::function<nlohmann::json(const nlohmann::json& params)> handler;
+  /// The params members it takes, each with its type: the daemon refuses
+  /// any other member, or a wrong type, before the handler runs.
+  rpc::ParamMembers members{};
 };
 
 class Device {

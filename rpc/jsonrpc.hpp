@@ -6,9 +6,12 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <unordered_set>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -138,6 +141,37 @@ constexpr bool nests_deeper_than(std::string_view text, std::size_t limit) noexc
     }
   }
   return false;
+}
+
+/// A message parsed, and the first member name found twice in one object
+/// (at any depth), if any. nlohmann::json keeps the last of duplicates
+/// silently, so {"method":"status","method":"estop"} would run estop: the
+/// parser's callback sees every key before that happens.
+struct ParsedMessage {
+  nlohmann::json value;
+  std::optional<std::string> duplicate;
+};
+
+/// Parses `text` (throws nlohmann::json::exception when it is not JSON),
+/// noting duplicate members. Call after nests_deeper_than(): one set of
+/// names per open object.
+inline ParsedMessage parse_message(std::string_view text) {
+  ParsedMessage out;
+  std::vector<std::unordered_set<std::string>> open_objects;
+  auto note = [&](int /*depth*/, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    using event_t = nlohmann::json::parse_event_t;
+    if (event == event_t::object_start) {
+      open_objects.emplace_back();
+    } else if (event == event_t::object_end && !open_objects.empty()) {
+      open_objects.pop_back();
+    } else if (event == event_t::key && !open_objects.empty()) {
+      std::string key = parsed.get<std::string>();
+      if (!open_objects.back().insert(key).second && !out.duplicate) out.duplicate = std::move(key);
+    }
+    return true;
+  };
+  out.value = nlohmann::json::parse(text, note);
+  return out;
 }
 
 /// The notification method name of stream telemetry.

@@ -239,8 +239,8 @@ void print_scene_result(const json& result) {
   }
   if (!result.value("forced", false)) return;
   std::cerr << "hapticctl: warning: this parameter set is UNSTABLE (loaded with --force)";
-  if (verdict.contains("growth_per_second") && verdict["growth_per_second"].is_number()) {
-    std::cerr << "; amplitude grows x" << scalar(verdict["growth_per_second"]) << " per second";
+  if (verdict.contains("doubling_time_s") && verdict["doubling_time_s"].is_number()) {
+    std::cerr << "; the amplitude doubles every " << scalar(verdict["doubling_time_s"]) << " s";
   }
   std::cerr << "; the torque limit still holds\n";
 }

@@ -65,7 +65,11 @@ class Connection {
   Clock::time_point last_activity = Clock::now();
   std::uint32_t events = 0;  ///< current epoll interest
   bool closing = false;      ///< close once the queue is sent
-  bool dead = false;         ///< closed at the end of this epoll batch
+  /// Accepted over max_clients: only its first request is read, and only an
+  /// estop or status is served (ServerOptions::over_limit_methods), until deadline.
+  bool over_limit = false;
+  Clock::time_point deadline{};
+  bool dead = false;  ///< closed at the end of this epoll batch
 
  private:
   int fd_;

@@ -9,11 +9,13 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "daemon/control/peer_credentials.hpp"
 #include "daemon/control/server.hpp"
+#include "rpc/params.hpp"
 
 namespace hapticd::daemon::control {
 
@@ -22,8 +24,12 @@ std::string_view trim_request_line(std::string_view line);
 
 class Dispatcher {
  public:
-  /// Adds a method. Throws std::logic_error on a duplicate name or a null handler.
-  void add(const std::string& name, Handler handler, Access access);
+  /// Adds a method taking `members`: rpc::check_params runs before the
+  /// handler, or, for a method that `acts_whatever_params` (estop: a stop is
+  /// never refused for its form), after it, the refusal then saying it took
+  /// effect. Throws std::logic_error on a duplicate name or a null handler.
+  void add(const std::string& name, Handler handler, Access access, rpc::ParamMembers members = {},
+           bool acts_whatever_params = false);
 
   /// Methods the server answers itself (stream, stream.stop): the result, or
   /// nullopt when `method` is not one of them. May throw like a Handler.
@@ -40,10 +46,15 @@ class Dispatcher {
   std::optional<Reply> handle(std::string_view line, const PeerInfo& peer, const WriteAccess& access,
                               const BuiltIn& built_in) const;
 
+  /// The registered methods' names, sorted (not the built-in ones).
+  std::vector<std::string> names() const;
+
  private:
   struct Method {
     Handler handler;
     Access access;
+    rpc::ParamMembers members;
+    bool acts_whatever_params = false;
   };
   nlohmann::json call(const std::string& name, const nlohmann::json& params, const PeerInfo& peer,
                       const WriteAccess& access, const BuiltIn& built_in) const;

@@ -52,6 +52,7 @@ json to_json(const ServerStats& s) {
           {"idle_disconnects", s.idle_disconnects},
           {"slow_disconnects", s.slow_disconnects},
           {"evictions", s.evictions},
+          {"over_limit_served", s.over_limit_served},
           {"notifications_sent", s.notifications_sent},
           {"notifications_dropped", s.notifications_dropped},
           {"clients", s.clients},
@@ -64,6 +65,9 @@ struct ControlServer::Impl {
   Dispatcher dispatcher;
   /// `"name"` of each Precedence::first method, as it appears in a request line.
   std::vector<std::string> first_method_needles;
+  /// What a connection over max_clients may call: the Precedence::first
+  /// methods and ServerOptions::over_limit_methods.
+  std::vector<std::string> over_limit_names;
   StreamSource source;
   std::optional<WriteAccess> access;  // from start()
 
@@ -104,12 +108,15 @@ struct ControlServer::Impl {
   void accept_clients();
   std::size_t live_clients() const;
   bool evict_for_writer();
-  void refuse_busy(int fd, std::size_t live);
+  std::size_t line_limit(const Connection& c) const;
+  bool admitted_over_limit(const std::string& method) const;
+  void make_room_over_limit();
+  void refuse_over_limit(Connection& c, const json& id, const std::string& why);
   void on_socket_event(Connection& c, std::uint32_t ev);
   void on_timer(Connection& c);
   void count_dropped(Connection& c, std::uint64_t samples);
   void read_input(Connection& c);
-  void handle_line(Connection& c, std::string_view line);
+  bool handle_line(Connection& c, std::string_view line);
   std::optional<json> built_in(Connection& c, const std::string& name, const json& params);
   json stream_start(Connection& c, const json& params);
   json stream_stop(Connection& c);
@@ -156,14 +163,21 @@ void ControlServer::Impl::close_all() {
 
 // ---- the loop -----------------------------------------------------------------
 
+// When the next connection falls idle, or an over-limit one's wait ends.
 int ControlServer::Impl::idle_wait_ms() const {
-  auto now = Clock::now();
+  const auto now = Clock::now();
+  const bool idles = opts.idle_timeout > Clock::duration::zero();  // 0: never idle
   std::optional<Clock::duration> soonest;
-  if (opts.idle_timeout <= Clock::duration::zero()) return -1;  // 0: never idle
   for (const auto& [fd, c] : conns) {
-    if (c->dead || c->stream.active()) continue;
-    auto left = c->last_activity + opts.idle_timeout - now;
-    if (!soonest || left < *soonest) soonest = left;
+    if (c->dead) continue;
+    std::optional<Clock::time_point> due;
+    if (c->over_limit) {
+      due = c->deadline;
+    } else if (idles && !c->stream.active()) {
+      due = c->last_activity + opts.idle_timeout;
+    }
+    if (!due) continue;
+    if (const auto left = *due - now; !soonest || left < *soonest) soonest = left;
   }
   if (!soonest) return -1;
   auto ms = std::chrono::ceil<std::chrono::milliseconds>(*soonest).count();
@@ -171,10 +185,21 @@ int ControlServer::Impl::idle_wait_ms() const {
 }
 
 void ControlServer::Impl::check_idle() {
-  if (opts.idle_timeout <= Clock::duration::zero()) return;  // 0: never idle
-  auto now = Clock::now();
+  const auto now = Clock::now();
+  const bool idles = opts.idle_timeout > Clock::duration::zero();  // 0: never idle
   for (auto& [fd, c] : conns) {
-    if (c->dead || c->stream.active()) continue;
+    if (c->dead) continue;
+    if (c->over_limit) {
+      if (now < c->deadline) continue;
+      if (!c->closing) {
+        refuse_over_limit(
+            *c, nullptr,
+            "no complete request within " + std::to_string(opts.over_limit_wait.count()) + " ms");
+      }
+      kill(*c);  // its wait is over, answered or not
+      continue;
+    }
+    if (!idles || c->stream.active()) continue;
     if (now - c->last_activity >= opts.idle_timeout) {
       count([](ServerStats& s) { ++s.idle_disconnects; });
       kill(*c);
@@ -223,8 +248,7 @@ void ControlServer::Impl::run() {
 }
 
 bool ControlServer::Impl::servable(Connection& c) const {
-  return !c.dead && !c.closing && c.pending() < opts.max_output_bytes &&
-         c.has_request(opts.max_message_bytes);
+  return !c.dead && !c.closing && c.pending() < opts.max_output_bytes && c.has_request(line_limit(c));
 }
 
 bool ControlServer::Impl::any_servable() const {
@@ -273,8 +297,13 @@ bool ControlServer::Impl::calls_first_method(std::string_view line) const {
 }
 
 void ControlServer::Impl::serve_one(Connection& c) {
-  const auto line = c.next_line(opts.max_message_bytes);
+  const auto line = c.next_line(line_limit(c));
   if (line.kind == Connection::Line::Kind::incomplete) return;
+  if (line.kind == Connection::Line::Kind::too_large && c.over_limit) {
+    refuse_over_limit(c, nullptr,
+                      "its first request is longer than " + std::to_string(opts.over_limit_bytes) + " bytes");
+    return;
+  }
   if (line.kind == Connection::Line::Kind::too_large) {
     send_error(c, nullptr,
                RpcError(rpc::code::message_too_large,
@@ -286,7 +315,12 @@ void ControlServer::Impl::serve_one(Connection& c) {
     update_events(c);
     return;
   }
-  handle_line(c, line.text);
+  if (handle_line(c, line.text) && c.over_limit) {
+    // Over the limit: one request, then the connection closes.
+    c.closing = true;
+    c.discard_input();
+    update_events(c);
+  }
 }
 
 void ControlServer::Impl::reap_dead() {
@@ -300,7 +334,7 @@ void ControlServer::Impl::reap_dead() {
     }
   }
   std::size_t subscribers = timers.size();
-  std::size_t clients = conns.size();
+  std::size_t clients = live_clients();
   count([&](ServerStats& s) {
     s.clients = clients;
     s.subscribers = subscribers;
@@ -309,30 +343,81 @@ void ControlServer::Impl::reap_dead() {
 
 // ---- connections ----------------------------------------------------------------
 
+// A bounded number per turn: the rest stay in the listen backlog (epoll
+// reports it again), so a connect flood cannot keep the loop from serving.
 void ControlServer::Impl::accept_clients() {
-  for (int fd = listener.accept_one(); fd >= 0; fd = listener.accept_one()) {
+  for (std::size_t n = 0; n < opts.accepts_per_turn; ++n) {
+    const int fd = listener.accept_one();
+    if (fd < 0) return;
     count([](ServerStats& s) { ++s.connections; });
     PeerInfo peer = read_peer_credentials(fd);
     peer.can_write = access->permits(peer);
-    if (const std::size_t live = live_clients();
-        live >= opts.max_clients && !(peer.can_write && evict_for_writer())) {
-      refuse_busy(fd, live);
-      continue;
-    }
+    const bool over = live_clients() >= opts.max_clients && !(peer.can_write && evict_for_writer());
+    if (over) make_room_over_limit();
     peer.client_id = next_client_id++;
-    auto c = std::make_unique<Connection>(fd, peer);
+    auto owned = std::make_unique<Connection>(fd, peer);
     epoll_event ev{};
     ev.events = EPOLLIN;
     ev.data.fd = fd;
     if (::epoll_ctl(epoll_fd, EPOLL_CTL_ADD, fd, &ev) != 0) continue;  // ~Connection closes fd
-    c->events = EPOLLIN;
-    conns.emplace(fd, std::move(c));
+    Connection& c = *owned;
+    c.events = EPOLLIN;
+    conns.emplace(fd, std::move(owned));
+    if (over) {
+      c.over_limit = true;
+      c.deadline = Clock::now() + opts.over_limit_wait;
+      read_input(c);  // a request sent with the connect is there already: served this turn
+    }
   }
 }
 
 std::size_t ControlServer::Impl::live_clients() const {
-  return static_cast<std::size_t>(
-      std::count_if(conns.begin(), conns.end(), [](const auto& entry) { return !entry.second->dead; }));
+  return static_cast<std::size_t>(std::count_if(conns.begin(), conns.end(), [](const auto& entry) {
+    return !entry.second->dead && !entry.second->over_limit;
+  }));
+}
+
+std::size_t ControlServer::Impl::line_limit(const Connection& c) const {
+  return c.over_limit ? opts.over_limit_bytes : opts.max_message_bytes;
+}
+
+bool ControlServer::Impl::admitted_over_limit(const std::string& method) const {
+  return std::find(over_limit_names.begin(), over_limit_names.end(), method) != over_limit_names.end();
+}
+
+// A connect flood must not take every place over the limit from an estop:
+// the oldest waiting connection gives way, after one last look at its input.
+void ControlServer::Impl::make_room_over_limit() {
+  Connection* oldest = nullptr;
+  std::size_t waiting = 0;
+  for (auto& [fd, c] : conns) {
+    if (c->dead || !c->over_limit || c->closing) continue;
+    ++waiting;
+    if (oldest == nullptr || c->deadline < oldest->deadline) oldest = c.get();
+  }
+  if (oldest == nullptr || waiting < opts.max_over_limit) return;
+  read_input(*oldest);
+  if (servable(*oldest)) for_client(*oldest, [&] { serve_one(*oldest); });
+  if (!oldest->dead && !oldest->closing) {
+    refuse_over_limit(*oldest, nullptr,
+                      "more than " + std::to_string(opts.max_over_limit) +
+                          " connections over the limit waited for their first request; the oldest gives way");
+  }
+}
+
+void ControlServer::Impl::refuse_over_limit(Connection& c, const json& id, const std::string& why) {
+  std::string methods;
+  for (const auto& name : over_limit_names) methods += (methods.empty() ? "" : ", ") + name;
+  send_error(c, id,
+             RpcError(rpc::code::busy,
+                      "too many clients: " + std::to_string(live_clients()) + " connected, the limit is " +
+                          std::to_string(opts.max_clients) + "; over the limit only " + methods +
+                          " are served, as the first request (" + why + ")",
+                      json{{"limit", opts.max_clients}}));
+  count([](ServerStats& s) { ++s.refused_busy; });
+  c.closing = true;
+  c.discard_input();
+  update_events(c);
 }
 
 // Readers filling every slot must not keep a writer (root's estop, the
@@ -342,7 +427,7 @@ bool ControlServer::Impl::evict_for_writer() {
   Connection* victim = nullptr;
   auto rank = [](const Connection& c) { return std::pair(c.stream.active(), c.last_activity); };
   for (auto& [fd, c] : conns) {
-    if (c->dead || c->peer().can_write) continue;
+    if (c->dead || c->over_limit || c->peer().can_write) continue;
     if (victim == nullptr || rank(*c) < rank(*victim)) victim = c.get();
   }
   if (victim == nullptr) return false;
@@ -355,21 +440,6 @@ bool ControlServer::Impl::evict_for_writer() {
   kill(*victim);
   count([](ServerStats& s) { ++s.evictions; });
   return true;
-}
-
-void ControlServer::Impl::refuse_busy(int fd, std::size_t live) {
-  RpcError busy(rpc::code::busy,
-                "too many clients: " + std::to_string(live) + " connected, the limit is " +
-                    std::to_string(opts.max_clients),
-                json{{"limit", opts.max_clients}});
-  std::string line = rpc::to_line(rpc::make_error(nullptr, busy));
-  // Best effort: a fresh socket's buffer takes a short line.
-  [[maybe_unused]] ssize_t sent = ::send(fd, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-  ::close(fd);
-  count([](ServerStats& s) {
-    ++s.refused_busy;
-    ++s.errors;
-  });
 }
 
 void ControlServer::Impl::on_socket_event(Connection& c, std::uint32_t ev) {
@@ -387,7 +457,7 @@ void ControlServer::Impl::on_socket_event(Connection& c, std::uint32_t ev) {
 void ControlServer::Impl::read_input(Connection& c) {
   // Reads only while no request is waiting: the next ones stay in the
   // kernel until serve_turn() has handled the queued ones.
-  for (int round = 0; round < 8 && !c.dead && !c.closing && !c.has_request(opts.max_message_bytes); ++round) {
+  for (int round = 0; round < 8 && !c.dead && !c.closing && !c.has_request(line_limit(c)); ++round) {
     const auto received = c.receive();
     if (received == Connection::Received::data) {
       c.last_activity = Clock::now();
@@ -396,7 +466,7 @@ void ControlServer::Impl::read_input(Connection& c) {
     if (received == Connection::Received::end_of_input) {
       // End of input: a last line without '\n' still counts, then close once answered.
       std::string last = c.take_unterminated();
-      if (!last.empty() && last.size() <= opts.max_message_bytes) handle_line(c, last);
+      if (!last.empty() && last.size() <= line_limit(c)) handle_line(c, last);
       c.closing = true;
       break;
     }
@@ -406,16 +476,32 @@ void ControlServer::Impl::read_input(Connection& c) {
   if (!c.dead) update_events(c);
 }
 
-void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
+// False for a blank line (nothing handled). Over the limit, a method not
+// admitted there is answered -32002 (also when sent as a notification:
+// the connection closes, and the client is told why).
+bool ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
   line = trim_request_line(line);
-  if (line.empty()) return;
+  if (line.empty()) return false;
   count([](ServerStats& s) { ++s.requests; });
-  auto reply = dispatcher.handle(
-      line, c.peer(), *access,
-      [this, &c](const std::string& name, const json& params) { return built_in(c, name, params); });
-  if (!reply) return;
+  std::optional<std::string> refused;  // the method, when not admitted over the limit
+  auto reply = dispatcher.handle(line, c.peer(), *access,
+                                 [this, &c, &refused](const std::string& name, const json& params) {
+                                   if (c.over_limit && !admitted_over_limit(name)) {
+                                     refused = name;
+                                     throw RpcError(rpc::code::busy, "over the limit");  // replaced below
+                                   }
+                                   return built_in(c, name, params);
+                                 });
+  if (refused) {
+    refuse_over_limit(c, reply ? reply->message["id"] : json(nullptr),
+                      "'" + *refused + "' is not one of them");
+    return true;
+  }
+  if (c.over_limit && (!reply || !reply->is_error)) count([](ServerStats& s) { ++s.over_limit_served; });
+  if (!reply) return true;
   if (reply->is_error) count([](ServerStats& s) { ++s.errors; });
   enqueue(c, reply->message);
+  return true;
 }
 
 // ---- streams ----------------------------------------------------------------------
@@ -423,11 +509,16 @@ void ControlServer::Impl::handle_line(Connection& c, std::string_view line) {
 std::optional<json> ControlServer::Impl::built_in(Connection& c, const std::string& name,
                                                   const json& params) {
   if (source && name == "stream") return stream_start(c, params);
-  if (source && name == "stream.stop") return stream_stop(c);
+  if (source && name == "stream.stop") {
+    rpc::check_params("stream.stop", params, {});
+    return stream_stop(c);
+  }
   return std::nullopt;
 }
 
 json ControlServer::Impl::stream_start(Connection& c, const json& params) {
+  // Their types are checked below, with stream's own words.
+  rpc::check_params("stream", params, {{"rate_hz", rpc::ParamType::any}, {"channels", rpc::ParamType::any}});
   auto rate = params.find("rate_hz");
   if (rate == params.end() || !rate->is_number()) {
     throw RpcError(rpc::code::invalid_params, "stream needs \"rate_hz\" (a number of samples per second)");
@@ -550,8 +641,7 @@ void ControlServer::Impl::update_events(Connection& c) {
   }
   // Not reading while a request waits (serve_turn() takes it) or while the
   // output queue is above the limit (the client does not read its replies).
-  const bool reading =
-      !c.closing && c.pending() < opts.max_output_bytes && !c.has_request(opts.max_message_bytes);
+  const bool reading = !c.closing && c.pending() < opts.max_output_bytes && !c.has_request(line_limit(c));
   std::uint32_t want = (reading ? static_cast<std::uint32_t>(EPOLLIN) : 0u) |
                        (c.pending() > 0 ? static_cast<std::uint32_t>(EPOLLOUT) : 0u);
   if (want == c.events) return;
@@ -578,9 +668,12 @@ ControlServer::ControlServer(ServerOptions options) : impl_(std::make_unique<Imp
   impl_->opts = std::move(options);
   impl_->path = client::resolve_socket_path(impl_->opts.socket_path);
   const auto& o = impl_->opts;
-  if (o.max_message_bytes == 0 || o.max_clients == 0 || o.max_output_bytes == 0 || o.requests_per_turn == 0) {
+  if (o.max_message_bytes == 0 || o.max_clients == 0 || o.max_output_bytes == 0 || o.requests_per_turn == 0 ||
+      o.over_limit_bytes == 0 || o.max_over_limit == 0 || o.accepts_per_turn == 0 ||
+      o.over_limit_wait <= std::chrono::milliseconds::zero()) {
     throw ServerError("control server limits must be positive");
   }
+  impl_->over_limit_names = o.over_limit_methods;
   // What StreamSubscription can turn into a timer period.
   if (!(o.min_stream_rate_hz >= 1e-3 && o.min_stream_rate_hz <= o.max_stream_rate_hz &&
         o.max_stream_rate_hz <= 1e6)) {
@@ -590,13 +683,19 @@ ControlServer::ControlServer(ServerOptions options) : impl_(std::make_unique<Imp
 
 ControlServer::~ControlServer() { stop(); }
 
-void ControlServer::register_method(const std::string& name, Handler handler, Access access,
-                                    Precedence precedence) {
+void ControlServer::register_method(const std::string& name, rpc::ParamMembers members, Handler handler,
+                                    Access access, Precedence precedence) {
   if (impl_->started) throw std::logic_error("register_method('" + name + "') after start()");
   if (name == "stream" || name == "stream.stop") throw std::logic_error("'" + name + "' is built in");
-  impl_->dispatcher.add(name, std::move(handler), access);
-  if (precedence == Precedence::first) impl_->first_method_needles.push_back(json(name).dump());
+  const bool first = precedence == Precedence::first;
+  impl_->dispatcher.add(name, std::move(handler), access, std::move(members), first);
+  if (first) {
+    impl_->first_method_needles.push_back(json(name).dump());
+    impl_->over_limit_names.insert(impl_->over_limit_names.begin(), name);
+  }
 }
+
+std::vector<std::string> ControlServer::method_names() const { return impl_->dispatcher.names(); }
 
 void ControlServer::set_stream_source(StreamSource source) {
   if (impl_->started) throw std::logic_error("set_stream_source() after start()");

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rpc/jsonrpc.hpp"
+#include "rpc/params.hpp"
 
 namespace hapticd::daemon::control {
 
@@ -40,11 +41,27 @@ struct ServerOptions {
   std::string group;
   /// A request line longer than this gets -32003 and the connection closes.
   std::size_t max_message_bytes = 64 * 1024;
-  /// Further connections get one -32002 error line and are closed, except a
-  /// peer with write access: it takes the slot of the read-only connection
-  /// idle the longest (which gets a -32002 line), so readers cannot lock the
-  /// writers (and their fault.clear) out.
+  /// Connections holding a slot. A further one from a peer with write access
+  /// takes the slot of the read-only connection idle the longest (which gets
+  /// a -32002 line), so readers cannot lock the writers (and their
+  /// fault.clear) out. Any other is "over the limit" (below).
   std::size_t max_clients = 16;
+  /// A connection over the limit is served its first request only if that
+  /// calls a Precedence::first method (estop) or one of over_limit_methods,
+  /// then closed; any other request gets -32002. It must send that request
+  /// within over_limit_wait of connecting and in at most over_limit_bytes,
+  /// else it gets -32002 and is closed: a silent one holds nothing for long.
+  std::vector<std::string> over_limit_methods = {"status"};
+  std::chrono::milliseconds over_limit_wait = std::chrono::seconds(1);
+  std::size_t over_limit_bytes = 4096;
+  /// Connections over the limit waiting for their first request at once.
+  /// One more pushes the oldest out, after one last look at its input (a
+  /// client that sends its request with its connect, as hapticctl does, is
+  /// still served).
+  std::size_t max_over_limit = 64;
+  /// Connections accepted per loop turn, so a connect flood cannot hold up
+  /// the requests (an estop) already read.
+  std::size_t accepts_per_turn = 32;
   /// Requests served per client per loop turn; the rest wait for the next
   /// turn, so a client pipelining thousands cannot hold the others up.
   std::size_t requests_per_turn = 8;
@@ -107,9 +124,11 @@ struct ServerStats {
   std::uint64_t idle_disconnects = 0;
   std::uint64_t slow_disconnects = 0;  ///< output queue overflow
   std::uint64_t evictions = 0;         ///< read-only clients closed to let a writer in
+  std::uint64_t over_limit_served =
+      0;  ///< first requests served to connections over max_clients (estop, status)
   std::uint64_t notifications_sent = 0;
   std::uint64_t notifications_dropped = 0;
-  std::size_t clients = 0;      ///< connected now
+  std::size_t clients = 0;      ///< connected now, holding a slot (not over the limit)
   std::size_t subscribers = 0;  ///< with an active stream now
 };
 nlohmann::json to_json(const ServerStats& stats);
@@ -121,11 +140,21 @@ class ControlServer {
   ControlServer(const ControlServer&) = delete;
   ControlServer& operator=(const ControlServer&) = delete;
 
-  /// Adds a method. Call before start(). Names "stream" and "stream.stop"
-  /// are built in (see set_stream_source). Throws std::logic_error on a
-  /// duplicate name or after start().
-  void register_method(const std::string& name, Handler handler, Access access,
+  /// Adds a method whose params may hold `members` (each of its type; any
+  /// other member, or one of the wrong type, is -32602 naming it, before the
+  /// handler runs; a Precedence::first method runs first and is refused
+  /// after, saying it took effect). Call before start(). Names "stream" and
+  /// "stream.stop" are built in (see set_stream_source). Throws
+  /// std::logic_error on a duplicate name or after start().
+  void register_method(const std::string& name, rpc::ParamMembers members, Handler handler, Access access,
                        Precedence precedence = Precedence::normal);
+  /// A method that takes no params members.
+  void register_method(const std::string& name, Handler handler, Access access,
+                       Precedence precedence = Precedence::normal) {
+    register_method(name, {}, std::move(handler), access, precedence);
+  }
+  /// The registered methods (without the built-in stream, stream.stop), sorted.
+  std::vector<std::string> method_names() const;
 
   /// Enables `stream` / `stream.stop` (read access). Call before start().
   void set_stream_source(StreamSource source);

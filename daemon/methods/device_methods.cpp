@@ -35,7 +35,7 @@ void Service::register_device_methods(control::ControlServer& server) {
   for (auto& method : device_.device->methods()) {
     auto handler = method.handler;
     server.register_method(
-        method.name,
+        method.name, method.members,
         [this, handler](const json& params, const PeerInfo&) {
           json reply = handler(params);
           if (reply.is_object()) reply["cycle"] = engine_->cycle();  // when it took effect

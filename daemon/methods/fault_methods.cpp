@@ -44,7 +44,9 @@ void Service::register_fault_methods(control::ControlServer& server) {
       },
       // Read access by design (docs/protocol.md): anyone who can connect may
       // stop the device; only writers can clear it (fault.clear). Served
-      // before other clients' queued requests, whatever their load.
+      // before other clients' queued requests, whatever their load, and to
+      // a connection over max_clients; it stops whatever its params (a
+      // member it does not take is refused after it took effect).
       Access::read, control::Precedence::first);
 }
 

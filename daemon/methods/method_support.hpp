@@ -2,7 +2,6 @@
 /// \file
 /// Small helpers the control-method files share (internal to daemon/).
 
-#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -13,27 +12,12 @@
 
 namespace hapticd::daemon::methods {
 
-/// A member the method does not take is an error, not silently ignored.
-inline void reject_unknown_keys(const char* method, const nlohmann::json& params,
-                                std::initializer_list<const char*> accepted) {
-  for (const auto& [key, value] : params.items()) {
-    bool known = false;
-    for (const char* a : accepted) known = known || key == a;
-    if (known) continue;
-    std::string list;
-    for (const char* a : accepted) list += (list.empty() ? "" : ", ") + std::string(a);
-    throw rpc::RpcError(rpc::code::invalid_params,
-                        std::string(method) + ": unknown member '" + key + "'; accepted: " + list);
-  }
-}
+// Each method declares its params members with register_method(); the
+// Dispatcher refuses any other member, and a wrong type, before the handler
+// runs (rpc/params.hpp), so handlers read declared members as their type.
 
-/// The optional "force" member (load an unstable set on purpose).
-inline bool get_force(const nlohmann::json& params) {
-  if (!params.contains("force")) return false;
-  if (!params["force"].is_boolean())
-    throw rpc::RpcError(rpc::code::invalid_params, "force must be true or false");
-  return params["force"].get<bool>();
-}
+/// The optional "force" member (load an unstable set on purpose; declared boolean).
+inline bool get_force(const nlohmann::json& params) { return params.value("force", false); }
 
 inline std::vector<std::string> names_of(const std::vector<world::ChannelDescription>& channels) {
   std::vector<std::string> names;

@@ -39,16 +39,12 @@ void Service::register_model_methods(control::ControlServer& server) {
       "device.model", [this](const json&, const PeerInfo&) { return to_json(model_); }, Access::read);
 
   server.register_method(
-      "device.model.set",
+      "device.model.set", {{"model", rpc::ParamType::object}, {"file", rpc::ParamType::string}},
       [this](const json& params, const PeerInfo&) {
-        methods::reject_unknown_keys("device.model.set", params, {"model", "file"});
         if (!params.contains("model")) {
           throw RpcError(code::invalid_params,
                          "device.model.set needs \"model\": {plant, motion, period, ...} (docs/config.md, "
                          "\"Device model files\")");
-        }
-        if (params.contains("file") && !params["file"].is_string()) {
-          throw RpcError(code::invalid_params, "file must be the path of the model file, a string");
         }
         const std::string file = params.value("file", std::string());
         const std::string source = file.empty() ? "identified" : "identified: " + file;

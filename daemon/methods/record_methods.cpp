@@ -26,9 +26,8 @@ std::string full_path(const std::filesystem::path& path) {
 
 void Service::register_record_methods(control::ControlServer& server) {
   server.register_method(
-      "record.start",
+      "record.start", {{"path", rpc::ParamType::string}},
       [this](const json& params, const PeerInfo&) {
-        methods::reject_unknown_keys("record.start", params, {"path"});
         const std::string name = params.value("path", std::string());
         const CurrentScene scene = current_scene();
         try {

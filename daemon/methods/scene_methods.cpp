@@ -25,6 +25,9 @@ void Service::register_scene_methods(control::ControlServer& server) {
 
   server.register_method(
       "scene.load",
+      {{"scene", rpc::ParamType::string},
+       {"params", rpc::ParamType::object},
+       {"force", rpc::ParamType::boolean}},
       [this](const json& params, const PeerInfo&) {
         if (!params.contains("scene") || !params["scene"].is_string()) {
           throw RpcError(code::invalid_params, "scene.load needs \"scene\": one of " + world::scene_names());
@@ -40,7 +43,7 @@ void Service::register_scene_methods(control::ControlServer& server) {
       Access::write);
 
   server.register_method(
-      "param.get",
+      "param.get", {{"names", rpc::ParamType::array}},
       [this](const json& params, const PeerInfo&) {
         const CurrentScene scene = current_scene();
         json all = to_json(scene.resolved, scene.name);
@@ -70,7 +73,7 @@ void Service::register_scene_methods(control::ControlServer& server) {
       Access::read);
 
   server.register_method(
-      "param.set",
+      "param.set", {{"params", rpc::ParamType::object}, {"force", rpc::ParamType::boolean}},
       [this](const json& params, const PeerInfo&) {
         world::ParameterSet changes;
         try {

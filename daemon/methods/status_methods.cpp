@@ -174,8 +174,7 @@ void Service::register_status_methods(control::ControlServer& server) {
   // since start and stay. Write access: it erases what others may be reading.
   server.register_method(
       "stats.reset",
-      [this](const json& params, const PeerInfo&) {
-        methods::reject_unknown_keys("stats.reset", params, {});
+      [this](const json&, const PeerInfo&) {
         const auto since = engine_->reset_stats(std::chrono::milliseconds(2000));
         if (!since) throw RpcError(code::busy, "the RT loop did not reset its statistics within 2 s");
         return json{{"since_cycle", *since}};

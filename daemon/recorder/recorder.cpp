@@ -6,6 +6,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <chrono>
@@ -63,6 +64,29 @@ std::string sanitize(std::string_view name) {
     out += keep ? c : '_';
   }
   return out;
+}
+
+/// 'name' with its control characters shown as \n, \r, \t or \xNN, so a
+/// message about it stays one line.
+std::string shown_name(std::string_view name) {
+  std::string out = "'";
+  for (const char c : name) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else if (byte < 0x20 || byte == 0x7f) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02x", byte);
+      out += hex;
+    } else {
+      out += c;
+    }
+  }
+  return out + "'";
 }
 
 }  // namespace
@@ -436,10 +460,15 @@ std::filesystem::path Recorder::start(const std::string& name, RecordingHeader h
   }
   std::string file =
       name.empty() ? "hapticd-" + sanitize(header.scene) + "-" + compact_utc_now() + ".csv" : name;
-  if (file.find('/') != std::string::npos || file == "." || file == ".." ||
-      file.find('\0') != std::string::npos) {
-    throw RecorderError("recording name '" + name +
-                        "' is not a file name; accepted: a file name without '/', created in " +
+  // A control character (a newline, a carriage return ...) would break the
+  // lines of every log and listing that shows the name.
+  const bool control_character = std::any_of(file.begin(), file.end(), [](char c) {
+    return static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) == 0x7f;
+  });
+  if (file.find('/') != std::string::npos || file == "." || file == ".." || control_character) {
+    throw RecorderError("recording name " + shown_name(name) +
+                        " is not a file name; accepted: a file name without '/' or control characters "
+                        "(newline, carriage return, tab, ...), created in " +
                         options_.directory.string());
   }
   if (!std::filesystem::path(file).has_extension()) file += ".csv";

@@ -250,6 +250,13 @@ std::vector<DeviceMethod> CanopenDevice::methods() {
           throw RpcError(code::refused, e.what());
         }
       }};
+  // Numbers or text ("0x6041"), read by integer_param(); the daemon checks
+  // the members and their types before the handler runs.
+  const rpc::ParamMember index{"index", rpc::ParamType::integer_or_string};
+  const rpc::ParamMember sub{"sub", rpc::ParamType::integer_or_string};
+  const rpc::ParamMember type{"type", rpc::ParamType::string};
+  read.members = {index, sub, type};
+  write.members = {index, sub, {"value", rpc::ParamType::integer_or_string}, type};
   return {read, write};
 }
 

@@ -1,10 +1,13 @@
 #include "drivers/loopback/loopback_device.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
 #include "rpc/jsonrpc.hpp"
+#include "rpc/params.hpp"
 
 namespace hapticd::drivers::loopback {
 
@@ -123,64 +126,108 @@ DeviceStatus LoopbackDevice::status() const {
   return s;
 }
 
+namespace {
+
+/// hand.set's members: "text", or the script's keys (scalars).
+rpc::ParamMembers hand_members() {
+  rpc::ParamMembers members{{"text", rpc::ParamType::string}};
+  for (const auto key : simulation::hand_script_keys())
+    members.push_back({std::string(key), rpc::ParamType::scalar});
+  return members;
+}
+
+/// The script text from hand.set's params: "text", or each member as key=value.
+std::string hand_text(const json& params) {
+  if (params.contains("text")) {
+    if (params.size() > 1) {
+      throw RpcError(code::invalid_params,
+                     "hand.set: send either \"text\" or the script's keys as members, not both");
+    }
+    return params["text"].get<std::string>();
+  }
+  std::string text;
+  for (const auto& [k, v] : params.items()) {
+    const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+    // The script is key=value text: a space or '=' inside a value would
+    // smuggle in another key.
+    if (value.find_first_of(" \t\n\r=") != std::string::npos) {
+      throw RpcError(code::invalid_params, "hand.set: " + k + " = " + rpc::quoted_name(value) +
+                                               " may not contain spaces, line breaks or '='");
+    }
+    text += k + "=" + value + " ";
+  }
+  return text;
+}
+
+/// The total encoder-jump offset stays within +/-2^53 counts: a double holds
+/// every count exactly up to there, and no sum of jumps wraps the int64.
+constexpr std::int64_t max_encoder_offset = std::int64_t{1} << 53;
+
+/// fault.inject's amount: for encoder-jump the jump in counts (required,
+/// the offset it leads to within +/-2^53); else periods, -1 = until cleared.
+std::int64_t fault_amount(Fault which, const json& params, std::int64_t offset_now) {
+  if (which == Fault::encoder_jump) {
+    if (!params.contains("amount")) {
+      throw RpcError(code::invalid_params,
+                     "fault.inject: encoder-jump needs amount (the jump in encoder "
+                     "counts, e.g. amount=1000 or amount=-1000)");
+    }
+    const std::int64_t amount = rpc::integer_in("fault.inject", params, "amount", -max_encoder_offset,
+                                                max_encoder_offset, "counts (encoder-jump)");
+    if (const std::int64_t total = offset_now + amount;
+        total > max_encoder_offset || total < -max_encoder_offset) {
+      throw RpcError(code::invalid_params,
+                     "fault.inject: encoder-jump by " + std::to_string(amount) +
+                         " counts would take the offset from " + std::to_string(offset_now) + " to " +
+                         std::to_string(total) +
+                         " counts; the offset stays within -9007199254740992 to 9007199254740992 (2^53; "
+                         "fault.clear resets it)",
+                     json{{"member", "amount"},
+                          {"minimum", -max_encoder_offset - offset_now},
+                          {"maximum", max_encoder_offset - offset_now}});
+    }
+    return amount;
+  }
+  if (!params.contains("amount")) return -1;
+  // Not `== -1`: nlohmann::json compares 2^64-1 (unsigned) equal to -1.
+  if (const json& a = params["amount"];
+      a.is_number_integer() && !a.is_number_unsigned() && a.get<std::int64_t>() == -1)
+    return -1;
+  return rpc::integer_in("fault.inject", params, "amount", 1, std::numeric_limits<std::int64_t>::max(),
+                         "periods, or -1 (until fault.clear)");
+}
+
+}  // namespace
+
 std::vector<DeviceMethod> LoopbackDevice::methods() {
-  DeviceMethod hand{
-      "hand.set", true, "script the simulated hand (docs/protocol.md)", [this](const json& params) {
-        std::string text;
-        if (params.contains("text")) {
-          if (!params["text"].is_string()) throw RpcError(code::invalid_params, "text must be a string");
-          text = params["text"].get<std::string>();
-        } else {
-          for (const auto& [k, v] : params.items()) {
-            if (v.is_structured())
-              throw RpcError(code::invalid_params, "hand.set: " + k + " must be a scalar");
-            const std::string value = v.is_string() ? v.get<std::string>() : v.dump();
-            // The script is key=value text: a space or '=' inside a
-            // value would smuggle in another key.
-            if (value.find_first_of(" \t\n=") != std::string::npos) {
-              throw RpcError(code::invalid_params,
-                             "hand.set: " + k + " = '" + value + "' may not contain spaces or '='");
-            }
-            text += k + "=" + value + " ";
-          }
-        }
-        try {
-          simulator_->set_hand(text);
-        } catch (const std::invalid_argument& e) {
-          throw RpcError(code::invalid_params, e.what());
-        }
-        return json{{"hand", simulator_->hand().to_text()}};
-      }};
-  DeviceMethod fault{
-      "fault.inject", true, "make the simulated device fail (docs/protocol.md)", [this](const json& params) {
-        const std::string kind = params.value("kind", std::string());
-        const auto which = simulation::parse_fault(kind);
-        if (!which) {
-          throw RpcError(code::invalid_params, "fault.inject: unknown kind '" + kind +
-                                                   "'; accepted: " + std::string(simulation::fault_names()));
-        }
-        for (const auto& [key, value] : params.items()) {
-          if (key != "kind" && key != "amount") {
-            throw RpcError(code::invalid_params,
-                           "fault.inject: unknown member '" + key + "'; accepted: kind, amount");
-          }
-        }
-        std::int64_t amount = -1;
-        if (*which == Fault::encoder_jump && !params.contains("amount")) {
-          throw RpcError(code::invalid_params,
-                         "fault.inject: encoder-jump needs amount (the jump in encoder "
-                         "counts, e.g. amount=1000 or amount=-1000)");
-        }
-        if (params.contains("amount")) {
-          if (!params["amount"].is_number_integer()) {
-            throw RpcError(code::invalid_params,
-                           "amount must be a whole number (periods, or counts for encoder-jump)");
-          }
-          amount = params["amount"].get<std::int64_t>();
-        }
-        simulator_->inject_fault(*which, amount);
-        return json{{"injected", kind}, {"amount", amount}};
-      }};
+  DeviceMethod hand{"hand.set", true, "script the simulated hand (docs/protocol.md)",
+                    [this](const json& params) {
+                      try {
+                        simulator_->set_hand(hand_text(params));
+                      } catch (const std::invalid_argument& e) {
+                        throw RpcError(code::invalid_params, e.what());
+                      }
+                      return json{{"hand", simulator_->hand().to_text()}};
+                    },
+                    hand_members()};
+  DeviceMethod fault{"fault.inject",
+                     true,
+                     "make the simulated device fail (docs/protocol.md)",
+                     [this](const json& params) {
+                       const std::string kind = params.value("kind", std::string());
+                       const auto which = simulation::parse_fault(kind);
+                       if (!which) {
+                         throw RpcError(code::invalid_params,
+                                        "fault.inject: unknown kind " + rpc::quoted_name(kind) +
+                                            "; accepted: " + std::string(simulation::fault_names()));
+                       }
+                       const std::int64_t amount = fault_amount(*which, params, simulator_->encoder_offset());
+                       simulator_->inject_fault(*which, amount);
+                       return json{{"injected", kind}, {"amount", amount}};
+                     },
+                     // amount: any number here, so that fault_amount() names its own range
+                     // for 2^64-1 or 1.5, not int64's
+                     {{"kind", rpc::ParamType::string}, {"amount", rpc::ParamType::number}}};
   return {std::move(hand), std::move(fault)};
 }
 

@@ -16,6 +16,9 @@ namespace {
 
 constexpr std::array<std::string_view, 4> mode_names{"free", "hold", "force", "impedance"};
 constexpr std::array<std::string_view, 4> trajectory_names{"constant", "step", "ramp", "sine"};
+constexpr std::array<std::string_view, 16> key_names{
+    "mode", "trajectory", "position", "offset", "amplitude", "at",      "rate",  "from",
+    "to",   "frequency",  "phase",    "ideal",  "stiffness", "damping", "force", "release_at"};
 constexpr std::string_view all_keys =
     "mode, trajectory, position (alias offset), amplitude, at, rate, from, to, frequency, phase, ideal, "
     "stiffness, damping, force, release_at";
@@ -113,6 +116,8 @@ std::string HandScript::to_text() const {
   if (release_at) add("release_at", *release_at);
   return out;
 }
+
+std::vector<std::string_view> hand_script_keys() { return {key_names.begin(), key_names.end()}; }
 
 HandScript parse_hand_script(std::string_view text) {
   const auto pairs = detail::split_key_values(text, "hand script");

@@ -16,6 +16,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace hapticd::drivers::simulation {
 
@@ -70,6 +71,10 @@ struct HandScript {
   std::string to_text() const;
   bool operator==(const HandScript&) const = default;
 };
+
+/// Every key a script may hold (which of them apply depends on the mode and
+/// the trajectory), "offset" (the alias of position) included.
+std::vector<std::string_view> hand_script_keys();
 
 /// Parses key=value text. Throws std::invalid_argument with one line naming
 /// the bad key or value and what is accepted.

@@ -126,6 +126,8 @@ class PlantSimulator {
   /// -1 = until cleared; for encoder_jump it is the jump in counts (+/-).
   void inject_fault(Fault fault, std::int64_t amount = -1) noexcept;
   void clear_faults() noexcept;
+  /// The encoder-jump offset injected so far, in counts.
+  std::int64_t encoder_offset() const noexcept { return encoder_offset_.load(std::memory_order_relaxed); }
 
   /// Consistent copy of the simulated state (seqlock; never blocks the RT side).
   PlantSnapshot snapshot() const noexcept;

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -108,6 +109,59 @@ TEST(ClientConnect, MissingSocketIsConnectErrorNamingThePath) {
               "hapticd is not running at " + path + " (connect: No such file or directory)");
   }
   EXPECT_THROW(Client::connect(std::string(200, 'x'), 1s), ConnectError);
+}
+
+// Issue 17, defect 3: with the daemon's listen backlog full (a connect
+// flood), a non-blocking Unix connect() fails with EAGAIN and is not
+// queued; the client took poll()'s "writable" for connected, and
+// `hapticctl estop` failed with "send: Transport endpoint is not
+// connected". It tries again until its timeout.
+TEST(ClientConnect, AFullBacklogIsWaitedForNotTakenForConnected) {
+  hapticd::daemon::control::test::TempDir dir;
+  const std::string path = dir.file("full.sock");
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  path.copy(addr.sun_path, sizeof(addr.sun_path) - 1);
+  const auto* where = reinterpret_cast<const sockaddr*>(&addr);
+  const int listen_fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_EQ(::bind(listen_fd, where, sizeof(addr)), 0);
+  ASSERT_EQ(::listen(listen_fd, 0), 0);
+  std::vector<int> queued;  // fill the backlog
+  for (int i = 0; i < 16; ++i) {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    if (::connect(fd, where, sizeof(addr)) != 0) {
+      ::close(fd);
+      break;
+    }
+    queued.push_back(fd);
+  }
+  ASSERT_FALSE(queued.empty());
+  ASSERT_LT(queued.size(), 16u) << "the backlog never filled";
+  try {
+    Client::connect(path, 200ms);
+    FAIL() << "an unconnected socket was taken for a connection";
+  } catch (const ConnectError& e) {
+    EXPECT_EQ(e.error_number(), ETIMEDOUT) << e.what();
+  }
+  // The daemon makes room after 100 ms: the client gets in and is served.
+  std::thread daemon([&] {
+    std::this_thread::sleep_for(100ms);
+    std::vector<int> accepted;
+    for (std::size_t i = 0; i <= queued.size(); ++i)
+      accepted.push_back(::accept(listen_fd, nullptr, nullptr));
+    char c = 0;
+    while (::recv(accepted.back(), &c, 1, 0) == 1 && c != '\n') {
+    }
+    const std::string reply = R"({"jsonrpc":"2.0","id":1,"result":{"ok":true}})"
+                              "\n";
+    [[maybe_unused]] auto sent = ::send(accepted.back(), reply.data(), reply.size(), MSG_NOSIGNAL);
+    for (const int fd : accepted) ::close(fd);
+  });
+  auto client = Client::connect(path, 5s);
+  EXPECT_EQ(client.call("status"), json({{"ok", true}}));
+  daemon.join();
+  for (const int fd : queued) ::close(fd);
+  ::close(listen_fd);
 }
 
 /// A daemon that answers the first request line with `reply`, whatever it was.

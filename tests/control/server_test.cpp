@@ -33,6 +33,7 @@ using hapticd::daemon::control::ServerOptions;
 using hapticd::daemon::control::test::eventually;
 using hapticd::daemon::control::test::RawPeer;
 using hapticd::daemon::control::test::TempDir;
+using hapticd::rpc::ParamType;
 using hapticd::rpc::RpcError;
 using nlohmann::json;
 namespace code = hapticd::rpc::code;
@@ -58,8 +59,12 @@ class ServerTest : public ::testing::Test {
   void start(ServerOptions opts = {}) {
     if (opts.socket_path.empty()) opts.socket_path = dir.file("hapticd.sock");
     server = std::make_unique<ControlServer>(opts);
+    // The members the tests send to echo, of any type.
+    hapticd::rpc::ParamMembers echoed;
+    for (const char* name : {"a", "b", "s", "x", "n", "v", "ok", "names"})
+      echoed.push_back({name, ParamType::any});
     server->register_method(
-        "echo", [](const json& params, const PeerInfo&) { return params; }, Access::read);
+        "echo", echoed, [](const json& params, const PeerInfo&) { return params; }, Access::read);
     server->register_method(
         "whoami",
         [](const json&, const PeerInfo& peer) {
@@ -67,15 +72,20 @@ class ServerTest : public ::testing::Test {
         },
         Access::read);
     server->register_method(
-        "param.set",
+        "param.set", {{"params", ParamType::any}},
         [this](const json& params, const PeerInfo&) {
           ++writes;
           return json{{"set", params.at("params")}};
         },
         Access::write);
+    // k of any type: the handler's own json exception is what is tested.
     server->register_method(
-        "typed", [](const json& params, const PeerInfo&) { return json(params.at("k").get<double>() * 2); },
+        "typed", {{"k", ParamType::any}},
+        [](const json& params, const PeerInfo&) { return json(params.at("k").get<double>() * 2); },
         Access::read);
+    server->register_method(
+        "path", {{"path", ParamType::string}, {"amount", ParamType::integer}},
+        [](const json& params, const PeerInfo&) { return params; }, Access::read);
     server->register_method(
         "refuse",
         [](const json&, const PeerInfo&) -> json {
@@ -373,6 +383,188 @@ TEST_F(ServerTest, TooManyClientsGetBusy) {
   auto again = connect();
   EXPECT_EQ(again.call("echo", {{"n", 3}})["n"], 3);
   EXPECT_EQ(server->stats().refused_busy, 1u);
+}
+
+// Issue 17, defect 3: every slot held by connections of a user with write
+// access (so none to evict) and `estop` was answered "busy: too many
+// clients". Over the limit the first request is read: estop and the
+// over_limit_methods are served, then the connection closes; anything else
+// is -32002 with its id; a silent connection gets -32002 when its wait ends.
+TEST_F(ServerTest, OverTheLimitEstopIsServedAndAnythingElseIsBusy) {
+  ServerOptions o;
+  o.max_clients = 2;
+  o.over_limit_methods = {"whoami"};
+  o.over_limit_wait = 300ms;
+  start(o);
+  auto a = connect();
+  auto b = connect();
+  EXPECT_EQ(a.call("count"), 1);
+  EXPECT_EQ(b.call("count"), 2);
+  RawPeer silent(path);
+  RawPeer stopper(path);
+  ASSERT_TRUE(stopper.send(R"({"jsonrpc":"2.0","id":7,"method":"estop"})"
+                           "\n"));
+  const json stopped = parse(stopper.read_line());
+  EXPECT_EQ(stopped["id"], 7) << stopped.dump();
+  EXPECT_EQ(stopped["result"], 2) << stopped.dump();
+  EXPECT_EQ(estopped.load(), 2);
+  EXPECT_TRUE(stopper.closed_within(2s)) << "one request over the limit, then closed";
+  {
+    auto asker = connect();
+    EXPECT_EQ(asker.call("whoami")["uid"], ::geteuid());
+  }
+  RawPeer other(path);
+  ASSERT_TRUE(other.send(R"({"jsonrpc":"2.0","id":"c","method":"count"})"
+                         "\n"));
+  const json busy = parse(other.read_line());
+  EXPECT_EQ(busy["id"], "c") << busy.dump();
+  EXPECT_EQ(busy["error"]["code"], code::busy) << busy.dump();
+  EXPECT_EQ(busy["error"]["data"]["limit"], 2) << busy.dump();
+  EXPECT_NE(busy["error"]["message"].get<std::string>().find("only estop, whoami are served"),
+            std::string::npos)
+      << busy.dump();
+  EXPECT_EQ(counted.load(), 2) << "count ran over the limit";
+  RawPeer long_line(path);
+  ASSERT_TRUE(long_line.send(std::string(5000, ' ') + "x"));
+  EXPECT_EQ(parse(long_line.read_line())["error"]["code"], code::busy) << "more than over_limit_bytes";
+  const json timed_out = parse(silent.read_line(3s));
+  EXPECT_EQ(timed_out["error"]["code"], code::busy) << timed_out.dump();
+  EXPECT_TRUE(silent.closed_within(2s));
+  // The two in their slots were never disturbed.
+  EXPECT_EQ(a.call("count"), 3);
+  EXPECT_EQ(b.call("count"), 4);
+  const auto stats = server->stats();
+  EXPECT_EQ(stats.over_limit_served, 2u);
+  EXPECT_EQ(stats.refused_busy, 3u);
+  EXPECT_EQ(stats.clients, 2u);
+}
+
+// More than max_over_limit connections waiting over the limit make the
+// oldest give way, but only after one last look at its input: an estop sent
+// with its connect, then buried under a connect flood, is still served.
+TEST_F(ServerTest, ConnectFloodOverTheLimitCannotPushAnEstopOut) {
+  ServerOptions o;
+  o.max_clients = 1;
+  o.max_over_limit = 4;
+  o.over_limit_wait = 10s;  // the flood, not the wait, pushes them out
+  start(o);
+  auto holder = connect();
+  EXPECT_EQ(holder.call("count"), 1);
+  for (int round = 0; round < 5; ++round) {
+    std::vector<std::unique_ptr<RawPeer>> flood;
+    for (int i = 0; i < 10; ++i) flood.push_back(std::make_unique<RawPeer>(path));
+    RawPeer stopper(path);
+    ASSERT_TRUE(stopper.send(R"({"jsonrpc":"2.0","id":)" + std::to_string(round) +
+                             R"(,"method":"estop"})"
+                             "\n"));
+    for (int i = 0; i < 40; ++i) flood.push_back(std::make_unique<RawPeer>(path));
+    const json reply = parse(stopper.read_line());
+    EXPECT_EQ(reply["id"], round) << reply.dump();
+    EXPECT_EQ(reply["result"], 1) << reply.dump();
+  }
+  EXPECT_EQ(server->stats().over_limit_served, 5u);
+  EXPECT_EQ(holder.call("count"), 2);
+}
+
+// Issue 17, defect 10: nlohmann::json keeps the last of duplicate members,
+// so {"method":"status","method":"estop"} ran estop. A duplicate anywhere in
+// the line is -32600 naming it, and nothing runs.
+TEST_F(ServerTest, DuplicateMembersAreRefusedAtEveryDepth) {
+  start();
+  RawPeer p(path);
+  ASSERT_TRUE(p.connected());
+  const std::pair<std::string, std::string> cases[] = {
+      {R"({"jsonrpc":"2.0","id":1,"method":"count","method":"estop"})", "method"},
+      {R"({"jsonrpc":"2.0","id":1,"id":2,"method":"estop"})", "id"},
+      {R"({"jsonrpc":"2.0","id":1,"method":"estop","params":{"a":1,"a":2}})", "a"},
+      {R"({"jsonrpc":"2.0","id":1,"method":"estop","params":{"a":[{"b":1},{"c":{"d":1,"e":0,"d":1}}]}})",
+       "d"},
+  };
+  for (const auto& [line, member] : cases) {
+    ASSERT_TRUE(p.send(line + "\n"));
+    const json reply = parse(p.read_line());
+    EXPECT_EQ(reply["error"]["code"], code::invalid_request) << line << " -> " << reply.dump();
+    EXPECT_TRUE(reply["id"].is_null()) << reply.dump();
+    EXPECT_EQ(reply["error"]["data"]["member"], member) << reply.dump();
+    EXPECT_NE(reply["error"]["message"].get<std::string>().find("'" + member + "' appears twice"),
+              std::string::npos)
+        << reply.dump();
+  }
+  EXPECT_EQ(estopped.load(), -1) << "estop ran";
+  EXPECT_EQ(counted.load(), 0);
+  // One name in sibling objects is no duplicate.
+  ASSERT_TRUE(p.send(R"({"jsonrpc":"2.0","id":3,"method":"echo","params":{"a":{"x":1},"b":{"x":2}}})"
+                     "\n"));
+  EXPECT_EQ(parse(p.read_line())["result"]["b"]["x"], 2);
+}
+
+// Issue 17, defect 10: a misspelt "params" ran the method without its
+// params. The envelope has jsonrpc, id, method and params only.
+TEST_F(ServerTest, UnknownRequestMemberIsRefused) {
+  start();
+  RawPeer p(path);
+  ASSERT_TRUE(p.send(R"({"jsonrpc":"2.0","id":4,"method":"count","parmas":{}})"
+                     "\n"));
+  const json reply = parse(p.read_line());
+  EXPECT_EQ(reply["error"]["code"], code::invalid_request) << reply.dump();
+  EXPECT_EQ(reply["id"], 4) << reply.dump();
+  EXPECT_EQ(reply["error"]["data"]["member"], "parmas") << reply.dump();
+  EXPECT_NE(reply["error"]["message"].get<std::string>().find("'parmas'"), std::string::npos) << reply.dump();
+  EXPECT_EQ(counted.load(), 0);
+}
+
+// Issue 17, defect 10: params members are checked against what the method
+// declares before its handler runs: an unknown member or a wrong type is
+// -32602 naming the member (and the type), not an internal type error or a
+// silently ignored member; an integer beyond int64 is not wrapped.
+TEST_F(ServerTest, ParamsMembersAreCheckedBeforeTheHandler) {
+  start();
+  auto c = connect();
+  auto refusal = [&](const std::string& method, const json& params) {
+    try {
+      c.call(method, params);
+    } catch (const RpcError& e) {
+      return std::pair(e.code(), std::string(e.what()));
+    }
+    return std::pair(0, std::string("served"));
+  };
+  EXPECT_EQ(refusal("path", {{"path", 5}}),
+            std::pair(code::invalid_params,
+                      std::string("path: member 'path' must be a string, not an integer (5)")));
+  EXPECT_EQ(
+      refusal("path", {{"paht", "x"}}),
+      std::pair(code::invalid_params, std::string("path: unknown member 'paht'; accepted: path, amount")));
+  const auto wrapped = refusal("path", json::parse(R"({"amount":18446744073709551615})"));
+  EXPECT_EQ(wrapped.first, code::invalid_params);
+  EXPECT_NE(wrapped.second.find("must be an integer from -9223372036854775808 to 9223372036854775807, not an "
+                                "integer (18446744073709551615)"),
+            std::string::npos)
+      << wrapped.second;
+  EXPECT_EQ(
+      refusal("count", {{"x", 1}}),
+      std::pair(code::invalid_params, std::string("count: unknown member 'x'; count accepts no members")));
+  EXPECT_EQ(counted.load(), 0);
+  EXPECT_EQ(c.call("path", {{"path", "run.csv"}, {"amount", -2}})["amount"], -2);
+  // The built-in stream too.
+  EXPECT_EQ(refusal("stream", {{"rate_hz", 5}, {"rate", 5}}).first, code::invalid_params);
+  EXPECT_EQ(refusal("stream.stop", {{"now", true}}).first, code::invalid_params);
+}
+
+// estop stops whatever its params: a member it does not take is reported
+// after the estop took effect, never instead of it.
+TEST_F(ServerTest, EstopWithAnUnknownMemberStopsAndSaysSo) {
+  start();
+  auto c = connect();
+  try {
+    c.call("estop", {{"reason", "hand slipped"}});
+    FAIL() << "no error for the unknown member";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code(), code::invalid_params);
+    EXPECT_NE(std::string(e.what()).find("estop took effect"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'reason'"), std::string::npos) << e.what();
+    EXPECT_EQ(e.data()["result"], 0) << e.data().dump();
+  }
+  EXPECT_EQ(estopped.load(), 0) << "estop did not run";
 }
 
 // Issue 6: a client pipelining requests without waiting for replies delayed
@@ -858,6 +1050,40 @@ TEST_F(PermissionTest, ReadersHoldingEverySlotCannotLockAWriterOut) {
   EXPECT_EQ(r["fifth"]["error"]["code"], code::busy) << "a fifth reader got in";
   EXPECT_EQ(r["evicted"], 1) << "exactly one reader makes room for the writer";
   EXPECT_EQ(server->stats().evictions, 1u);
+}
+
+// Issue 17, defect 3, for readers: with every slot held by readers (a
+// reader cannot evict), a reader's own estop is served over the limit.
+TEST_F(PermissionTest, AReadersEstopIsServedWhenEverySlotIsHeld) {
+  server->stop();
+  ServerOptions o;
+  o.group = group.first;
+  o.mode = 0666;
+  o.max_clients = 4;
+  start(o);
+  const uid_t nobody = ::getpwnam("nobody")->pw_uid;
+  pid_t pid = ::fork();
+  if (pid == 0) {
+    if (::setgroups(0, nullptr) != 0 || ::setgid(nogroup) != 0 || ::setuid(nobody) != 0) ::_exit(100);
+    std::vector<std::unique_ptr<RawPeer>> held;
+    for (int i = 0; i < 4; ++i) {
+      held.push_back(std::make_unique<RawPeer>(path));
+      held.back()->send(R"({"jsonrpc":"2.0","id":1,"method":"echo"})"
+                        "\n");
+      if (!held.back()->read_line()) ::_exit(101);  // accepted and served
+    }
+    RawPeer stopper(path);
+    stopper.send(R"({"jsonrpc":"2.0","id":9,"method":"estop"})"
+                 "\n");
+    const json reply = parse(stopper.read_line());
+    ::_exit(reply.is_object() && reply["id"] == 9 && reply.contains("result") ? 0 : 102);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << "child status " << status << " (102: the reader's estop was not served)";
+  EXPECT_EQ(estopped.load(), 0) << "estop did not run";
+  EXPECT_EQ(server->stats().evictions, 0u);
 }
 
 }  // namespace

@@ -190,6 +190,38 @@ TEST(Planner, ForceLoadsAnUnstableWallAndSaysSo) {
   EXPECT_FALSE(planned(wall(model_of(device), 9000.0, 46.0, true)).forced);
 }
 
+// Issue 17, defect 11: the default wall on the loopback wheel was refused
+// with growth_per_second 2.0991525899817493e+303 in the reply and "amplitude
+// grows x2.099e+303 per second" in the message. The message says how soon
+// the amplitude doubles; the JSON carries finite figures (the factor is
+// null above 1e15, its log10 and the doubling time stay).
+TEST(Planner, AFastGrowingRefusalReadsAsADoublingTimeNotANearOverflowFactor) {
+  const loopback::LoopbackDevice device(wheel_config(0.002));
+  const auto r =
+      refused(hapticd::daemon::plan_on_device("wall", {{"stiffness", 9000.0}}, model_of(device), false));
+  EXPECT_NE(r.message.find(
+                "pole radius 2.010583175, the amplitude doubles every 992 us (x2.011 per period of 1 ms)"),
+            std::string::npos)
+      << r.message;
+  EXPECT_EQ(r.message.find("e+"), std::string::npos) << r.message;
+  const auto& s = r.data["stability"];
+  EXPECT_TRUE(s["growth_per_second"].is_null()) << s.dump();
+  EXPECT_NEAR(s["growth_per_second_log10"].get<double>(), 1000.0 * std::log10(2.010583175), 1e-6) << s.dump();
+  EXPECT_NEAR(s["doubling_time_s"].get<double>(), T * std::log(2.0) / std::log(2.010583175), 1e-12)
+      << s.dump();
+  // A slow growth keeps its factor, per second.
+  const auto slow = planned(hapticd::daemon::plan_on_device(
+      "spring-wheel", {{"integrator", "forward-euler"}, {"damping", 0.0}}, model_of(device), true));
+  EXPECT_FALSE(slow.stability.stable);
+  EXPECT_NE(slow.stability.summary.find(" per second)"), std::string::npos) << slow.stability.summary;
+  const auto json = hapticd::daemon::to_json(slow.stability);
+  EXPECT_TRUE(json["growth_per_second"].is_number()) << json.dump();
+  EXPECT_GT(json["doubling_time_s"].get<double>(), 1.0) << json.dump();
+  // A stable set does not double.
+  const auto calm = planned(hapticd::daemon::plan_on_device("spring-wheel", {}, model_of(device), false));
+  EXPECT_TRUE(hapticd::daemon::to_json(calm.stability)["doubling_time_s"].is_null());
+}
+
 TEST(Planner, ForwardEulerWheelWithoutDampingIsRefusedAutoDampingAccepted) {
   const loopback::LoopbackDevice device(wheel_config(0.0));
   const DeviceModel model = model_of(device);

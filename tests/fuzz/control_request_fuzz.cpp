@@ -25,6 +25,7 @@
 #include "daemon/device_factory.hpp"
 #include "daemon/planner.hpp"
 #include "rpc/jsonrpc.hpp"
+#include "rpc/params.hpp"
 
 namespace {
 
@@ -74,17 +75,35 @@ struct Fixture {
                   {"stability", hd::to_json(planned.stability)},
                   {"forced", planned.forced}};
     };
+    // The daemon's scene.load members, checked before the handler as there.
+    const hapticd::rpc::ParamMembers scene_members{{"scene", hapticd::rpc::ParamType::string},
+                                                   {"params", hapticd::rpc::ParamType::object},
+                                                   {"force", hapticd::rpc::ParamType::boolean}};
     dispatcher.add(
         "scene.load", [plan](const json& p, const control::PeerInfo&) { return plan(p, false); },
-        control::Access::write);
+        control::Access::write, scene_members);
     dispatcher.add(
         "wall.load", [plan](const json& p, const control::PeerInfo&) { return plan(p, true); },
-        control::Access::write);
+        control::Access::write, scene_members);
+    dispatcher.add("echo", [](const json& p, const control::PeerInfo&) { return p; }, control::Access::read,
+                   {{"a", hapticd::rpc::ParamType::any}, {"names", hapticd::rpc::ParamType::any}});
+    dispatcher.add("typed",
+                   [](const json& p, const control::PeerInfo&) { return json(p.at("x").get<double>() * 2); },
+                   control::Access::read, {{"x", hapticd::rpc::ParamType::any}});
+    // Like the loopback's fault.inject: typed members, an integer range.
+    dispatcher.add("fault.inject",
+                   [](const json& p, const control::PeerInfo&) {
+                     return json(hapticd::rpc::integer_in("fault.inject", p, "amount", -1, 1000, "periods"));
+                   },
+                   control::Access::write,
+                   {{"kind", hapticd::rpc::ParamType::string}, {"amount", hapticd::rpc::ParamType::integer}});
+    // Like estop: acts whatever its params, the refusal after.
     dispatcher.add(
-        "echo", [](const json& p, const control::PeerInfo&) { return p; }, control::Access::read);
-    dispatcher.add(
-        "typed", [](const json& p, const control::PeerInfo&) { return json(p.at("x").get<double>() * 2); },
-        control::Access::read);
+        "estop",
+        [](const json&, const control::PeerInfo&) {
+          return json{{"fault", "estop"}};
+        },
+        control::Access::read, {}, true);
   }
 };
 

@@ -599,5 +599,37 @@ TEST(Canopen, A2To31CountJumpOf0x6064LatchesInItsPeriodWithTheFigures) {
     ASSERT_LT(std::abs(applied[i]), 1.0) << "row " << i << ": at torque_limit after the jump";
 }
 
+// Issue 17, defect 10: the daemon checks the SDO methods' members like
+// every method's: an unknown member or a wrong type is -32602 naming it,
+// before the drive is asked anything, and an integer beyond int64 is not
+// wrapped to a negative value.
+TEST(Canopen, SdoMethodsRefuseUnknownMembersAndWrongTypes) {
+  TempDir dir;
+  SimulatedDrive drive(dir, turning_hand);
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000));
+  ASSERT_TRUE(d.running()) << d.log();
+  const auto ask = [&](const std::string& method, const std::string& params) {
+    RawConnection c(d.socket());
+    c.send(R"({"jsonrpc":"2.0","id":1,"method":")" + method + R"(","params":)" + params + "}\n");
+    return json::parse(c.read_line(), nullptr, false);
+  };
+  const auto message = [](const json& reply) { return reply["error"].value("message", std::string()); };
+  json r = ask("device.sdo.read", R"({"index":"0x6041","sub":0,"subindex":1})");
+  EXPECT_EQ(r["error"]["code"], -32602) << r.dump();
+  EXPECT_EQ(message(r), "device.sdo.read: unknown member 'subindex'; accepted: index, sub, type");
+  r = ask("device.sdo.read", R"({"index":true})");
+  EXPECT_EQ(r["error"]["code"], -32602) << r.dump();
+  EXPECT_NE(message(r).find("member 'index' must be a number"), std::string::npos) << r.dump();
+  r = ask("device.sdo.write", R"({"index":"0x6072","sub":0,"value":18446744073709551615})");
+  EXPECT_EQ(r["error"]["code"], -32602) << r.dump();
+  EXPECT_NE(message(r).find("member 'value'"), std::string::npos) << r.dump();
+  r = ask("device.sdo.write", R"({"index":"0x6072","sub":0,"value":1500,"type":7})");
+  EXPECT_EQ(message(r), "device.sdo.write: member 'type' must be a string, not an integer (7)") << r.dump();
+  r = ask("device.sdo.read", R"({"index":"0x6041"})");
+  EXPECT_TRUE(r.contains("result")) << r.dump();
+  EXPECT_TRUE(status_of(d)["fault"].is_null()) << status_of(d).dump();
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
 }  // namespace
 }  // namespace hapticd::e2e
