@@ -165,8 +165,7 @@ json Service::telemetry_json() const {
 void Service::register_telemetry_methods(control::ControlServer& server) {
   server.register_method(
       "telemetry.get",
-      [this](const json& params, const PeerInfo&) {
-        methods::reject_unknown_keys("telemetry.get", params, {});
+      [this](const json&, const PeerInfo&) {
         return telemetry_json();
       },
       Access::read);
@@ -175,9 +174,13 @@ void Service::register_telemetry_methods(control::ControlServer& server) {
   // the address the config names: a client cannot send them off the host.
   server.register_method(
       "telemetry.set",
+      {{"enabled", rpc::ParamType::boolean},
+       {"udp", rpc::ParamType::string},
+       {"rate_hz", rpc::ParamType::number},
+       {"channels", rpc::ParamType::array},
+       {"batch", rpc::ParamType::integer},
+       {"prefix", rpc::ParamType::string}},
       [this](const json& params, const PeerInfo&) {
-        methods::reject_unknown_keys("telemetry.set", params,
-                                     {"enabled", "udp", "rate_hz", "channels", "batch", "prefix"});
         telemetry::Settings next = telemetry_->settings();
         const double loop_rate = 1.0 / options_.config.loop.period_s;
         if (params.contains("udp")) {

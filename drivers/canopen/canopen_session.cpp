@@ -411,7 +411,11 @@ void CanopenSession::enable() {
   {
     std::lock_guard lock(sdo_mutex_);
     SocketLink link(socket_, &*exchange_);
-    recheck_torque_unit(link, false);  // applied by the first read() below
+    try {
+      recheck_torque_unit(link, false);  // applied by the first read() below
+    } catch (const StopRequested&) {
+      throw StopRequested(abandoned("canopen: enabling node " + std::to_string(config_.node_id)));
+    }
   }
   exchange_->set_enabled(true);
   const bool ok = run_periods(
@@ -455,6 +459,8 @@ std::string CanopenSession::clear_fault() {
       }
     } catch (const SetupError& e) {
       throw SetupError("the drive stays in fault: " + before.fault_reason + "; " + e.what(), e.key());
+    } catch (const StopRequested&) {
+      throw StopRequested(abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
     }
   }
   clear_requested_.store(true, std::memory_order_release);
@@ -602,7 +608,7 @@ SdoAccess CanopenSession::access(cia301::ObjectAddress address, std::uint32_t ra
 
 std::string CanopenSession::recheck_torque_unit(FrameLink& link, bool fault_if_changed) {
   if (!setup_.rated_torque_from_drive) return "";  // no 0x6076: the config's rated_torque stands
-  SdoClient sdo(link, config_.node_id, sdo_timeout(config_));
+  SdoClient sdo(link, config_.node_id, sdo_timeout(config_), stop_);  // gives way to SIGTERM
   const std::uint32_t before = rated_torque_mnm();
   TorqueUnitChange change;
   change.before_mnm = before;
