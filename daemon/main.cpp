@@ -7,8 +7,8 @@
 #include <memory>
 
 #include "daemon/config/config.hpp"
-#include "daemon/planner.hpp"
 #include "daemon/config/host_checks_setup.hpp"
+#include "daemon/planner.hpp"
 #include "daemon/service.hpp"
 #include "daemon/system/stop_signals.hpp"
 #include "daemon/version.hpp"

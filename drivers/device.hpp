@@ -22,8 +22,8 @@
 #include <nlohmann/json.hpp>
 
 #include "drivers/stop_request.hpp"
-#include "world/parameter.hpp"
 #include "rpc/params.hpp"
+#include "world/parameter.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::drivers {

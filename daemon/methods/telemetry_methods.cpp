@@ -164,11 +164,7 @@ json Service::telemetry_json() const {
 
 void Service::register_telemetry_methods(control::ControlServer& server) {
   server.register_method(
-      "telemetry.get",
-      [this](const json&, const PeerInfo&) {
-        return telemetry_json();
-      },
-      Access::read);
+      "telemetry.get", [this](const json&, const PeerInfo&) { return telemetry_json(); }, Access::read);
 
   // Write access: it points the daemon's datagrams somewhere. Only loopback or
   // the address the config names: a client cannot send them off the host.

@@ -460,7 +460,8 @@ std::string CanopenSession::clear_fault() {
     } catch (const SetupError& e) {
       throw SetupError("the drive stays in fault: " + before.fault_reason + "; " + e.what(), e.key());
     } catch (const StopRequested&) {
-      throw StopRequested(abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
+      throw StopRequested(
+          abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
     }
   }
   clear_requested_.store(true, std::memory_order_release);
