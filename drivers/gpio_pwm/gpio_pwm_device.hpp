@@ -104,7 +104,6 @@ class GpioPwmDevice final : public Device {
   // RT state.
   bool direction_positive_ = true;
   bool pump_ = false;
-  bool fault_seen_ = false;  // the RT thread's copy of the latch
 
   // Shared with non-RT threads.
   mutable std::mutex lifecycle_;                         // non-RT calls only
