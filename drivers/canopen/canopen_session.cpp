@@ -408,13 +408,14 @@ bool CanopenSession::loop_running(double at_least_s) const {
 
 void CanopenSession::enable() {
   if (!exchange_) throw std::logic_error("canopen: enable() before configure()");
+  const std::string step = "canopen: enabling node " + std::to_string(config_.node_id);
   {
     std::lock_guard lock(sdo_mutex_);
     SocketLink link(socket_, &*exchange_);
     try {
       recheck_torque_unit(link, false);  // applied by the first read() below
     } catch (const StopRequested&) {
-      throw StopRequested(abandoned("canopen: enabling node " + std::to_string(config_.node_id)));
+      throw StopRequested(abandoned(step));
     }
   }
   exchange_->set_enabled(true);
@@ -429,7 +430,7 @@ void CanopenSession::enable() {
                                       std::to_string(std::llround(enable_timeout_s * 1e3)) + " ms";
     exchange_->set_enabled(false);
     run_periods([] { return false; }, 2);  // Disable Voltage goes out
-    if (stopped) throw StopRequested(abandoned("canopen: enabling node " + std::to_string(config_.node_id)));
+    if (stopped) throw StopRequested(abandoned(step));
     throw SetupError("node " + std::to_string(config_.node_id) + " could not be enabled: " + why, "");
   }
   enabled_.store(true, std::memory_order_release);
@@ -437,6 +438,7 @@ void CanopenSession::enable() {
 
 std::string CanopenSession::clear_fault() {
   if (!exchange_) throw std::logic_error("canopen: clear_fault() before configure()");
+  const std::string step = "canopen: clearing the fault of node " + std::to_string(config_.node_id);
   const SessionStatus before = status();
   if (!before.faulted) return "";
   if (before.fault_kind == FaultKind::drive_restarted)
@@ -460,8 +462,7 @@ std::string CanopenSession::clear_fault() {
     } catch (const SetupError& e) {
       throw SetupError("the drive stays in fault: " + before.fault_reason + "; " + e.what(), e.key());
     } catch (const StopRequested&) {
-      throw StopRequested(
-          abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
+      throw StopRequested(abandoned(step));
     }
   }
   clear_requested_.store(true, std::memory_order_release);
@@ -493,7 +494,7 @@ std::string CanopenSession::clear_fault() {
   const SessionStatus after = status();
   if (!after.operational && stop_.stop_requested()) {
     clear_requested_.store(false, std::memory_order_release);
-    throw StopRequested(abandoned("canopen: clearing the fault of node " + std::to_string(config_.node_id)));
+    throw StopRequested(abandoned(step));
   }
   if (!after.operational)
     throw SetupError(
