@@ -7,7 +7,7 @@ namespace hapticd::drivers {
 
 void StopRequest::request(const char* why) noexcept {
   // The cause first: whoever sees the stop finds its name.
-  const char* expected = "";
+  const char* expected = nullptr;
   why_.compare_exchange_strong(expected, why, std::memory_order_acq_rel);
   source_.request_stop();
 }

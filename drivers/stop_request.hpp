@@ -45,12 +45,18 @@ class StopRequest {
   /// `why` names the cause for the log ("SIGTERM"); a string literal.
   void request(const char* why) noexcept;
   bool requested() const noexcept { return source_.stop_requested(); }
-  const char* why() const noexcept { return why_.load(std::memory_order_acquire); }
+  /// The cause, "" before any request.
+  const char* why() const noexcept {
+    const char* why = why_.load(std::memory_order_acquire);
+    return why != nullptr ? why : "";
+  }
   StopToken token() const noexcept { return source_.get_token(); }
 
  private:
   std::stop_source source_;
-  std::atomic<const char*> why_{""};
+  // nullptr until the first request: a pointer compared against a "" of
+  // another translation unit matches only where the compiler merges literals.
+  std::atomic<const char*> why_{nullptr};
 };
 
 /// One bounded wait of a lifecycle step, in slices: block for next_slice()
