@@ -162,7 +162,9 @@ class Testbed : public ::testing::Test {
  protected:
   void SetUp() override {
     bed = umockdev_testbed_new();
-    root = umockdev_testbed_get_root_dir(bed);
+    gchar* dir = umockdev_testbed_get_root_dir(bed);  // transfer full: ours to free
+    root = dir;
+    g_free(dir);
   }
   void TearDown() override {
     g_object_unref(bed);
