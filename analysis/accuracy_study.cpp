@@ -9,6 +9,7 @@
 #include "analysis/accuracy_tracker.hpp"
 #include "analysis/closed_loop.hpp"
 #include "analysis/integrator_stability.hpp"
+#include "analysis/non_finite.hpp"
 #include "world/scene_catalog.hpp"
 #include "world/units.hpp"
 
@@ -16,10 +17,11 @@ namespace hapticd::analysis {
 
 namespace {
 
+using non_finite::inf;
+using non_finite::nan;
+
 constexpr std::array<std::string_view, 5> scene_names{"spring-wheel", "spring-wheel-absolute",
                                                       "spring-wheel-relative", "spring-mass", "wall"};
-constexpr double inf = std::numeric_limits<double>::infinity();
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 

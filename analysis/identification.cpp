@@ -10,14 +10,16 @@
 #include <unsupported/Eigen/FFT>
 
 #include "analysis/critical_stiffness.hpp"
+#include "analysis/non_finite.hpp"
 #include "analysis/verdict.hpp"
 
 namespace hapticd::analysis {
 
 namespace {
 
+using non_finite::nan;
+
 using cd = std::complex<double>;
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 constexpr double confounded_correlation = 0.99;
 constexpr double confounded_spread = 0.05;  ///< a 95 % interval wider than 5 % of the value is loose
 

@@ -7,6 +7,7 @@
 #include <span>
 #include <stdexcept>
 
+#include "analysis/non_finite.hpp"
 #include "world/integrator.hpp"
 #include "world/relay_scene.hpp"
 
@@ -14,7 +15,7 @@ namespace hapticd::analysis {
 
 namespace {
 
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+using non_finite::nan;
 
 template <class Scene>
 RelayRecord run(Scene scene, const SampledRelay& r, std::int64_t steps) {

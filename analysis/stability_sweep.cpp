@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "analysis/closed_loop.hpp"
+#include "analysis/non_finite.hpp"
 #include "analysis/wall_stability.hpp"
 #include "world/any_scene.hpp"
 #include "world/integrator.hpp"
@@ -15,8 +16,9 @@ namespace hapticd::analysis {
 
 namespace {
 
-constexpr double inf = std::numeric_limits<double>::infinity();
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+using non_finite::inf;
+using non_finite::nan;
+
 /// |r - 1| within which a case is marginal (issue 12), and the distance from
 /// z = 1 within which a released pole is the rigid-body drift.
 constexpr double marginal_band = 1e-6;

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "analysis/critical_stiffness.hpp"
+#include "analysis/non_finite.hpp"
 #include "analysis/stability_sweep.hpp"
 #include "analysis/wall_stability.hpp"
 #include "world/integrator.hpp"
@@ -15,9 +16,10 @@ namespace hapticd::analysis {
 
 namespace {
 
+using non_finite::inf;
+using non_finite::nan;
+
 namespace d = world::scene_defaults;
-constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-constexpr double inf = std::numeric_limits<double>::infinity();
 constexpr double period = 1e-3;
 
 std::string g(double v) { return world::text::format_significant(v, world::text::precision::message); }

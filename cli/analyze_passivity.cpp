@@ -29,14 +29,14 @@ struct PassivityArgs {
   bool json = false;
 };
 
-struct Units {
+struct PassivityUnits {
   std::string stiffness, damping;
 };
 
 /// What was asked, in SI, and its verdict.
 struct Query {
   std::string scene;
-  Units units;
+  PassivityUnits units;
   double stiffness = 0.0, period = 0.0;
   int delay = 0;
   std::string damping_text;  ///< the damping as given ("auto" resolved in `damping`)
@@ -93,7 +93,7 @@ Query evaluate(const PassivityArgs& a) {
     throw UsageError("--scene: '" + a.scene +
                      "' is not accepted; expected wall, spring-wheel or spring-mass");
   const bool rotary = q.scene == "spring-wheel";
-  q.units = rotary ? Units{"N m/rad", "N m s/rad"} : Units{"N/m", "N s/m"};
+  q.units = rotary ? PassivityUnits{"N m/rad", "N m s/rad"} : PassivityUnits{"N/m", "N s/m"};
   q.stiffness = non_negative_number("--stiffness", a.stiffness, q.units.stiffness);
   q.period = period_flag(a.period);
   q.delay = whole_number("--delay", a.delay, 0, 64);

@@ -36,11 +36,11 @@ struct AccuracyArgs {
   std::string stiffness, inertia, mass, damping, step, delay, device_mass, device_damping;
 };
 
-struct Units {
+struct AccuracyUnits {
   std::string stiffness, inertia, damping, step, scale;
 };
 
-Units units_of(AccuracyScene scene) {
+AccuracyUnits accuracy_units(AccuracyScene scene) {
   switch (scene) {
     case AccuracyScene::spring_mass:
       return {"N/m", "kg", "N s/m", "m", "k z_0"};
@@ -52,7 +52,7 @@ Units units_of(AccuracyScene scene) {
 }
 
 std::string describe(const AccuracyCase& c) {
-  const Units u = units_of(c.scene);
+  const AccuracyUnits u = accuracy_units(c.scene);
   std::string s;
   if (c.scene == AccuracyScene::wall) {
     s = "K = " + fmt(c.stiffness) + " N/m, B = " + fmt(c.damping) +
@@ -94,7 +94,7 @@ void apply_parameters(const AccuracyArgs& a, AccuracyCase& c, double device_peri
   only(a.delay, "--delay", wall, "the wall");
   only(a.device_mass, "--device-mass", wall, "the wall");
   only(a.device_damping, "--device-damping", wall, "the wall");
-  const Units u = units_of(c.scene);
+  const AccuracyUnits u = accuracy_units(c.scene);
   if (!a.stiffness.empty()) c.stiffness = positive_number("--stiffness", a.stiffness, u.stiffness);
   if (!a.inertia.empty()) c.inertia = positive_number("--inertia", a.inertia, "kg m^2");
   if (!a.mass.empty()) c.inertia = positive_number("--mass", a.mass, "kg");
@@ -184,7 +184,7 @@ std::vector<Method> methods_of(const AccuracyStudy& s, AccuracyScene scene) {
 }
 
 Figure work_precision_figure(const AccuracyStudy& s, const AccuracyCase& c) {
-  const Units u = units_of(c.scene);
+  const AccuracyUnits u = accuracy_units(c.scene);
   Figure f;
   f.name = "accuracy_work_precision_" + scene_name(c);
   f.title = scene_name(c) + ": error against run time, " + duration_text(last_duration(s)) + " simulated\n" +
@@ -232,7 +232,7 @@ Figure work_precision_figure(const AccuracyStudy& s, const AccuracyCase& c) {
 }
 
 Figure growth_figure(const AccuracyStudy& s, const AccuracyCase& c) {
-  const Units u = units_of(c.scene);
+  const AccuracyUnits u = accuracy_units(c.scene);
   Figure f;
   f.name = "accuracy_error_growth_" + scene_name(c);
   f.title = scene_name(c) +
@@ -273,7 +273,7 @@ Figure growth_figure(const AccuracyStudy& s, const AccuracyCase& c) {
 }
 
 Figure sweep_figure(const AccuracyStudy& s, const AccuracyCase& c) {
-  const Units u = units_of(c.scene);
+  const AccuracyUnits u = accuracy_units(c.scene);
   Figure f;
   f.name = "accuracy_error_vs_wnt_" + scene_name(c);
   const std::string cycles =
@@ -399,7 +399,7 @@ nlohmann::json study_json(const AccuracyStudy& s, double elapsed_s,
 }
 
 void print_case(std::ostream& out, const AccuracyStudy& s, const AccuracyCase& c) {
-  const Units u = units_of(c.scene);
+  const AccuracyUnits u = accuracy_units(c.scene);
   out << scene_name(c) << ": " << describe(c) << "\n";
   out << "  largest |F - F_exact| / " << u.scale << " over " << duration_text(last_duration(s))
       << " by period T (* unstable); CPU time per step of the scene alone\n";

@@ -1,4 +1,5 @@
 #include "client/client.hpp"
+#include "world/text.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -24,7 +25,7 @@ int remaining_ms(Clock::time_point deadline) {
   return left > 60'000 ? 60'000 : static_cast<int>(left);
 }
 
-std::string errno_text(int e) { return std::generic_category().message(e); }
+using world::text::errno_text;
 
 /// Turns a JSON-RPC error object into the exception the caller sees.
 [[noreturn]] void throw_error_object(const nlohmann::json& err) {

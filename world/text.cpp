@@ -1,6 +1,8 @@
 #include "world/text.hpp"
 
 #include <charconv>
+#include <cstdio>
+#include <system_error>
 
 namespace hapticd::world::text {
 
@@ -34,6 +36,14 @@ std::string format_quantity(double value, std::string_view unit, int digits) {
   if (!unit.empty()) (out += ' ') += unit;
   return out;
 }
+
+std::string format_hex(std::uint32_t value, int digits) {
+  char text[16];
+  std::snprintf(text, sizeof text, "0x%0*X", digits, value);
+  return text;
+}
+
+std::string errno_text(int error) { return std::generic_category().message(error); }
 
 void append_number(std::string& out, double value) {
   char buffer[32];  // the shortest round trip needs at most 24

@@ -14,6 +14,7 @@
 ///  - join(items, separator): "a, b, c".
 /// Non-finite values print as "nan", "-nan", "inf", "-inf".
 
+#include <cstdint>
 #include <initializer_list>
 #include <span>
 #include <string>
@@ -41,8 +42,14 @@ std::string format_number(double value);
 std::string format_significant(double value, int digits);
 std::string format_fixed(double value, int decimals);
 std::string format_quantity(double value, std::string_view unit, int digits = precision::message);
+/// "0x" and `digits` upper-case hex digits at least: object indices (CiA 301
+/// "0x6041"), registers, codes.
+std::string format_hex(std::uint32_t value, int digits);
 /// format_number(value) appended to `out` (a CSV line), without a temporary.
 void append_number(std::string& out, double value);
+
+/// The C library's text for an errno value ("Connection refused").
+std::string errno_text(int error);
 
 std::string join(std::span<const std::string> items, std::string_view separator = ", ");
 std::string join(std::initializer_list<std::string_view> items, std::string_view separator = ", ");

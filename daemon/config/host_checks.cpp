@@ -10,12 +10,13 @@
 #include <vector>
 
 #include "client/socket_path.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::daemon::config {
 
 namespace {
 
-std::string errno_text(int error) { return std::generic_category().message(error); }
+using world::text::errno_text;
 
 std::string quoted(const std::string& text) { return "\"" + text + "\""; }
 

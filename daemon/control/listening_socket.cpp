@@ -11,11 +11,12 @@
 #include <unistd.h>
 
 #include "daemon/control/server.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::daemon::control {
 
 namespace {
-std::string errno_text(int e) { return std::generic_category().message(e); }
+using world::text::errno_text;
 
 /// A socket file left by a daemon that is gone is removed; one where a
 /// daemon answers, or anything that is not a socket, stops start-up.

@@ -36,7 +36,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
-std::string errno_text(int e) { return std::generic_category().message(e); }
+using world::text::errno_text;
 
 /// 6 significant digits, no trailing zeros: 0.1, 1000, 1e-300.
 std::string number_text(double value) {

@@ -24,7 +24,7 @@ namespace hapticd::daemon::recorder {
 
 namespace {
 
-std::string errno_text(int error) { return std::generic_category().message(error); }
+using world::text::errno_text;
 
 void append_double(std::string& out, double value) { world::text::append_number(out, value); }
 

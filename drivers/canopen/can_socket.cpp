@@ -1,4 +1,5 @@
 #include "drivers/canopen/can_socket.hpp"
+#include "world/text.hpp"
 
 #include <fcntl.h>
 #include <linux/can.h>
@@ -27,7 +28,7 @@ namespace {
 
 constexpr int socket_buffer_bytes = 1 << 20;
 
-std::string errno_text(int error) { return std::error_code(error, std::generic_category()).message(); }
+using world::text::errno_text;
 
 [[noreturn]] void fail(std::string_view interface, const std::string& what) {
   throw std::runtime_error("CAN interface '" + std::string(interface) + "': " + what);

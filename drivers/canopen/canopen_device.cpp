@@ -5,6 +5,7 @@
 
 #include "drivers/canopen/commissioning.hpp"
 #include "rpc/jsonrpc.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -13,12 +14,6 @@ using rpc::RpcError;
 namespace code = rpc::code;
 
 namespace {
-
-std::string hex(std::uint32_t v, int digits) {
-  char text[16];
-  std::snprintf(text, sizeof text, "0x%0*X", digits, v);
-  return text;
-}
 
 /// An index, sub-index or value given as a number or as text ("0x6041").
 std::int64_t integer_param(const json& params, const char* name, bool hex_text_only_unsigned = true) {
@@ -78,8 +73,10 @@ void only_members(const json& params, std::initializer_list<const char*> accepte
 }
 
 json to_json(const SdoAccess& a) {
-  json j = {
-      {"index", hex(a.address.index, 4)}, {"sub", a.address.sub}, {"raw", hex(a.raw, 8)}, {"value", a.value}};
+  json j = {{"index", world::text::format_hex(a.address.index, 4)},
+            {"sub", a.address.sub},
+            {"raw", world::text::format_hex(a.raw, 8)},
+            {"value", a.value}};
   j["type"] = a.type ? json(std::string(cia301::short_name(*a.type))) : json(nullptr);
   j["name"] = a.name;
   if (!a.note.empty()) j["note"] = a.note;
@@ -178,8 +175,8 @@ DeviceModel CanopenDevice::model() const {
   m.source = "config";
   const DriveIdentity& id = session_->setup().identity;
   m.description = "CiA 402 drive, node " + std::to_string(config_.node_id) + " (vendor " +
-                  hex(id.vendor_id, 8) + ", product " + hex(id.product_code, 8) +
-                  "), cyclic synchronous torque";
+                  world::text::format_hex(id.vendor_id, 8) + ", product " +
+                  world::text::format_hex(id.product_code, 8) + "), cyclic synchronous torque";
   for (const std::string& note : session_->setup().notes) m.description += "; " + note;
   return m;
 }

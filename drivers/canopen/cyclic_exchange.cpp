@@ -7,6 +7,7 @@
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/402/drive_errors.hpp"
 #include "drivers/canopen/402/objects.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -20,15 +21,9 @@ namespace {
 // same story with the drive's own code: it replaces the latched reason.
 constexpr std::uint64_t emcy_upgrade_periods = 3;
 
-std::string hex4(unsigned v) {
-  char text[8];
-  std::snprintf(text, sizeof text, "0x%04X", v);
-  return text;
-}
-
 std::string state_words(std::uint16_t statusword) {
   const auto s = cia402::decode_statusword(statusword);
-  return "statusword " + hex4(statusword) + " (" +
+  return "statusword " + world::text::format_hex(statusword, 4) + " (" +
          (s ? std::string(cia402::to_string(*s)) : std::string("no CiA 402 state")) + ")";
 }
 

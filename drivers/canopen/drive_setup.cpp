@@ -7,6 +7,7 @@
 #include "drivers/canopen/301/object_dictionary.hpp"
 #include "drivers/canopen/402/drive_errors.hpp"
 #include "drivers/canopen/402/objects.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -22,12 +23,6 @@ namespace {
 constexpr int pdo_count = 4;
 constexpr std::uint16_t profile_402 = 402;
 constexpr int mode_confirm_reads = 5;
-
-std::string hex(std::uint32_t v, int digits) {
-  char text[16];
-  std::snprintf(text, sizeof text, "0x%0*X", digits, v);
-  return text;
-}
 
 std::string node_name(std::uint8_t node) { return "node " + std::to_string(node); }
 
@@ -132,7 +127,8 @@ void identify(SdoClient& sdo, const std::string& node, SetupResult& r) {
   const std::uint32_t profile = r.identity.device_type & 0xFFFFU;
   if (profile != profile_402)
     throw SetupError(node + " is not a CiA 402 drive: 0x1000 device type = " +
-                         hex(r.identity.device_type, 8) + " (profile " + std::to_string(profile) + ")",
+                         world::text::format_hex(r.identity.device_type, 8) + " (profile " +
+                         std::to_string(profile) + ")",
                      "node_id");
   step([&] { r.identity.vendor_id = sdo.read({obj301::identity, 1}); }, "node_id");
   read_optional(sdo, {obj301::identity, 2}, r.identity.product_code);
@@ -148,7 +144,7 @@ void select_torque_mode(SdoClient& sdo, const std::string& node, SetupResult& r)
     r.notes.push_back("no 0x6502: the mode is confirmed by 0x6061 alone");
   else if ((modes >> *cia402::supported_mode_bit(cst) & 1U) == 0)
     throw SetupError(node + " does not offer cyclic synchronous torque: 0x6502 supported drive modes = " +
-                         hex(modes, 8) + " (bit 9 clear)",
+                         world::text::format_hex(modes, 8) + " (bit 9 clear)",
                      "node_id");
   write(sdo, {obj402::modes_of_operation, 0}, static_cast<std::uint8_t>(cst), 1);
   std::int8_t shown = 0;
@@ -213,8 +209,8 @@ cia402::DriveState reset_old_fault(SdoClient& sdo, const std::string& node, Setu
   if (in_fault(state)) {
     std::uint32_t code = 0;
     read_optional(sdo, {obj402::error_code, 0}, code);
-    const std::string was =
-        "0x603F = " + hex(code, 4) + " (" + describe_error_code(static_cast<std::uint16_t>(code)) + ")";
+    const std::string was = "0x603F = " + world::text::format_hex(code, 4) + " (" +
+                            describe_error_code(static_cast<std::uint16_t>(code)) + ")";
     for (const std::uint16_t cw : {cia402::controlword::disable_voltage, cia402::controlword::fault_reset,
                                    cia402::controlword::disable_voltage})
       write(sdo, {obj402::controlword, 0}, cw, 2);
@@ -224,7 +220,9 @@ cia402::DriveState reset_old_fault(SdoClient& sdo, const std::string& node, Setu
     r.notes.push_back("reset the fault the drive had: " + was);
   }
   if (!state)
-    throw SetupError(node + " statusword " + hex(statusword, 4) + " matches no CiA 402 state", "node_id");
+    throw SetupError(
+        node + " statusword " + world::text::format_hex(statusword, 4) + " matches no CiA 402 state",
+        "node_id");
   return *state;
 }
 

@@ -1,4 +1,5 @@
 #include "drivers/canopen/sdo_client.hpp"
+#include "world/text.hpp"
 
 #include <cstdio>
 
@@ -7,15 +8,7 @@ namespace hapticd::drivers::canopen {
 using cia301::Frame;
 using cia301::SdoResponse;
 
-namespace {
-
-std::string hex(std::uint32_t v, int digits) {
-  char text[16];
-  std::snprintf(text, sizeof text, "0x%0*X", digits, v);
-  return text;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 SdoExchange SdoExchange::upload(std::uint8_t node, cia301::ObjectAddress address) {
   SdoExchange e;
@@ -71,8 +64,8 @@ bool SdoExchange::on_frame(const Frame& frame, std::optional<Frame>& reply) {
       break;
   }
   outcome_.kind = SdoOutcome::Kind::unsupported;
-  outcome_.detail =
-      "the server answered with command " + hex(r->command, 2) + ", which does not fit the request";
+  outcome_.detail = "the server answered with command " + world::text::format_hex(r->command, 2) +
+                    ", which does not fit the request";
   reply = cia301::encode_client_abort(node_, address_, cia301::abort_code::unknown_command);
   return true;
 }
@@ -84,7 +77,8 @@ Frame SdoExchange::time_out() {
 
 std::string SdoExchange::describe() const {
   // Mapping entries and COB-IDs read best in hex, small values in decimal.
-  const std::string value = size_ == 4 && value_ > 0xFFFF ? hex(value_, 8) : std::to_string(value_);
+  const std::string value =
+      size_ == 4 && value_ > 0xFFFF ? world::text::format_hex(value_, 8) : std::to_string(value_);
   std::string line =
       upload_
           ? "SDO read " + cia301::to_string(address_) + " from node " + std::to_string(node_)
@@ -95,7 +89,7 @@ std::string SdoExchange::describe() const {
     case SdoOutcome::Kind::ok:
       return line + (upload_ ? ": " + std::to_string(outcome_.value) : ": done");
     case SdoOutcome::Kind::aborted:
-      return line + ": aborted " + hex(outcome_.abort_code, 8) + " (" +
+      return line + ": aborted " + world::text::format_hex(outcome_.abort_code, 8) + " (" +
              std::string(cia301::describe_abort(outcome_.abort_code)) + ")";
     case SdoOutcome::Kind::timed_out:
       return line + ": no answer";

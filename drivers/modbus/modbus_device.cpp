@@ -10,6 +10,7 @@
 
 #include "drivers/modbus/modbus_frame.hpp"
 #include "drivers/modbus/rtu_timing.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::drivers::modbus {
 
@@ -34,12 +35,6 @@ std::string seconds_text(double s) {
     std::snprintf(text, sizeof text, "%.3g ms", s * 1e3);
   else
     std::snprintf(text, sizeof text, "%.3g us", s * 1e6);
-  return text;
-}
-
-std::string hex4(std::uint16_t v) {
-  char text[8];
-  std::snprintf(text, sizeof text, "0x%04X", v);
   return text;
 }
 
@@ -166,9 +161,10 @@ void ModbusDevice::configure(const LoopContext& loop) {
     AmplifierSample s = read_state("reading the amplifier's state");
     if (s.faulted) {
       if (!config_.reset_on_start || !config_.map.reset)
-        throw DeviceError("modbus: the amplifier at " + link_->endpoint() + " is in fault: " +
-                              describe_faults(s.fault, config_.map.fault_bits) + ", status " +
-                              hex4(s.status) + "; clear it at the amplifier, or set reset_on_start = true",
+        throw DeviceError("modbus: the amplifier at " + link_->endpoint() +
+                              " is in fault: " + describe_faults(s.fault, config_.map.fault_bits) +
+                              ", status " + world::text::format_hex(s.status, 4) +
+                              "; clear it at the amplifier, or set reset_on_start = true",
                           "reset_on_start");
       const LinkResult r = link_->write_register(*config_.map.reset, config_.map.reset_value);
       if (!r.ok()) fail("writing the reset register", r, "reset_register");
@@ -552,13 +548,14 @@ void ModbusDevice::wait_enabled(const char* doing) {
     const AmplifierSample s = read_state(doing);
     if (s.faulted)
       throw DeviceError("modbus: " + std::string(doing) + ": the amplifier reports a fault: " +
-                        describe_faults(s.fault, config_.map.fault_bits) + ", status " + hex4(s.status));
+                        describe_faults(s.fault, config_.map.fault_bits) + ", status " +
+                        world::text::format_hex(s.status, 4));
     if (s.enabled) return;
     if (Clock::now() > deadline)
       throw DeviceError("modbus: " + std::string(doing) +
                             ": the amplifier did not report its power stage on within " +
                             seconds_text(std::chrono::duration<double>(enable_wait).count()) + " (status " +
-                            hex4(s.status) + ")",
+                            world::text::format_hex(s.status, 4) + ")",
                         "status_enabled_bit");
     std::this_thread::sleep_for(poll_interval);
   }
@@ -724,9 +721,10 @@ std::string ModbusDevice::describe(const FaultRecord& f) const {
              " failed transactions in a row, the last: " + modbus::describe(f.last);
     case FaultCause::amplifier_fault:
       return "amplifier fault: " + describe_faults(f.fault_word, config_.map.fault_bits) + ", status " +
-             hex4(f.status);
+             world::text::format_hex(f.status, 4);
     case FaultCause::amplifier_disabled:
-      return "the amplifier switched its power stage off by itself (status " + hex4(f.status) + ")";
+      return "the amplifier switched its power stage off by itself (status " +
+             world::text::format_hex(f.status, 4) + ")";
   }
   return "";
 }

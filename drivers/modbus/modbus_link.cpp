@@ -46,7 +46,7 @@ double monotonic_s() noexcept {
   return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_nsec) * 1e-9;
 }
 
-std::string seconds_text(double s) {
+std::string timeout_text(double s) {
   char text[32];
   std::snprintf(text, sizeof text, "%g s", s);
   return text;
@@ -307,7 +307,7 @@ void ModbusLink::connect_tcp() {
     throw StopRequested(abandoned("modbus: connecting to Modbus TCP " + settings_.host + ":" + service));
   if (fd < 0)
     throw LinkError("host", "cannot connect to Modbus TCP " + settings_.host + ":" + service + " within " +
-                                seconds_text(settings_.connect_timeout_s) + ": " + system_error(error));
+                                timeout_text(settings_.connect_timeout_s) + ": " + system_error(error));
   modbus_set_socket(ctx_, fd);
 }
 

@@ -24,13 +24,13 @@ constexpr std::string_view all_keys =
     "stiffness, damping, force, release_at";
 
 /// key: the hand-script key the error is about (ParameterError::key()).
-[[noreturn]] void fail(std::string_view key, const std::string& message) {
+[[noreturn]] void refuse_script(std::string_view key, const std::string& message) {
   throw ParameterError(std::string(key), "hand script: " + message);
 }
 
 using world::text::join;
 // Shortest text that reads back as the same double (0.1, not 0.10000000000000001).
-std::string number_text(double value) { return world::text::format_number(value); }
+using world::text::format_number;
 
 /// The largest magnitude a key's number may have: far beyond any device, and
 /// small enough that the trajectory stays finite every period (a sine's
@@ -79,7 +79,7 @@ std::string HandScript::to_text() const {
     out += ' ';
     out += key;
     out += '=';
-    out += number_text(value);
+    out += format_number(value);
   };
   if (mode == HandMode::hold || mode == HandMode::impedance) {
     out += " trajectory=" + std::string(to_string(trajectory.kind));
@@ -128,11 +128,11 @@ HandScript parse_hand_script(std::string_view text) {
                        key == "amplitude" || key == "at" || key == "rate" || key == "from" || key == "to" ||
                        key == "frequency" || key == "phase" || key == "ideal" || key == "stiffness" ||
                        key == "damping" || key == "force" || key == "release_at";
-    if (!known) fail(key, "unknown key '" + key + "'; accepted: " + std::string(all_keys));
+    if (!known) refuse_script(key, "unknown key '" + key + "'; accepted: " + std::string(all_keys));
     for (std::size_t j = 0; j < i; ++j) {
       const bool alias = (key == "offset" && pairs[j].first == "position") ||
                          (key == "position" && pairs[j].first == "offset");
-      if (pairs[j].first == key || alias) fail(key, "key '" + key + "' given twice");
+      if (pairs[j].first == key || alias) refuse_script(key, "key '" + key + "' given twice");
     }
   }
   auto find = [&pairs](std::string_view key) -> const std::string* {
@@ -143,20 +143,21 @@ HandScript parse_hand_script(std::string_view text) {
   };
   auto number = [](std::string_view key, const std::string& value) {
     const auto parsed = world::units::parse_finite(value);
-    if (!parsed) fail(key, std::string(key) + "=" + value + " is not a finite number");
+    if (!parsed) refuse_script(key, std::string(key) + "=" + value + " is not a finite number");
     const double limit = magnitude_limit(key);
     if (std::abs(*parsed) > limit)
-      fail(key, std::string(key) + "=" + value + " is out of range; accepted: -" + number_text(limit) +
-                    " to " + number_text(limit));
+      refuse_script(key, std::string(key) + "=" + value + " is out of range; accepted: -" +
+                             format_number(limit) + " to " + format_number(limit));
     return *parsed;
   };
 
   HandScript script;
   const std::string* mode = find("mode");
-  if (!mode) fail("mode", "missing mode; accepted: mode=" + join({"free", "hold", "force", "impedance"}));
+  if (!mode)
+    refuse_script("mode", "missing mode; accepted: mode=" + join({"free", "hold", "force", "impedance"}));
   const auto mode_it = std::find(mode_names.begin(), mode_names.end(), *mode);
   if (mode_it == mode_names.end())
-    fail("mode", "mode=" + *mode + " is not one of free, hold, force, impedance");
+    refuse_script("mode", "mode=" + *mode + " is not one of free, hold, force, impedance");
   script.mode = static_cast<HandMode>(mode_it - mode_names.begin());
 
   // Which keys this mode (and trajectory) accepts.
@@ -167,7 +168,7 @@ HandScript parse_hand_script(std::string_view text) {
     if (const std::string* kind = find("trajectory")) {
       const auto it = std::find(trajectory_names.begin(), trajectory_names.end(), *kind);
       if (it == trajectory_names.end())
-        fail("trajectory", "trajectory=" + *kind + " is not one of constant, step, ramp, sine");
+        refuse_script("trajectory", "trajectory=" + *kind + " is not one of constant, step, ramp, sine");
       script.trajectory.kind = static_cast<TrajectoryKind>(it - trajectory_names.begin());
     }
     switch (script.trajectory.kind) {
@@ -198,7 +199,7 @@ HandScript parse_hand_script(std::string_view text) {
     }
     std::string context = "mode=" + *mode;
     if (has_reference) context += " trajectory=" + std::string(to_string(script.trajectory.kind));
-    fail(key, "key '" + key + "' does not apply to " + context + "; accepted: " + list);
+    refuse_script(key, "key '" + key + "' does not apply to " + context + "; accepted: " + list);
   }
 
   if (const std::string* v = find("ideal")) {
@@ -207,7 +208,7 @@ HandScript parse_hand_script(std::string_view text) {
     } else if (*v == "false" || *v == "0" || *v == "no") {
       script.ideal = false;
     } else {
-      fail("ideal", "ideal=" + *v + " is not one of true, false");
+      refuse_script("ideal", "ideal=" + *v + " is not one of true, false");
     }
   }
   Trajectory& r = script.trajectory;
@@ -246,7 +247,7 @@ HandScript parse_hand_script(std::string_view text) {
   // A missing key is blamed on the key that asks for it.
   auto require = [&find, &script](std::string_view key, std::string_view asked_by = "mode") {
     if (!find(key))
-      fail(asked_by, "mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
+      refuse_script(asked_by, "mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
   };
   if (has_reference) {
     switch (r.kind) {
@@ -258,28 +259,29 @@ HandScript parse_hand_script(std::string_view text) {
       case TrajectoryKind::ramp:
         require("rate", "trajectory");
         require("to", "trajectory");
-        if (!(r.rate > 0.0)) fail("rate", "rate must be > 0 (got " + number_text(r.rate) + ")");
+        if (!(r.rate > 0.0)) refuse_script("rate", "rate must be > 0 (got " + format_number(r.rate) + ")");
         break;
       case TrajectoryKind::sine:
         require("amplitude", "trajectory");
         require("frequency", "trajectory");
         if (!(r.frequency > 0.0))
-          fail("frequency", "frequency must be > 0 Hz (got " + number_text(r.frequency) + ")");
+          refuse_script("frequency", "frequency must be > 0 Hz (got " + format_number(r.frequency) + ")");
         break;
     }
   }
   if (script.mode == HandMode::force) require("force");
   if (script.mode == HandMode::impedance) require("stiffness");
   if (script.mode == HandMode::hold && script.ideal && (script.stiffness || script.damping)) {
-    fail(script.stiffness ? "stiffness" : "damping",
-         "stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position "
-         "exactly)");
+    refuse_script(
+        script.stiffness ? "stiffness" : "damping",
+        "stiffness/damping apply to mode=hold only with ideal=false (ideal=true constrains the position "
+        "exactly)");
   }
   if (script.stiffness && !(*script.stiffness > 0.0)) {
-    fail("stiffness", "stiffness must be > 0 (got " + number_text(*script.stiffness) + ")");
+    refuse_script("stiffness", "stiffness must be > 0 (got " + format_number(*script.stiffness) + ")");
   }
   if (script.damping && !(*script.damping >= 0.0)) {
-    fail("damping", "damping must be >= 0 (got " + number_text(*script.damping) + ")");
+    refuse_script("damping", "damping must be >= 0 (got " + format_number(*script.damping) + ")");
   }
   return script;
 }
