@@ -55,7 +55,7 @@ class Client {
   int fd() const noexcept { return fd_; }
 
   /// Longest line accepted from the daemon (a stream sample or a status).
-  static constexpr std::size_t max_line_bytes = 16 * 1024 * 1024;
+  static constexpr std::size_t max_line_bytes = std::size_t{16} * 1024 * 1024;
 
  private:
   Client(int fd, std::string path, std::chrono::milliseconds timeout);

@@ -16,8 +16,8 @@ using rpc::RpcError;
 /// denied on the socket, the connection dropped, or no answer in time.
 class ConnectError : public std::runtime_error {
  public:
-  ConnectError(std::string message, std::string path, int error_number)
-      : std::runtime_error(std::move(message)), path_(std::move(path)), errno_(error_number) {}
+  ConnectError(const std::string& message, std::string path, int error_number)
+      : std::runtime_error(message), path_(std::move(path)), errno_(error_number) {}
   const std::string& path() const noexcept { return path_; }
   /// errno of the failing call; 0 when not a system call (EOF, timeout).
   int error_number() const noexcept { return errno_; }

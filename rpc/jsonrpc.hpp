@@ -67,8 +67,8 @@ constexpr std::string_view code_name(int c) noexcept {
 /// an error; the client throws it when the daemon answers with one.
 class RpcError : public std::runtime_error {
  public:
-  RpcError(int error_code, std::string message, nlohmann::json data = nullptr)
-      : std::runtime_error(std::move(message)), code_(error_code), data_(std::move(data)) {}
+  RpcError(int error_code, const std::string& message, nlohmann::json data = nullptr)
+      : std::runtime_error(message), code_(error_code), data_(std::move(data)) {}
 
   int code() const noexcept { return code_; }
   /// Extra detail (e.g. {"limit": ...} for refused); null when absent.

@@ -40,7 +40,7 @@ struct ServerOptions {
   /// daemon's own group for ownership and only its uid (or root) for writes.
   std::string group;
   /// A request line longer than this gets -32003 and the connection closes.
-  std::size_t max_message_bytes = 64 * 1024;
+  std::size_t max_message_bytes = std::size_t{64} * 1024;
   /// Connections holding a slot. A further one from a peer with write access
   /// takes the slot of the read-only connection idle the longest (which gets
   /// a -32002 line), so readers cannot lock the writers (and their
@@ -70,7 +70,7 @@ struct ServerOptions {
   /// Queued output per client: above it, stream notifications are dropped
   /// (and counted) and requests are no longer read until it drains; a client
   /// whose queue reaches four times this (replies it never reads) is disconnected.
-  std::size_t max_output_bytes = 1024 * 1024;
+  std::size_t max_output_bytes = std::size_t{1024} * 1024;
   /// Stream rates a client may ask for; outside: -32602 naming the range.
   /// The lower bound keeps the timer period (1 / rate) a sane number: below
   /// ~1.1e-10 Hz it no longer fits the timer and became a 1 ns timer.

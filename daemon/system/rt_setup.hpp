@@ -19,7 +19,7 @@ struct RtOptions {
   int priority = 80;        ///< SCHED_FIFO 1..99; 0 = leave the scheduler alone
   std::vector<int> cpus;    ///< affinity; empty = leave unchanged
   bool lock_memory = true;  ///< mlockall(MCL_CURRENT | MCL_FUTURE), process-wide
-  std::size_t prefault_stack_bytes = 256 * 1024;
+  std::size_t prefault_stack_bytes = std::size_t{256} * 1024;
   bool hold_dma_latency = true;  ///< /dev/cpu_dma_latency = 0 while the report lives
   bool require_rt = false;       ///< SCHED_FIFO failure is fatal (caller exits non-zero)
 };

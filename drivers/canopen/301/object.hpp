@@ -16,6 +16,9 @@ namespace hapticd::drivers::canopen::cia301 {
 struct ObjectAddress {
   std::uint16_t index = 0;
   std::uint8_t sub = 0;
+  // clang-tidy 14 takes the defaulted comparison's implicit `0` for a null
+  // pointer constant (a known false positive of modernize-use-nullptr).
+  // NOLINTNEXTLINE(modernize-use-nullptr)
   friend constexpr auto operator<=>(const ObjectAddress&, const ObjectAddress&) = default;
 };
 /// "0x6041:00"
