@@ -36,7 +36,7 @@ using world::text::errno_text;
   std::string message = err.contains("message") && err["message"].is_string()
                             ? err["message"].get<std::string>()
                             : std::string(rpc::code_name(c));
-  throw RpcError(c, std::move(message), err.contains("data") ? err["data"] : nlohmann::json());
+  throw RpcError(c, message, err.contains("data") ? err["data"] : nlohmann::json());
 }
 
 /// connect() within `timeout`: 0 or the errno. Blocking, with the timeout
