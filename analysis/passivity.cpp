@@ -210,10 +210,10 @@ class TransferKernel {
       u = next;
     }
     const double u_delay = delay_ == 0 ? 0.0 : u;
-    const double cd = std::cos(delay_ * theta), sd = std::sin(delay_ * theta);
+    const double cos_dt = std::cos(delay_ * theta), sin_dt = std::sin(delay_ * theta);
     // z^-d G: real part, and imaginary part over sin(theta); H = -z^-d G.
-    const double re_h = -(cd * re_g + sd * s * im_g_over_s);
-    const double q_h = -(cd * im_g_over_s - u_delay * re_g);
+    const double re_h = -(cos_dt * re_g + sin_dt * s * im_g_over_s);
+    const double q_h = -(cos_dt * im_g_over_s - u_delay * re_g);
     return {half_t_ * (re_h - (1.0 + c) * q_h), q_h};
   }
 

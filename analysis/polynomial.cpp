@@ -47,18 +47,17 @@ struct Grid {
 };
 
 Grid scan_grid() {
-  constexpr double pi = std::numbers::pi;
   constexpr int linear = 4096;
   constexpr int per_decade = 16;
   std::vector<double> grid;
   grid.reserve(linear + 2 * 8 * per_decade);
-  for (int i = 1; i < linear; ++i) grid.push_back(pi * i / linear);
+  for (int i = 1; i < linear; ++i) grid.push_back(std::numbers::pi * i / linear);
   // Crossings close to z = 1 and z = -1 (slow oscillations, Nyquist).
   for (int i = 0; i < 8 * per_decade; ++i) {
     const double h = std::pow(10.0, -9.0 + static_cast<double>(i) / per_decade);
-    if (h < pi / linear) {
+    if (h < std::numbers::pi / linear) {
       grid.push_back(h);
-      grid.push_back(pi - h);
+      grid.push_back(std::numbers::pi - h);
     }
   }
   std::sort(grid.begin(), grid.end());

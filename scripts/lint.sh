@@ -16,6 +16,9 @@
 #   findings located in the generated unit are CMake's, not the project's,
 #   and dropped; a .cpp including a .cpp is still found (it is in the source);
 # - a source in no unit (a target with UNITY_BUILD off) runs alone.
+# Every source in a unit is also compiled by itself (clang -fsyntax-only,
+# scripts/compile_alone.py): the builds compile units, and a unit can hide
+# a source's missing include behind its neighbour's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root="$(pwd)"
@@ -67,11 +70,19 @@ printf '%s\n' "${units[@]}" | run "$tidy"
 [ "${#alone[@]}" -eq 0 ] || printf '%s\n' "${alone[@]}" | run "$tidy-files"
 [ "${#with_using[@]}" -eq 0 ] || printf '%s\n' "${with_using[@]}" | run "$tidy-files" --checks='-*,misc-unused-using-decls'
 
+# Parsed alone above already: the sources in no unit and those with a using-declaration.
+parsed_alone="$(printf '%s\n' "${alone[@]}" "${with_using[@]}")"
+in_units=()
+for s in "${sources[@]}"; do grep -qxF "$s" <<<"$parsed_alone" || in_units+=("$s"); done
+alone_ok=0
+python3 scripts/compile_alone.py "$tidy-files/compile_commands.json" "$jobs" "${in_units[@]}" || alone_ok=1
+
 findings="$(grep -E 'warning:|error:' "$log" | grep -vE '/Unity/unity_[0-9]+_cxx\.cxx:.*\[bugprone-suspicious-include\]' || true)"
 if [ -n "$findings" ]; then
   echo "$findings"
   echo "clang-tidy: findings above (whole output: $log)"
   exit 1
 fi
+[ "$alone_ok" -eq 0 ] || exit 1
 echo "clang-tidy: ${#sources[@]} files clean (${#units[@]} unity units, ${#alone[@]} sources alone," \
   "${#with_using[@]} for misc-unused-using-decls)"

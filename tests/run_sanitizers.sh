@@ -37,8 +37,9 @@ launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 # Unity builds (CMake, 16 sources a unit) for the project's libraries and
 # programs: the heavy headers are parsed once a unit instead of once a file.
-# The Release build stays one file at a time, so every source still has to
-# compile alone; the test targets are not unity builds (tests/CMakeLists.txt).
+# As in the Release build (scripts/build.sh); scripts/lint.sh checks that each
+# source compiles by itself; the test targets are not unity builds
+# (tests/CMakeLists.txt).
 unity=(-DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16)
 
 # TSan's shadow memory breaks with the high mmap randomization of recent

@@ -7,17 +7,17 @@
 namespace hapticd::world {
 
 namespace {
-constexpr std::array<std::string_view, 5> names{"forward-euler", "semi-implicit-euler", "trapezoid", "rk4",
-                                                "exact"};
+constexpr std::array<std::string_view, 5> integrator_name_table{"forward-euler", "semi-implicit-euler",
+                                                                "trapezoid", "rk4", "exact"};
 }
 
 std::string_view to_string(Integrator integrator) noexcept {
-  return names[static_cast<std::size_t>(integrator)];
+  return integrator_name_table[static_cast<std::size_t>(integrator)];
 }
 
 std::optional<Integrator> parse_integrator(std::string_view name) noexcept {
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    if (names[i] == name) return static_cast<Integrator>(i);
+  for (std::size_t i = 0; i < integrator_name_table.size(); ++i) {
+    if (integrator_name_table[i] == name) return static_cast<Integrator>(i);
   }
   if (name == "euler") return Integrator::forward_euler;
   if (name == "tustin" || name == "trapezoidal") return Integrator::trapezoid;
