@@ -36,6 +36,10 @@ HAPTICD_BUILD_TREE="$tree" DEB_BUILD_OPTIONS="parallel=$(nproc) ${DEB_BUILD_OPTI
 for f in "../hapticd_${version}_${arch}".{deb,buildinfo,changes}; do mv -f "$f" out/; done
 echo "package: out/hapticd_${version}_${arch}.deb"
 
+# The program's string literals against lintian's list of misspellings (the
+# binaries' own spelling tag is overridden: debian/hapticd.lintian-overrides).
+mapfile -t program_sources < <(find world analysis rt rpc drivers daemon client cli -name '*.[ch]pp' | sort)
+python3 scripts/spelling_in_strings.py "${program_sources[@]}"
 # lintian: the package's overrides (debian/hapticd.lintian-overrides) say
 # why each tag left is; anything else at warning or above fails.
 lintian --fail-on error,warning --display-info "out/hapticd_${version}_${arch}.changes"
