@@ -86,6 +86,66 @@ std::optional<double> largest_stable_stiffness(std::string_view scene, world::Pa
   return lo;
 }
 
+/// What the passivity controller changes in the gate's answer.
+struct PassivityJudgement {
+  bool applies = false;   ///< passivity = "controller" on a scene with a stiffness
+  bool accepted = false;  ///< within the factor, and the controller's damper itself stable
+  std::string text;       ///< the reason, for the reply (accepted) or the refusal
+};
+
+/// Whether the scene with its damping raised by all the controller may add
+/// (passivity_max_damping) and no stiffness is stable on the device: the
+/// controller must not be able to destabilise the device as a damper.
+bool controller_damper_stable(std::string_view scene, world::ParameterSet parameters,
+                              const GateDevice& device) {
+  const auto damping = parameters.find("damping");
+  const auto added = parameters.find("passivity_max_damping");
+  if (damping == parameters.end() || added == parameters.end()) return true;
+  parameters["damping"] = std::get<double>(damping->second) + std::get<double>(added->second);
+  parameters["stiffness"] = 0.0;
+  parameters["passivity"] = std::string("off");
+  auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion);
+  const auto* plan = std::get_if<world::ScenePlan>(&outcome);
+  return plan != nullptr && check_scene_stability(*plan, device).stable;
+}
+
+PassivityJudgement judge_with_passivity(std::string_view scene, const world::ScenePlan& plan,
+                                        const GateDevice& device) {
+  PassivityJudgement j;
+  const auto mode = plan.parameters.find("passivity");
+  const auto stiffness = plan.parameters.find("stiffness");
+  if (mode == plan.parameters.end() || stiffness == plan.parameters.end() ||
+      std::get<std::string>(mode->second) != "controller") {
+    return j;
+  }
+  j.applies = true;
+  const double requested = std::get<double>(stiffness->second);
+  const std::string unit = stiffness_unit(plan);
+  const std::string factor = num(passivity_stiffness_factor);
+  const auto fixed = largest_stable_stiffness(scene, plan.parameters, requested, device);
+  if (!fixed) {
+    j.text = "with the passivity controller up to " + factor + " x the fixed-gain limit, and there is none";
+    return j;
+  }
+  const double allowed = passivity_stiffness_factor * *fixed;
+  if (requested > allowed) {
+    // The refusal has named the fixed-gain limit already.
+    j.text = "with the passivity controller up to " + factor + " x that = " + num(allowed) + " " + unit;
+    return j;
+  }
+  if (!controller_damper_stable(scene, plan.parameters, device)) {
+    j.text =
+        "passivity_max_damping: damping + passivity_max_damping is unstable as a damper on this device; "
+        "the controller could destabilise it (lower passivity_max_damping)";
+    return j;
+  }
+  j.accepted = true;
+  j.text = "passivity: K = " + num(requested) + " " + unit + " is " + num(requested / *fixed) +
+           " x the fixed-gain limit " + num(*fixed) + " " + unit +
+           "; accepted with the passivity controller (Hannaford & Ryu 2002), up to " + factor + " x";
+  return j;
+}
+
 }  // namespace
 
 std::string GateDevice::describe() const {
@@ -177,6 +237,13 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
     refusal.stability = accepted.stability;
     return refusal;
   }
+  const PassivityJudgement passivity = judge_with_passivity(scene, accepted.plan, device);
+  if (passivity.accepted) {
+    accepted.plan.notes.push_back(passivity.text);
+    accepted.stability.summary += "; " + passivity.text;
+    accepted.passivity_held = true;
+    return accepted;
+  }
   if (force) {
     accepted.forced = true;
     return accepted;
@@ -200,6 +267,7 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
       if (!rules.unstable_hint.empty()) refusal.message += " (" + rules.unstable_hint + ")";
     }
   }
+  if (passivity.applies) refusal.message += "; " + passivity.text;
   // Hulin's wall on a rigid device without mechanical damping is exactly his
   // problem: say what his region allows.
   if (rules.stability == world::StabilityRule::hulin_wall && device.plant.dynamics.a.rows() == 2 &&

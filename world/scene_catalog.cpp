@@ -182,6 +182,10 @@ std::vector<ChannelDescription> describe_channels(std::span<const std::string_vi
       unit = vel;
     } else if (n == "armed") {
       unit = "1";
+    } else if (n == "passivity_energy") {
+      unit = "J";
+    } else if (n == "passivity_damping") {
+      unit = motion == Motion::rotary ? "N m s/rad" : "N s/m";
     } else {
       unit = pos;
     }

@@ -17,6 +17,7 @@
 
 #include "world/any_scene.hpp"
 #include "world/parameter.hpp"
+#include "world/passivity_scene.hpp"
 #include "world/scene_description.hpp"
 #include "world/state_space.hpp"
 #include "world/units.hpp"
@@ -70,7 +71,8 @@ std::string scene_names();
 std::string accepted_text(const ParameterSpec& parameter, Motion motion);
 
 /// Telemetry channels of a scene type's names: positions in m or rad,
-/// velocities in m/s or rad/s, "armed" in 1.
+/// velocities in m/s or rad/s, "armed" in 1, passivity_energy in J and
+/// passivity_damping in N s/m or N m s/rad.
 std::vector<ChannelDescription> describe_channels(std::span<const std::string_view> names, Motion motion);
 
 /// For a scene's factory: a validated value of one of the scene's own
@@ -85,6 +87,17 @@ void set_scene(ScenePlan& plan, S scene, Motion motion) {
   if constexpr (requires { scene.linear_model(); }) plan.linear = scene.linear_model();
   plan.channels = describe_channels(S::channel_names, motion);
   plan.scene_object = std::move(scene);
+}
+
+/// For a scene's factory with the passivity option (world/passivity_scene.hpp):
+/// the scene as it is when the option is off, wrapped with the observer when on.
+template <StoresEnergy S>
+void set_scene(ScenePlan& plan, S scene, Motion motion, const PassivityOptions& passivity) {
+  if (passivity.mode == PassivityMode::off) {
+    set_scene(plan, std::move(scene), motion);
+  } else {
+    set_scene(plan, PassivityControlledScene<S>(std::move(scene), passivity.observer), motion);
+  }
 }
 
 /// Named defaults, derived from the papers (computed, not typed in).

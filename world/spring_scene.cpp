@@ -40,7 +40,7 @@ ContinuousStateSpace spring_continuous_model(const SpringParameters& p, SpringDa
 
 template <SpringDamping D>
 SpringScene<D>::SpringScene(const SpringParameters& parameters, double period_s)
-    : stiffness_(parameters.stiffness), estimator_([&] {
+    : stiffness_(parameters.stiffness), inertia_(parameters.inertia), estimator_([&] {
         check(parameters, period_s, D);
         if constexpr (relative) {
           return BackwardDifference(period_s);
@@ -162,6 +162,8 @@ std::vector<ParameterSpec> spring_parameters(bool rotary) {
   out.push_back(P::choice("integrator", integrator_list(), "discretization of the virtual body")
                     .defaults_to("exact")
                     .canonical_by(canonical_integrator));
+  for (auto& option : passivity_parameters(rotary ? Motion::rotary : Motion::linear))
+    out.push_back(std::move(option));
   return out;
 }
 
@@ -182,12 +184,14 @@ void build_spring(ScenePlan& plan, const SceneContext& context) {
     sp.damping = number_of(p, "damping");
   }
   sp.integrator = *parse_integrator(text_of(p, "integrator"));
+  const PassivityOptions passivity = passivity_options(p, context.period_s);
+  const double t = context.period_s;
   if (sp.damping == 0.0) {
-    set_scene(plan, SpringScene<SpringDamping::none>(sp, context.period_s), context.motion);
+    set_scene(plan, SpringScene<SpringDamping::none>(sp, t), context.motion, passivity);
   } else if (text_of(p, "damping_reference") == "absolute") {
-    set_scene(plan, SpringScene<SpringDamping::absolute>(sp, context.period_s), context.motion);
+    set_scene(plan, SpringScene<SpringDamping::absolute>(sp, t), context.motion, passivity);
   } else {
-    set_scene(plan, SpringScene<SpringDamping::relative>(sp, context.period_s), context.motion);
+    set_scene(plan, SpringScene<SpringDamping::relative>(sp, t), context.motion, passivity);
   }
 }
 

@@ -23,6 +23,7 @@
 #include <type_traits>
 
 #include "world/integrator.hpp"
+#include "world/passivity_scene.hpp"
 #include "world/scene.hpp"
 #include "world/state_space.hpp"
 #include "world/velocity_estimator.hpp"
@@ -102,6 +103,13 @@ class SpringScene {
   /// absolute) or [theta_w, theta_w_dot, y[n-1]] (relative). No output delay.
   DiscreteLinearScene linear_model() const;
 
+  /// J: what the scene holds with the device at y (before step(y)): the
+  /// spring's 1/2 k (theta_w - y)^2 and the body's 1/2 J_w theta_w_dot^2.
+  double stored_energy(double y) const noexcept {
+    const double stretch = position_ - y;
+    return 0.5 * (stiffness_ * stretch * stretch + inertia_ * velocity_ * velocity_);
+  }
+
   double virtual_position() const noexcept { return position_; }
   double virtual_velocity() const noexcept { return velocity_; }
   /// Ad row-major (for analysis and tests).
@@ -113,6 +121,7 @@ class SpringScene {
   std::array<double, 4> ad_{};
   [[no_unique_address]] std::conditional_t<relative, std::array<double, 2>, detail::Absent<2>> bd_velocity_{};
   double stiffness_;
+  double inertia_;
   double position_ = 0.0;
   double velocity_ = 0.0;
   [[no_unique_address]] std::conditional_t<relative, double, detail::Absent<0>> damping_{};
@@ -129,9 +138,13 @@ static_assert(Scene<SpringScene<SpringDamping::relative>>);
 
 /// `spring-wheel` and `spring-mass` in the scene registry
 /// (world/scene_registry.hpp); spring_scene.cpp describes them.
+/// Each variant plain, and with the passivity option on (world/passivity_scene.hpp).
 struct SpringWheelEntry {
   using alternatives = std::tuple<SpringScene<SpringDamping::none>, SpringScene<SpringDamping::absolute>,
-                                  SpringScene<SpringDamping::relative>>;
+                                  SpringScene<SpringDamping::relative>,
+                                  PassivityControlledScene<SpringScene<SpringDamping::none>>,
+                                  PassivityControlledScene<SpringScene<SpringDamping::absolute>>,
+                                  PassivityControlledScene<SpringScene<SpringDamping::relative>>>;
   static SceneDescription describe();
 };
 struct SpringMassEntry {

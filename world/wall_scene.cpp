@@ -87,7 +87,7 @@ using P = ParameterSpec;
 std::vector<ParameterSpec> wall_parameters() {
   namespace d = scene_defaults;
   namespace r = parameter_range;
-  return {
+  std::vector<ParameterSpec> out{
       P::number("stiffness", "N/m", "wall stiffness K")
           .on_rotary("N m/rad")
           .defaults_to(d::wall_stiffness)
@@ -110,6 +110,8 @@ std::vector<ParameterSpec> wall_parameters() {
           .at_least(0.0)
           .at_most(static_cast<double>(max_wall_delay_samples)),
   };
+  for (auto& option : passivity_parameters(std::nullopt)) out.push_back(std::move(option));
+  return out;
 }
 
 /// The variant without a damper when B = 0, without a delay line when d = 0.
@@ -126,14 +128,16 @@ void build_wall(ScenePlan& plan, const SceneContext& context) {
   using Dm = WallDamping;
   using Dl = WallDelay;
   const double t = context.period_s;
+  const PassivityOptions passivity = passivity_options(p, t);
+  const Motion motion = context.motion;
   if (damped && delayed) {
-    set_scene(plan, WallScene<Dm::backward_difference, Dl::samples>(wp, t), context.motion);
+    set_scene(plan, WallScene<Dm::backward_difference, Dl::samples>(wp, t), motion, passivity);
   } else if (damped) {
-    set_scene(plan, WallScene<Dm::backward_difference, Dl::none>(wp, t), context.motion);
+    set_scene(plan, WallScene<Dm::backward_difference, Dl::none>(wp, t), motion, passivity);
   } else if (delayed) {
-    set_scene(plan, WallScene<Dm::none, Dl::samples>(wp, t), context.motion);
+    set_scene(plan, WallScene<Dm::none, Dl::samples>(wp, t), motion, passivity);
   } else {
-    set_scene(plan, WallScene<Dm::none, Dl::none>(wp, t), context.motion);
+    set_scene(plan, WallScene<Dm::none, Dl::none>(wp, t), motion, passivity);
   }
 }
 

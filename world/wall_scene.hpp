@@ -24,6 +24,7 @@
 #include <type_traits>
 
 #include "world/delay_line.hpp"
+#include "world/passivity_scene.hpp"
 #include "world/scene.hpp"
 #include "world/state_space.hpp"
 #include "world/velocity_estimator.hpp"
@@ -110,6 +111,14 @@ class WallScene {
   /// characteristic polynomial is Hulin eq. (1).
   DiscreteLinearScene linear_model() const;
 
+  /// J: the spring energy 1/2 K p^2 the wall holds with the device at y
+  /// (before step(y)); 0 outside or disarmed. The passivity observer counts
+  /// it as the environment's own, not as absorbed energy.
+  double stored_energy(double y) const noexcept {
+    const double penetration = side_sign_ * (y - position_);
+    return armed_ && penetration > 0.0 ? 0.5 * stiffness_ * penetration * penetration : 0.0;
+  }
+
   bool armed() const noexcept { return armed_; }
   std::size_t delay_samples() const noexcept {
     if constexpr (delayed) {
@@ -139,11 +148,17 @@ static_assert(Scene<WallScene<WallDamping::none, WallDelay::none>>);
 static_assert(Scene<WallScene<WallDamping::backward_difference, WallDelay::samples>>);
 
 /// `wall` in the scene registry (world/scene_registry.hpp); wall_scene.cpp describes it.
+/// Each variant plain, and with the passivity option on (world/passivity_scene.hpp).
 struct WallEntry {
-  using alternatives = std::tuple<WallScene<WallDamping::none, WallDelay::none>,
-                                  WallScene<WallDamping::none, WallDelay::samples>,
-                                  WallScene<WallDamping::backward_difference, WallDelay::none>,
-                                  WallScene<WallDamping::backward_difference, WallDelay::samples>>;
+  using alternatives =
+      std::tuple<WallScene<WallDamping::none, WallDelay::none>,
+                 WallScene<WallDamping::none, WallDelay::samples>,
+                 WallScene<WallDamping::backward_difference, WallDelay::none>,
+                 WallScene<WallDamping::backward_difference, WallDelay::samples>,
+                 PassivityControlledScene<WallScene<WallDamping::none, WallDelay::none>>,
+                 PassivityControlledScene<WallScene<WallDamping::none, WallDelay::samples>>,
+                 PassivityControlledScene<WallScene<WallDamping::backward_difference, WallDelay::none>>,
+                 PassivityControlledScene<WallScene<WallDamping::backward_difference, WallDelay::samples>>>;
   static SceneDescription describe();
 };
 

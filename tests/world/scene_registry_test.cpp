@@ -14,18 +14,25 @@ namespace hapticd::world {
 namespace {
 
 // The RT variant is what it was when it was written out by hand: the same
-// alternatives in the same order, FreeScene first (a default AnyScene is free).
-using HandWritten =
-    std::variant<FreeScene, SpringScene<SpringDamping::none>, SpringScene<SpringDamping::absolute>,
-                 SpringScene<SpringDamping::relative>, WallScene<WallDamping::none, WallDelay::none>,
-                 WallScene<WallDamping::none, WallDelay::samples>,
-                 WallScene<WallDamping::backward_difference, WallDelay::none>,
-                 WallScene<WallDamping::backward_difference, WallDelay::samples>,
-                 RelayScene<RelayHysteresis::none>, RelayScene<RelayHysteresis::band>,
-                 RelayScene<RelayHysteresis::none, RelayDelay::samples>,
-                 RelayScene<RelayHysteresis::band, RelayDelay::samples>, ChirpScene>;
+// alternatives in the same order, FreeScene first (a default AnyScene is free),
+// each scene with the passivity option after its plain variants.
+template <class S>
+using Pc = PassivityControlledScene<S>;
+using HandWritten = std::variant<
+    FreeScene, SpringScene<SpringDamping::none>, SpringScene<SpringDamping::absolute>,
+    SpringScene<SpringDamping::relative>, Pc<SpringScene<SpringDamping::none>>,
+    Pc<SpringScene<SpringDamping::absolute>>, Pc<SpringScene<SpringDamping::relative>>,
+    WallScene<WallDamping::none, WallDelay::none>, WallScene<WallDamping::none, WallDelay::samples>,
+    WallScene<WallDamping::backward_difference, WallDelay::none>,
+    WallScene<WallDamping::backward_difference, WallDelay::samples>,
+    Pc<WallScene<WallDamping::none, WallDelay::none>>, Pc<WallScene<WallDamping::none, WallDelay::samples>>,
+    Pc<WallScene<WallDamping::backward_difference, WallDelay::none>>,
+    Pc<WallScene<WallDamping::backward_difference, WallDelay::samples>>, RelayScene<RelayHysteresis::none>,
+    RelayScene<RelayHysteresis::band>, RelayScene<RelayHysteresis::none, RelayDelay::samples>,
+    RelayScene<RelayHysteresis::band, RelayDelay::samples>, ChirpScene>;
 static_assert(std::is_same_v<AnyScene, HandWritten>);
-static_assert(max_scene_channels == 3);
+// The damped wall with the passivity option: its three, passivity_energy and passivity_damping.
+static_assert(max_scene_channels == 5);
 
 TEST(SceneRegistry, EveryScenesDescriptionIsComplete) {
   for (const auto& scene : scene_catalog()) {

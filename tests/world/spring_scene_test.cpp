@@ -26,8 +26,9 @@ static_assert(None::channel_count == 2 && Relative::channel_count == 3);
 static_assert(sizeof(None) == sizeof(Absolute));
 // The relative variant carries b, the estimator (previous, velocity, 1/T) and a wider Bd.
 static_assert(sizeof(Relative) >= sizeof(None) + 2 * sizeof(double) + sizeof(BackwardDifference));
-// Undamped: Ad (4) + k + state (2), nothing else (Bd_y = e1 - Ad e1, see step()).
-static_assert(sizeof(None) == 7 * sizeof(double));
+// Undamped: Ad (4) + k + J_w + state (2), nothing else (Bd_y = e1 - Ad e1, see
+// step()); J_w is the stored energy's (1/2 J_w theta_w_dot^2, the passivity observer).
+static_assert(sizeof(None) == 8 * sizeof(double));
 
 constexpr double k = 1.0186;
 constexpr double j = 0.0258;
