@@ -230,6 +230,7 @@ json Service::plan_and_apply(const std::string& scene, const world::ParameterSet
 json Service::apply(const PlannedScene& planned, const world::ParameterSet& requested) {
   if (engine_->finished()) throw RpcError(code::busy, "the RT loop has stopped; nothing can take effect");
   telemetry_->hold_for_scene();  // until adopt() says from which cycle the new channel names hold
+  recorder_->hold_for_scene();   // until set_scene() below: no new-scene sample under the old header
   const auto seq = publish(planned);
   const auto cycle = engine_->wait_applied(seq, 2000ms);
   if (!cycle) throw RpcError(code::busy, "the RT loop did not take the new scene within 2 s");

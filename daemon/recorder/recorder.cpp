@@ -403,6 +403,7 @@ struct Recorder::Recording {
 Recorder::Recorder(DrainFn drain, RecorderOptions options)
     : drain_(std::move(drain)), options_(std::move(options)) {
   if (!drain_) throw RecorderError("recorder: no drain callback");
+  held_samples_.reserve(held_capacity);
   if (options_.batch_samples == 0) options_.batch_samples = 1;
   if (!options_.sink_factory) {
     options_.sink_factory = [](const std::filesystem::path& path) {
@@ -504,6 +505,7 @@ std::filesystem::path Recorder::start(const std::string& name, RecordingHeader h
     active_ = true;
     pending_start_ = std::move(rec);
     pending_scenes_.clear();
+    held_ = false;
     status_ = RecorderStatus{};
     status_.recording = true;
     status_.path = path;
@@ -518,8 +520,16 @@ void Recorder::set_scene(RecordingHeader header, std::uint64_t first_cycle) {
     std::lock_guard lock(mutex_);
     if (!active_) return;
     pending_scenes_.emplace_back(std::move(header), first_cycle);
+    held_ = false;
   }
   wake_.notify_all();
+}
+
+void Recorder::hold_for_scene() {
+  std::lock_guard lock(mutex_);
+  if (!active_) return;
+  held_ = true;
+  hold_until_ = std::chrono::steady_clock::now() + std::chrono::seconds(3);
 }
 
 RecorderStatus Recorder::stop() {
@@ -576,12 +586,42 @@ void Recorder::publish_status() {
 }
 
 void Recorder::take_requests(std::unique_lock<std::mutex>& lock) {
-  if (pending_start_) recording_ = std::move(pending_start_);
+  if (pending_start_) {
+    recording_ = std::move(pending_start_);
+    held_samples_.clear();
+  }
+  take_scenes();
+  (void)lock;
+}
+
+/// Caller holds mutex_.
+void Recorder::take_scenes() {
   if (recording_) {
     for (auto& scene : pending_scenes_) recording_->next_sections.push_back(std::move(scene));
   }
   pending_scenes_.clear();
-  (void)lock;
+}
+
+/// After each drain: the scene changes asked for by now apply to what was
+/// just drained (a set_scene() made before its samples were pushed is never
+/// missed); during a hold the samples wait for the set_scene() to come.
+void Recorder::deliver(std::span<const TelemetrySample> drained, bool stopping) {
+  bool hold = false;
+  {
+    std::lock_guard lock(mutex_);
+    take_scenes();
+    if (held_ && (stopping || std::chrono::steady_clock::now() >= hold_until_)) held_ = false;
+    hold = held_;
+  }
+  if (hold && held_samples_.size() + drained.size() <= held_capacity) {
+    held_samples_.insert(held_samples_.end(), drained.begin(), drained.end());
+    return;
+  }
+  if (!held_samples_.empty()) {
+    record(held_samples_);
+    held_samples_.clear();
+  }
+  if (!drained.empty()) record(drained);
 }
 
 void Recorder::record(std::span<const TelemetrySample> batch) {
@@ -661,7 +701,7 @@ void Recorder::run() {
         std::lock_guard lock(streams_mutex_);
         for (auto& [id, stream] : streams_) stream(drained);
       }
-      if (n > 0 && recording_) record(drained);
+      if (recording_) deliver(drained, stop_now);
     } while (--rounds > 0 && n == batch.size());
 
     if (recording_) {

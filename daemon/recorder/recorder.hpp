@@ -32,6 +32,7 @@
 /// whose '# gap:' line says what is missing.
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -207,6 +208,13 @@ class Recorder {
   /// (start() takes the header of the scene loaded then).
   void set_scene(RecordingHeader header, std::uint64_t first_cycle);
 
+  /// A scene is about to be published: samples drained from now on wait
+  /// (up to 3 s, or held_capacity samples) for the set_scene() that says from
+  /// which cycle the new scene holds, so none of the new scene's samples is
+  /// written under the old header. set_scene() releases them.
+  void hold_for_scene();
+  static constexpr std::size_t held_capacity = 8192;
+
   /// Stops the recording: drains what the ring holds, writes the buffer and
   /// the trailer ending in '# dropped N samples', fsyncs and closes. Returns
   /// the final status (complete = false if the trailer or the fsync failed,
@@ -225,6 +233,8 @@ class Recorder {
   void run();
   void take_requests(std::unique_lock<std::mutex>& lock);
   void record(std::span<const TelemetrySample> batch);
+  void deliver(std::span<const TelemetrySample> drained, bool stopping);
+  void take_scenes();
   void finish();
   void publish_status();
   std::uint64_t ring_drops_now();
@@ -241,11 +251,14 @@ class Recorder {
   std::unique_ptr<Recording> pending_start_;
   std::vector<std::pair<RecordingHeader, std::uint64_t>> pending_scenes_;
   bool stop_requested_ = false;
+  bool held_ = false;  ///< hold_for_scene() until set_scene() or hold_until_
+  std::chrono::steady_clock::time_point hold_until_;
   bool quit_ = false;
   RecorderStatus status_;
   DropCounterFn ring_drops_;
 
-  std::unique_ptr<Recording> recording_;  ///< owned by the recorder thread
+  std::unique_ptr<Recording> recording_;       ///< owned by the recorder thread
+  std::vector<TelemetrySample> held_samples_;  ///< recorder thread: drained during a hold
 
   std::mutex streams_mutex_;
   std::vector<std::pair<std::uint64_t, StreamFn>> streams_;

@@ -122,6 +122,27 @@ std::vector<NamedPlan> every_scene_plan() {
                                      {"sweep", 2.0},
                                      {"duration", 10.0}},
                                     0.5)});
+  // The passivity observer/controller wraps the wall and the springs: an alternative of its own.
+  for (const double damping : {0.0, 0.2}) {
+    for (const double delay : {0.0, 2.0}) {
+      const std::string mode = delay == 0.0 ? "observer" : "controller";
+      out.push_back(
+          {"wall passivity=" + mode + " B=" + std::to_string(damping) + " d=" + std::to_string(delay),
+           make_plan("wall",
+                     {{"stiffness", 50.0},
+                      {"damping", damping},
+                      {"delay", delay},
+                      {"position", 0.02},
+                      {"passivity", mode}},
+                     0.5, world::Motion::linear)});
+    }
+  }
+  for (const std::string reference : {"none", "absolute", "relative"}) {
+    world::ParameterSet parameters{{"passivity", "controller"}, {"damping", reference == "none" ? 0.0 : 0.5}};
+    if (reference != "none") parameters.emplace("damping_reference", reference);
+    out.push_back(
+        {"spring-wheel passivity=controller " + reference, make_plan("spring-wheel", parameters, 0.5)});
+  }
   out.push_back({"free", make_plan("free", {}, 0.5)});
   return out;
 }
@@ -246,7 +267,7 @@ TEST(EngineAlloc, EverySceneAlternativeRunsAndInstallsWithoutAllocating) {
   rig.device.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=3");
   std::vector<TelemetrySample> buffer(4096);
   auto plans = every_scene_plan();
-  ASSERT_EQ(plans.size(), 25u);
+  ASSERT_EQ(plans.size(), 32u);
   std::set<std::size_t> alternatives;
   for (auto& named : plans) {
     ASSERT_NE(named.plan, nullptr);

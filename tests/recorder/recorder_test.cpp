@@ -714,6 +714,51 @@ TEST(RecorderDiskFull, RealFullFilesystemLeavesWholeRowsAndExactCounts) {
   EXPECT_EQ(*report, "");
 }
 
+TEST(Recorder, SamplesDrainedDuringAHoldWaitForTheSceneTheyBelongTo) {
+  // The daemon learns the new scene's first cycle only after the RT loop has
+  // applied it, so the recorder may already have drained its samples.
+  TestRing ring(1000);
+  auto data = std::make_shared<MemoryData>();
+  RecorderOptions options;
+  options.directory = temp_dir("held");
+  options.sink_factory = memory_factory(data);
+  Recorder recorder([&](std::span<TelemetrySample> out) { return ring.pop(out); }, options);
+  recorder.start("s", wheel_header());
+  for (std::uint64_t c = 1; c <= 5; ++c) ring.push(sample_for(c, 2));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_drained == 5; }));
+  recorder.hold_for_scene();
+  for (std::uint64_t c = 6; c <= 7; ++c) ring.push(sample_for(c, 2));
+  for (std::uint64_t c = 8; c <= 10; ++c) ring.push(sample_for(c, 0));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_drained == 10; }));
+  recorder.set_scene(wall_header(), 8);
+  const RecorderStatus final = recorder.stop();
+  EXPECT_EQ(final.sections, 2u);
+  EXPECT_EQ(final.samples_written, 10u);
+  const auto lines = lines_of(data->contents());
+  std::size_t section_line = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (lines[i] == "# section 2: scene changed at cycle 8") section_line = i;
+  }
+  ASSERT_GT(section_line, 0u);
+  EXPECT_EQ(split(lines[section_line - 1])[1], "7");
+}
+
+TEST(Recorder, AHoldWithNoSceneToComeLetsTheSamplesGoAtStop) {
+  TestRing ring(1000);
+  auto data = std::make_shared<MemoryData>();
+  RecorderOptions options;
+  options.directory = temp_dir("held-stop");
+  options.sink_factory = memory_factory(data);
+  Recorder recorder([&](std::span<TelemetrySample> out) { return ring.pop(out); }, options);
+  recorder.start("s", wheel_header());
+  recorder.hold_for_scene();
+  for (std::uint64_t c = 1; c <= 5; ++c) ring.push(sample_for(c, 2));
+  ASSERT_TRUE(wait_until([&] { return recorder.status().samples_drained == 5; }));
+  const RecorderStatus final = recorder.stop();
+  EXPECT_EQ(final.sections, 1u);
+  EXPECT_EQ(final.samples_written, 5u);
+}
+
 TEST(Recorder, SceneSwitchStartsANewSectionAtTheGivenCycle) {
   TestRing ring(1000);
   auto data = std::make_shared<MemoryData>();
