@@ -51,9 +51,18 @@ std::vector<ParameterSpec> passivity_parameters(std::optional<Motion> fixed_moti
                     .defaults_to(d::velocity_floor)
                     .above(0.0)
                     .at_most(1e3));
+  out.push_back(
+      P::number("passivity_velocity_deadband", rotary ? "rad/s" : "m/s",
+                "the controller does not act while |v| <= this: one encoder count a period is "
+                "quantization, and a damper on it chatters (unset: the daemon takes 1.5 encoder counts a "
+                "period of its device)")
+          .defaults_to(0.0)
+          .at_least(0.0)
+          .at_most(1e3));
   if (!fixed_motion) {  // the wall: units follow the device's motion
     out[1].on_rotary("N m s/rad");
     out[3].on_rotary("rad/s");
+    out[4].on_rotary("rad/s");
   }
   return out;
 }
@@ -76,6 +85,7 @@ PassivityOptions passivity_options(const ParameterSet& parameters, double period
   out.observer.window_periods = static_cast<std::size_t>(
       number("passivity_window", static_cast<double>(passivity_defaults::window_periods)));
   out.observer.velocity_floor = number("passivity_velocity_floor", passivity_defaults::velocity_floor);
+  out.observer.velocity_deadband = number("passivity_velocity_deadband", 0.0);
   out.observer.control = out.mode == PassivityMode::controller;
   out.observer.correction = PassivityCorrection::measured;
   return out;

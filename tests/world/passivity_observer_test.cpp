@@ -157,6 +157,28 @@ TEST(PassivityController, KeepsADelayedStiffWallPassiveOnASyntheticTrajectory) {
   EXPECT_LT(run(true, false), -0.01);
 }
 
+// One count a period is quantization: inside the deadband the controller
+// keeps D for later and adds no force (else it dithers the device).
+TEST(PassivityObserver, DeadbandLeavesOneCountMotionAlone) {
+  PassivityObserverConfig c = config(30.0);
+  c.velocity_deadband = 1.5 * 3.14e-6 / t;  // 1.5 counts of 3.14 um a period
+  PassivityObserver<> po(c);
+  po.step(10.0, 0.1);  // E = -1e-3 J
+  const double e = po.energy();
+  for (const double v : {3.14e-3, -3.14e-3, 0.0}) {
+    const PassivityStep s = po.step(0.0, v);
+    EXPECT_EQ(s.damping, 0.0) << v;
+    EXPECT_EQ(s.force, 0.0) << v;
+  }
+  EXPECT_EQ(po.energy(), e);
+  const PassivityStep fast = po.step(0.0, 2.0 * 3.14e-3);  // two counts: acts
+  EXPECT_EQ(fast.damping, 30.0);
+  EXPECT_NEAR(fast.force, -30.0 * 6.28e-3, 1e-12);
+  PassivityObserverConfig bad = config(30.0);
+  bad.velocity_deadband = -1.0;
+  EXPECT_THROW(PassivityObserver<> refused(bad), std::invalid_argument);
+}
+
 TEST(PassivityObserver, ZeroVelocityDoesNotDivideByZero) {
   PassivityObserver<> po(config(7.0));
   po.step(10.0, 0.1);  // the environment pushed the moving device: E = -1e-3 J
