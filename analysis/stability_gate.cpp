@@ -146,6 +146,33 @@ PassivityJudgement judge_with_passivity(std::string_view scene, const world::Sce
   return j;
 }
 
+/// Colgate & Schenkel for the plan's linear model on the device (see SceneStability).
+void judge_passivity(const world::DiscreteLinearScene& scene, const GateDevice& device, SceneStability& v) {
+  const std::string unit = device.motion == world::Motion::rotary ? " N m s/rad" : " N s/m";
+  v.device_damping = device.damping;
+  v.passivity = scene_passivity(scene, device.period_s, device.delay_samples);
+  const PassivityBound& b = v.passivity;
+  if (!std::isfinite(device.damping) || device.damping < 0.0) {
+    v.passive = false;
+    v.passivity_summary = "passivity cannot be assessed: the device's damping is not a finite number >= 0";
+    return;
+  }
+  if (!b.assessed()) {
+    v.passivity_summary = "passivity cannot be assessed: " + b.reason;
+    return;
+  }
+  if (!b.bounded()) {
+    v.passivity_summary = "not passive at any device damping: " + b.reason;
+    return;
+  }
+  v.passive = device.damping >= b.required_damping;
+  const std::string needs =
+      "it needs b >= " + num(b.required_damping) + unit + " (Colgate & Schenkel, at " +
+      (b.at_zero_frequency_limit ? std::string("w -> 0") : num(b.frequency_hz) + " Hz") +
+      "), the device has " + num(device.damping) + unit;
+  v.passivity_summary = (v.passive ? "passive on this device: " : "not passive on this device: ") + needs;
+}
+
 }  // namespace
 
 std::string GateDevice::describe() const {
@@ -176,6 +203,7 @@ SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDev
     return v;
   }
   v.checked = true;
+  judge_passivity(*plan.linear, device, v);
   NumericRecord scene_record;
   // The plant was built from these: 1 / inf = 0 would make finite matrices
   // (a device that never moves) out of a non-finite number.

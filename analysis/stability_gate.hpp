@@ -16,6 +16,7 @@
 #include <string_view>
 #include <variant>
 
+#include "analysis/passivity.hpp"
 #include "analysis/polynomial.hpp"
 #include "analysis/verdict.hpp"
 #include "world/plant.hpp"
@@ -58,6 +59,15 @@ struct SceneStability {
   /// amplitude; +inf when it does not grow, NaN when not assessed.
   double doubling_time_s = std::numeric_limits<double>::infinity();
   std::string summary;  ///< one sentence
+  /// Colgate & Schenkel on the device's own damping (analysis/passivity.hpp):
+  /// the linear scene's H(z) with the device's delay needs b >= required
+  /// damping. Stricter than stable: passive holds against any passive hand.
+  /// Computed for every linear scene, stable or not; passive is never true
+  /// when the bound is unbounded or not assessed (a non-finite number).
+  PassivityBound passivity{};
+  double device_damping = 0.0;  ///< b the verdict used, N s/m or N m s/rad
+  bool passive = false;
+  std::string passivity_summary;  ///< one sentence, with the units of the device's motion
 };
 
 /// Stability of an already validated plan on the device.

@@ -92,6 +92,20 @@ std::string refusal_text(const PlanRefusal& refusal, std::string_view how) {
   return refusal.message + ". " + std::string(how) + " to load it anyway; the torque limit still holds";
 }
 
+namespace {
+/// Colgate & Schenkel's answer beside the stability verdict (docs/protocol.md).
+nlohmann::json passivity_json(const StabilityVerdict& v) {
+  if (!v.checked) return nullptr;
+  const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  const analysis::PassivityBound& b = v.passivity;
+  return {{"state", analysis::to_string(b.state)},
+          {"required_damping", b.bounded() ? number(b.required_damping) : nlohmann::json(nullptr)},
+          {"device_damping", number(v.device_damping)},
+          {"frequency_hz", b.assessed() ? number(b.frequency_hz) : nlohmann::json(nullptr)},
+          {"summary", v.passivity_summary}};
+}
+}  // namespace
+
 nlohmann::json to_json(const StabilityVerdict& v) {
   // NaN (not assessed) and inf (growth that overflows) as null, explicitly.
   const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
@@ -100,16 +114,19 @@ nlohmann::json to_json(const StabilityVerdict& v) {
   // doubling_time_s say it, finite.
   constexpr double max_growth_per_second = 1e15;
   const double growth = v.growth_per_second <= max_growth_per_second ? v.growth_per_second : NAN;
-  return {{"checked", v.checked},
-          {"verdict", v.checked ? nlohmann::json(analysis::to_string(v.verdict)) : nlohmann::json(nullptr)},
-          {"reason", v.reason.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.reason)},
-          {"stable", v.stable},
-          {"scene_radius", number(v.scene_radius)},
-          {"closed_loop_radius", number(v.closed_loop_radius)},
-          {"growth_per_second", number(growth)},
-          {"growth_per_second_log10", number(v.growth_per_second_log10)},
-          {"doubling_time_s", number(v.doubling_time_s)},
-          {"summary", v.summary}};
+  return {
+      {"checked", v.checked},
+      {"verdict", v.checked ? nlohmann::json(analysis::to_string(v.verdict)) : nlohmann::json(nullptr)},
+      {"reason", v.reason.empty() ? nlohmann::json(nullptr) : nlohmann::json(v.reason)},
+      {"stable", v.stable},
+      {"scene_radius", number(v.scene_radius)},
+      {"closed_loop_radius", number(v.closed_loop_radius)},
+      {"growth_per_second", number(growth)},
+      {"growth_per_second_log10", number(v.growth_per_second_log10)},
+      {"doubling_time_s", number(v.doubling_time_s)},
+      {"summary", v.summary},
+      {"passive", v.checked && v.passivity.assessed() ? nlohmann::json(v.passive) : nlohmann::json(nullptr)},
+      {"passivity", passivity_json(v)}};
 }
 
 nlohmann::json to_json(const world::ParameterSet& parameters, std::string_view scene) {

@@ -148,6 +148,11 @@ void scene_lines(std::ostream& out, const json& status) {
     stability.front() = "UNSTABLE, loaded with force (the torque limit still holds)";
   if (const std::string passive = passivity_words(scene); !passive.empty()) stability.push_back(passive);
   if (const std::string summary = text_of(verdict, "summary"); !summary.empty()) stability.push_back(summary);
+  if (const json passivity = verdict.is_object() ? verdict.value("passivity", json()) : json();
+      passivity.is_object()) {
+    if (const std::string summary = text_of(passivity, "summary"); !summary.empty())
+      stability.push_back(summary);
+  }
   field(out, "stability", stability);
 }
 

@@ -94,6 +94,22 @@ TEST(Planner, HulinOptimumWallIsStable) {
   EXPECT_EQ(p.plan.scene, "wall");
 }
 
+// The reply says passive, not only stable: Hulin's wall on his device (no
+// damping of its own) is stable and far from passive (Colgate & Schenkel:
+// b >= 50.72 N s/m).
+TEST(Planner, HulinOptimumWallIsStableButNotPassiveAndTheJsonSaysBoth) {
+  const loopback::LoopbackDevice device(hulin_config());
+  const auto p = planned(wall(model_of(device), 9000.0, 46.0));
+  const auto json = hapticd::daemon::to_json(p.stability);
+  EXPECT_EQ(json["stable"], true);
+  EXPECT_EQ(json["passive"], false);
+  EXPECT_EQ(json["passivity"]["state"], "bounded");
+  EXPECT_NEAR(json["passivity"]["required_damping"].get<double>(), 50.72, 0.005);
+  EXPECT_EQ(json["passivity"]["device_damping"].get<double>(), model_of(device).info.viscous_damping);
+  EXPECT_NE(json["passivity"]["summary"].get<std::string>().find("not passive on this device"),
+            std::string::npos);
+}
+
 TEST(Planner, StiffWallIsRefusedWithTheLargestStableStiffness) {
   const loopback::LoopbackDevice device(hulin_config());
   const PlanOutcome outcome = wall(model_of(device), 20000.0, 46.0);
@@ -326,6 +342,9 @@ TEST(Planner, NonFiniteLinearModelCannotBeAssessed) {
   EXPECT_EQ(json["verdict"], "cannot_assess");
   EXPECT_EQ(json["reason"], v.reason);
   EXPECT_TRUE(json["growth_per_second"].is_null());  // NaN, not a number to read
+  EXPECT_FALSE(v.passive);
+  EXPECT_TRUE(json["passive"].is_null() || json["passive"] == false) << json.dump();
+  EXPECT_TRUE(json["passivity"]["required_damping"].is_null()) << json.dump();
 
   // The wall's B/T = inf likewise (it was accepted with radius 0.0125).
   world::WallParameters wall;
