@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -30,6 +31,12 @@ world::AnyScene wall_scene(const PassivityStudyOptions& o, double stiffness, con
 }
 
 bool finite(double x) { return std::isfinite(x); }
+
+std::string number_text(double x) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%g", x);
+  return buffer;
+}
 
 }  // namespace
 
@@ -105,7 +112,7 @@ PassivityStudy passivity_study(const PassivityStudyOptions& options) {
   study.fixed_gain_limit = physical_stiffness(alpha_max(beta, options.delay), options.mass, options.period_s);
   if (!(study.fixed_gain_limit > 0.0) || !std::isfinite(study.fixed_gain_limit))
     throw std::invalid_argument(
-        "no stiffness > 0 is stable with fixed gains at B = " + std::to_string(options.damping) +
+        "no stiffness > 0 is stable with fixed gains at B = " + number_text(options.damping) +
         " N s/m, d = " + std::to_string(options.delay) + ": there is no limit to scale");
   study.gate_factor = passivity_stiffness_factor;
   study.max_damping = world::passivity_defaults::max_damping;
