@@ -72,12 +72,15 @@ ContactRun simulate_contact(world::AnyScene scene, const ContactSetup& setup, do
   for (std::size_t n = 0; n < steps; ++n) {
     const double time = static_cast<double>(n) * t;
     const double force = world::step(scene, y);
+    double alpha = 0.0;
     if (damping_index) {
       world::channels(scene, channels);
-      run.peak_passivity_damping = std::max(run.peak_passivity_damping, channels[*damping_index]);
+      alpha = channels[*damping_index];
+      run.peak_passivity_damping = std::max(run.peak_passivity_damping, alpha);
     }
     run.peak_force = std::max(run.peak_force, std::abs(force));
     const bool pushing = time < hand.release_s;
+    if (setup.record_trace) run.trace.push_back({time, y, force, alpha, pushing});
     if (pushing && time >= 0.2 && time < 0.3) early.push_back(y);
     if (pushing && time >= hand.release_s - 0.1) late.push_back(y);
     if (!pushing && time < hand.release_s + 0.1 + t / 2) run.release_velocity = v;

@@ -13,6 +13,7 @@
 /// passivity controller switching its damping on and off.
 
 #include <cstddef>
+#include <vector>
 
 #include "world/any_scene.hpp"
 
@@ -32,6 +33,17 @@ struct ContactSetup {
   double start = -1e-3;  ///< m: the device's position at rest when the hand starts pushing
   double duration_s = 1.0;
   ContactHand hand{};
+  bool record_trace = false;  ///< fill ContactRun::trace (one sample a period)
+};
+
+/// One period of a run: the device's position at its start and what the
+/// scene commanded from it (held over the period).
+struct ContactSample {
+  double time_s = 0.0;
+  double position = 0.0;           ///< y[n], m (the wall surface at 0, inside for y > 0)
+  double force = 0.0;              ///< N: the scene's output for y[n], passivity controller included
+  double passivity_damping = 0.0;  ///< N s/m: the controller's alpha at n (0 without it)
+  bool pushing = false;            ///< the hand still holds the device
 };
 
 /// The penetration over a stretch of the push.
@@ -51,6 +63,8 @@ struct ContactRun {
   double peak_passivity_damping = 0.0;  ///< N s/m, the controller's largest alpha (0 without it)
   double static_penetration = 0.0;      ///< m: the hand's push held by the linear wall, k_h r / (K + k_h)
   double release_velocity = 0.0;        ///< m/s, the device's velocity 0.1 s after the hand let go
+  /// Every period run (the one that diverged included) when setup.record_trace; empty otherwise.
+  std::vector<ContactSample> trace{};
 };
 
 /// Runs the scene (reset at setup.start) for setup.duration_s. wall_stiffness

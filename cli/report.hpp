@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// `hapticctl report accuracy | stability`: offline studies written as
+/// `hapticctl report accuracy | stability | passivity`: offline studies written as
 /// figures (cli/report_figure.hpp) and printed as tables. Long studies show
 /// their progress on stderr when it is a terminal and stop cleanly on Ctrl-C
 /// (nothing is written then; exit 130).
@@ -14,10 +14,11 @@
 
 namespace hapticd::cli {
 
-/// Adds `report` with its subcommands accuracy and stability.
+/// Adds `report` with its subcommands accuracy, stability and passivity.
 void add_report_command(CLI::App& app);
 void add_report_accuracy(CLI::App& report);
 void add_report_stability(CLI::App& report);
+void add_report_passivity(CLI::App& report);
 
 /// Exit code of a report stopped with Ctrl-C (128 + SIGINT, as a shell reports it).
 inline constexpr int exit_interrupted = 130;

@@ -33,6 +33,7 @@ void add_report_command(CLI::App& app) {
   report->require_subcommand(1);
   add_report_accuracy(*report);
   add_report_stability(*report);
+  add_report_passivity(*report);
 }
 
 namespace {

@@ -299,5 +299,94 @@ TEST(ReportStabilityCli, QuickSweepHasNoDisagreementAndTheMapsMatchThePapers) {
   EXPECT_TRUE(found);
 }
 
+// `hapticctl report passivity` (issue 21): the table, both figures and the
+// numbers behind them, read back from the CSV.
+TEST(ReportPassivityCli, WritesBothFiguresAndPrintsTheTable) {
+  TempDir dir;
+  const auto r = run(hapticctl_binary(), {"report", "passivity", "--out", dir.path.string()}, 60s);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("fixed-gain limit K_limit = 14342 N/m"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("K/limit"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("alpha peak"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("2 *"), std::string::npos) << "the gate's factor is marked\n" << r.out;
+  EXPECT_NE(r.out.find("diverged at"), std::string::npos) << r.out;
+  const bool gnuplot = std::system("command -v gnuplot >/dev/null 2>&1") == 0;
+  for (const char* figure : {"passivity_transparency", "passivity_damping"}) {
+    for (const char* ext : {".csv", ".json", ".gp"}) {
+      EXPECT_TRUE(fs::exists(dir.path / (std::string(figure) + ext))) << figure << ext;
+    }
+    if (gnuplot) {
+      EXPECT_TRUE(is_png(dir.path / (std::string(figure) + ".png"))) << figure;
+    }
+    const auto json = nlohmann::json::parse(std::ifstream(dir.path / (std::string(figure) + ".json")));
+    EXPECT_NEAR(json["fixed_gain_limit"].get<double>(), 14342.0, 1.0) << figure;
+    EXPECT_EQ(json["gate_factor"].get<double>(), 2.0) << figure;
+  }
+  const std::string script = [&] {
+    std::ifstream in(dir.path / "passivity_transparency.gp");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }();
+  EXPECT_NE(script.find("set logscale y"), std::string::npos);
+  EXPECT_NE(script.find("gate's factor 2 x"), std::string::npos);
+  const Csv data = read_csv(dir.path / "passivity_transparency.csv");
+  ASSERT_EQ(data.rows.size(), 14u);  // 7 factors, off and controller
+  for (std::size_t i = 0; i < data.rows.size(); ++i) {
+    const double factor = data.number(i, "factor");
+    const bool controller = data.text(i, "passivity") == "controller";
+    EXPECT_NEAR(data.number(i, "stiffness") / (factor * 14342.0), 1.0, 1e-4);
+    EXPECT_LE(data.number(i, "peak_damping"), 30.0);
+    if (controller) {
+      EXPECT_EQ(data.text(i, "verdict"), "bounded") << factor;
+    } else {
+      EXPECT_EQ(data.number(i, "peak_damping"), 0.0) << factor;
+      if (factor > 1.0) {
+        EXPECT_NE(data.text(i, "verdict"), "bounded") << factor;
+      }
+    }
+  }
+  for (const auto& name : names_in(dir.path)) EXPECT_EQ(name.find(".part-"), std::string::npos) << name;
+}
+
+TEST(ReportPassivityCli, JsonHasEveryRowAndNoVerdictFromNonFiniteNumbers) {
+  TempDir dir;
+  const auto r =
+      run(hapticctl_binary(),
+          {"report", "passivity", "--factors", "0.5,2,5", "--out", dir.path.string(), "--json"}, 60s);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto study = nlohmann::json::parse(r.out);
+  ASSERT_EQ(study["rows"].size(), 3u);
+  for (const auto& row : study["rows"]) {
+    for (const char* mode : {"off", "controller"}) {
+      const auto& x = row[mode];
+      if (x["verdict"] == "bounded") {
+        EXPECT_TRUE(x["rms_error"].is_number()) << row;
+        EXPECT_TRUE(x["late_ratio"].is_number()) << row;
+      }
+    }
+  }
+  EXPECT_EQ(study["rows"][2]["off"]["verdict"], "diverged");
+  EXPECT_TRUE(study["rows"][2]["off"]["late_ratio"].is_null());
+  EXPECT_EQ(study["rows"][2]["controller"]["verdict"], "bounded");
+}
+
+TEST(ReportPassivityCli, BadArgumentsAreUsageErrors) {
+  TempDir dir;
+  const fs::path out = dir.path / "out";
+  const auto factor =
+      run(hapticctl_binary(), {"report", "passivity", "--factors", "1,0", "--out", out.string()});
+  EXPECT_EQ(factor.exit_code, 2);
+  EXPECT_NE(factor.err.find("--factors: '0' is not accepted"), std::string::npos) << factor.err;
+  const auto delay = run(hapticctl_binary(), {"report", "passivity", "--delay", "20", "--out", out.string()});
+  EXPECT_EQ(delay.exit_code, 2);
+  EXPECT_NE(delay.err.find("--delay: '20' is not accepted"), std::string::npos) << delay.err;
+  const auto damping =
+      run(hapticctl_binary(), {"report", "passivity", "--damping", "1000", "--out", out.string()});
+  EXPECT_EQ(damping.exit_code, 2);
+  EXPECT_NE(damping.err.find("no stiffness > 0 is stable with fixed gains at B = 1000 N s/m"),
+            std::string::npos)
+      << damping.err;
+  EXPECT_FALSE(fs::exists(out)) << "nothing written on a usage error";
+}
+
 }  // namespace
 }  // namespace hapticd::e2e
