@@ -68,6 +68,9 @@ ContactRun simulate_contact(world::AnyScene scene, const ContactSetup& setup, do
   double y = setup.start;
   double v = 0.0;
   world::reset(scene, y);
+  // The forces on their way to the device: the one acting now is delay steps old.
+  std::vector<double> on_the_way(static_cast<std::size_t>(std::max(setup.device_delay, 0)) + 1, 0.0);
+  std::size_t way = 0;
   const auto steps = static_cast<std::size_t>(std::llround(setup.duration_s / t));
   for (std::size_t n = 0; n < steps; ++n) {
     const double time = static_cast<double>(n) * t;
@@ -85,7 +88,10 @@ ContactRun simulate_contact(world::AnyScene scene, const ContactSetup& setup, do
     if (pushing && time >= hand.release_s - 0.1) late.push_back(y);
     if (!pushing && time < hand.release_s + 0.1 + t / 2) run.release_velocity = v;
     const double hand_force = pushing ? hand.stiffness * (hand.reference - y) - hand.damping * v : 0.0;
-    const double u = force + hand_force;
+    on_the_way[way] = force;
+    way = (way + 1) % on_the_way.size();
+    const double acting = on_the_way[way];
+    const double u = acting + hand_force;
     const double next_y = y + plant.ad[0] * v + plant.bd[0] * u;
     v = plant.ad[2] * v + plant.bd[1] * u;
     y = next_y;

@@ -34,6 +34,9 @@ struct ContactSetup {
   double duration_s = 1.0;
   ContactHand hand{};
   bool record_trace = false;  ///< fill ContactRun::trace (one sample a period)
+  /// Periods between the force the scene commands and the period it acts in
+  /// (a CiA 402 drive in cyclic synchronous torque: 1, at the next SYNC).
+  int device_delay = 0;
 };
 
 /// One period of a run: the device's position at its start and what the

@@ -27,7 +27,7 @@ world::AnyScene wall_scene(const PassivityStudyOptions& o, double stiffness, con
                               {"passivity", std::string(passivity)}};
   auto outcome = world::plan_scene("wall", p, o.period_s, world::Motion::linear);
   if (auto* error = std::get_if<world::SceneError>(&outcome)) throw std::invalid_argument(error->message);
-  return std::move(std::get<world::ScenePlan>(outcome).scene_object);
+  return std::get<world::ScenePlan>(outcome).scene_object;
 }
 
 bool finite(double x) { return std::isfinite(x); }

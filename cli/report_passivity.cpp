@@ -26,7 +26,6 @@ namespace hapticd::cli {
 namespace passivity_report {
 namespace {
 
-using analysis::ContactVerdict;
 using analysis::PassivityRunSummary;
 using analysis::PassivityStudy;
 using analysis::PassivityStudyRow;

@@ -51,23 +51,25 @@ namespace {
 /// a period of this device (world/passivity_observer.hpp says why). Readings
 /// move by whole counts, so 1.5 counts keeps one count in whatever the
 /// rounding of the difference.
-world::ParameterSet with_device_deadband(const world::ParameterSet& parameters, const DeviceModel& device) {
+/// And the device's delay, so that the observer pairs each force with the
+/// period it acted in (a CiA 402 drive applies it at the next SYNC).
+world::ParameterSet with_device_passivity(const world::ParameterSet& parameters, const DeviceModel& device) {
   const auto mode = parameters.find("passivity");
-  if (mode == parameters.end() || parameters.contains("passivity_velocity_deadband")) return parameters;
-  const auto* text = std::get_if<std::string>(&mode->second);
-  const double resolution = device.info.position_resolution;
-  if (text == nullptr || *text != "controller" || !(std::isfinite(resolution) && resolution > 0.0) ||
-      !(device.period_s > 0.0))
-    return parameters;
+  const auto* text = mode == parameters.end() ? nullptr : std::get_if<std::string>(&mode->second);
+  if (text == nullptr || *text == "off") return parameters;
   world::ParameterSet out = parameters;
-  out.emplace("passivity_velocity_deadband", std::min(1.5 * resolution / device.period_s, 1e3));
+  const int delay = device.info.delay_periods;
+  if (delay > 0) out.emplace("passivity_device_delay", static_cast<double>(delay));
+  const double resolution = device.info.position_resolution;
+  if (*text == "controller" && std::isfinite(resolution) && resolution > 0.0 && device.period_s > 0.0)
+    out.emplace("passivity_velocity_deadband", std::min(1.5 * resolution / device.period_s, 1e3));
   return out;
 }
 }  // namespace
 
 PlanOutcome plan_on_device(std::string_view scene, const world::ParameterSet& parameters,
                            const DeviceModel& device, bool force) {
-  auto outcome = analysis::gate_scene(scene, with_device_deadband(parameters, device), device.gate(), force);
+  auto outcome = analysis::gate_scene(scene, with_device_passivity(parameters, device), device.gate(), force);
   if (auto* accepted = std::get_if<analysis::GateAccepted>(&outcome)) {
     return PlannedScene{std::move(accepted->plan), std::move(accepted->stability), accepted->forced};
   }

@@ -88,9 +88,17 @@ struct PassivityObserverConfig {
   /// 0: no deadband.
   double velocity_deadband = 0.0;
   std::size_t window_periods = 0;  ///< forget dissipated energy older than this; 0: never
-  bool control = true;             ///< false: observe only (alpha always 0)
+  /// Periods the device adds between the force a step returns and the period
+  /// it is held over (CiA 402 cyclic: the next SYNC), <= max_output_delay:
+  /// the controller's own force is booked against the displacement of the
+  /// period it really acted in.
+  std::size_t output_delay_periods = 0;
+  bool control = true;  ///< false: observe only (alpha always 0)
   PassivityCorrection correction = PassivityCorrection::estimated;
 };
+
+/// The longest device delay the observer pairs across, in periods.
+inline constexpr std::size_t max_output_delay = 16;
 
 /// The velocity floor of one encoder count per period: resolution / T.
 constexpr double velocity_floor_for(double position_resolution, double period_s) noexcept {
@@ -126,6 +134,9 @@ class PassivityObserver {
       throw std::invalid_argument("passivity observer: velocity_floor must be > 0 (m/s)");
     if (!(std::isfinite(config.velocity_deadband) && config.velocity_deadband >= 0.0))
       throw std::invalid_argument("passivity observer: velocity_deadband must be >= 0 (m/s)");
+    if (config.output_delay_periods > max_output_delay)
+      throw std::invalid_argument("passivity observer: output_delay_periods must be <= " +
+                                  std::to_string(max_output_delay));
     if (config.window_periods > Capacity)
       throw std::invalid_argument("passivity observer: window_periods exceeds the capacity of " +
                                   std::to_string(Capacity));
@@ -141,7 +152,8 @@ class PassivityObserver {
     unstored_ = 0.0;
     stored_ = std::isfinite(stored_energy) && stored_energy > 0.0 ? stored_energy : 0.0;
     damping_ = 0.0;
-    held_force_ = 0.0;
+    own_forces_.fill(0.0);
+    own_head_ = 0;
     head_ = 0;
     size_ = 0;
   }
@@ -156,7 +168,7 @@ class PassivityObserver {
         stored_energy < 0.0) {
       ++rejected_;
       damping_ = 0.0;
-      held_force_ = 0.0;
+      hold_own_force(0.0);
       return {};
     }
     const double t = config_.period_s;
@@ -170,7 +182,7 @@ class PassivityObserver {
     PassivityStep out;
     if (config_.correction == PassivityCorrection::measured) {
       // What the damper's force held over this period really did.
-      out.dissipated = -t * held_force_ * velocity;
+      out.dissipated = -t * own_forces_[own_head_] * velocity;
       contribution += out.dissipated;
     }
     unstored_ += contribution;
@@ -187,7 +199,7 @@ class PassivityObserver {
       }
     }
     damping_ = out.damping;
-    held_force_ = out.force;
+    hold_own_force(out.force);
     remember(contribution);
     return out;
   }
@@ -205,6 +217,13 @@ class PassivityObserver {
   const PassivityObserverConfig& config() const noexcept { return config_; }
 
  private:
+  /// own_forces_[own_head_] is the force of 1 + output_delay_periods steps
+  /// ago: the one held over the period that just ended. It is replaced by this step's.
+  void hold_own_force(double force) noexcept {
+    own_forces_[own_head_] = force;
+    own_head_ = (own_head_ + 1) % (config_.output_delay_periods + 1);
+  }
+
   /// Keeps the contribution; forgets the dissipation of the one leaving the window.
   void remember(double contribution) noexcept {
     const std::size_t window = config_.window_periods;
@@ -225,7 +244,9 @@ class PassivityObserver {
   double unstored_ = 0.0;
   double stored_ = 0.0;
   double damping_ = 0.0;
-  double held_force_ = 0.0;  ///< the controller's force of the last period (measured correction)
+  /// The controller's forces still on their way to the device (measured correction).
+  std::array<double, max_output_delay + 1> own_forces_{};
+  std::size_t own_head_ = 0;
   std::size_t rejected_ = 0;
   std::array<double, Capacity> window_{};
   std::size_t head_ = 0;

@@ -59,6 +59,13 @@ std::vector<ParameterSpec> passivity_parameters(std::optional<Motion> fixed_moti
           .defaults_to(0.0)
           .at_least(0.0)
           .at_most(1e3));
+  out.push_back(P::integer("passivity_device_delay", "periods",
+                           "periods the device adds before a force acts (CiA 402: the next SYNC), so the "
+                           "observer pairs each force with the period it acted in (unset: the daemon takes "
+                           "its device's)")
+                    .defaults_to(0.0)
+                    .at_least(0.0)
+                    .at_most(static_cast<double>(max_output_delay)));
   if (!fixed_motion) {  // the wall: units follow the device's motion
     out[1].on_rotary("N m s/rad");
     out[3].on_rotary("rad/s");
@@ -86,6 +93,7 @@ PassivityOptions passivity_options(const ParameterSet& parameters, double period
       number("passivity_window", static_cast<double>(passivity_defaults::window_periods)));
   out.observer.velocity_floor = number("passivity_velocity_floor", passivity_defaults::velocity_floor);
   out.observer.velocity_deadband = number("passivity_velocity_deadband", 0.0);
+  out.observer.output_delay_periods = static_cast<std::size_t>(number("passivity_device_delay", 0.0));
   out.observer.control = out.mode == PassivityMode::controller;
   out.observer.correction = PassivityCorrection::measured;
   return out;

@@ -78,15 +78,20 @@ class PassivityControlledScene {
     scene_.reset(y);
     observer_.reset(scene_.stored_energy(y));
     previous_y_ = y;
-    held_scene_force_ = 0.0;
+    scene_forces_.fill(0.0);
+    head_ = 0;
   }
 
   double step(double y) noexcept {
     const double velocity = (y - previous_y_) * inverse_period_;
     previous_y_ = y;
-    const PassivityStep control = observer_.step(held_scene_force_, velocity, scene_.stored_energy(y));
-    held_scene_force_ = scene_.step(y);
-    return held_scene_force_ + control.force;
+    // The scene's force held over the period that just ended: its output of
+    // 1 + the device's delay steps ago.
+    const PassivityStep control = observer_.step(scene_forces_[head_], velocity, scene_.stored_energy(y));
+    const double force = scene_.step(y);
+    scene_forces_[head_] = force;
+    head_ = (head_ + 1) % (observer_.config().output_delay_periods + 1);
+    return force + control.force;
   }
 
   void channels(std::span<double> out) const noexcept {
@@ -109,7 +114,9 @@ class PassivityControlledScene {
   ScenePassivityObserver observer_;
   double inverse_period_;
   double previous_y_ = 0.0;
-  double held_scene_force_ = 0.0;  ///< N: the scene's output of the last period, held over this one
+  /// N: the scene's outputs still on their way to the device (the device's delay, plus the hold).
+  std::array<double, max_output_delay + 1> scene_forces_{};
+  std::size_t head_ = 0;
 };
 
 /// The defaults of the scene options (docs/scenes.md says why each).

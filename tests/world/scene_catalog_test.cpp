@@ -33,7 +33,7 @@ TEST(SceneCatalog, ListsTheFiveScenes) {
   EXPECT_TRUE(find_scene("free")->parameters.empty());
   const auto* wall = find_scene("wall");
   ASSERT_NE(wall, nullptr);
-  EXPECT_EQ(wall->parameters.size(), 10u);  // Hulin's five and the passivity option's five
+  EXPECT_EQ(wall->parameters.size(), 11u);  // Hulin's five and the passivity option's six
   EXPECT_EQ(find_scene("walll"), nullptr);
 }
 
@@ -107,7 +107,7 @@ TEST(SceneCatalog, ErrorMessages) {
       error_of("wall", {{"stifness", 1.0}}),
       "unknown parameter 'stifness' for scene wall; accepted: stiffness, damping, position, side, delay, "
       "passivity, passivity_max_damping, passivity_window, passivity_velocity_floor, "
-      "passivity_velocity_deadband");
+      "passivity_velocity_deadband, passivity_device_delay");
   EXPECT_EQ(error_of("free", {{"stiffness", 1.0}}),
             "unknown parameter 'stiffness' for scene free; accepted: none");
   EXPECT_EQ(error_of("spring-wheel", {{"stiffness", -3.0}}),
@@ -119,7 +119,7 @@ TEST(SceneCatalog, ErrorMessages) {
   EXPECT_EQ(error_of("spring-mass", {{"inertia", 1.0}}),
             "unknown parameter 'inertia' for scene spring-mass; accepted: stiffness, mass, damping, "
             "damping_reference, integrator, passivity, passivity_max_damping, passivity_window, "
-            "passivity_velocity_floor, passivity_velocity_deadband");
+            "passivity_velocity_floor, passivity_velocity_deadband, passivity_device_delay");
   EXPECT_EQ(error_of("spring-mass", {{"stiffness", std::numeric_limits<double>::quiet_NaN()}}),
             "stiffness: nan is not accepted; a finite number >= 0 and <= 1e+09 (N/m)");
   EXPECT_EQ(error_of("spring-mass", {{"stiffness", "abc"}}),
