@@ -483,13 +483,7 @@ int run_accuracy(const AccuracyArgs& a) {
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto written = files.commit();
   session.end_progress();
-  if (writer.gnuplot_missing()) {
-    std::cerr
-        << "hapticctl: gnuplot not found on PATH: wrote the data (.csv, .json) and the scripts (.gp) but no "
-           "PNG; install gnuplot-nox and run `gnuplot NAME.gp` in "
-        << files.dir().string() << "\n";
-  }
-  for (const std::string& failure : writer.failures()) std::cerr << "hapticctl: " << failure << "\n";
+  writer.report_problems(files.dir());
   const int code = writer.failures().empty() ? exit_ok : exit_refused;
   if (a.json) {
     std::cout << study_json(study, elapsed, written).dump(1) << "\n";

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iostream>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -268,6 +269,16 @@ void FigureWriter::write(const Figure& f) {
   }
   std::error_code ignored;
   std::filesystem::remove(log, ignored);
+}
+
+void FigureWriter::report_problems(const std::filesystem::path& dir) const {
+  if (missing_) {
+    std::cerr
+        << "hapticctl: gnuplot not found on PATH: wrote the data (.csv, .json) and the scripts (.gp) but no "
+           "PNG; install gnuplot-nox and run `gnuplot NAME.gp` in "
+        << dir.string() << "\n";
+  }
+  for (const std::string& failure : failures_) std::cerr << "hapticctl: " << failure << "\n";
 }
 
 }  // namespace hapticd::cli

@@ -113,6 +113,9 @@ class FigureWriter {
   bool gnuplot_missing() const noexcept { return missing_; }
   /// One line per figure gnuplot could not draw (with gnuplot's message).
   const std::vector<std::string>& failures() const noexcept { return failures_; }
+  /// Tells stderr what was not drawn: gnuplot missing (with what to do in
+  /// `dir`), then each failure.
+  void report_problems(const std::filesystem::path& dir) const;
 
  private:
   StagedFiles& files_;

@@ -287,13 +287,7 @@ int run_passivity(const PassivityArgs& a) {
   writer.write(damping_figure(study));
   if (ReportSession::interrupted()) return session.stopped();
   const auto written = files.commit();
-  if (writer.gnuplot_missing()) {
-    std::cerr
-        << "hapticctl: gnuplot not found on PATH: wrote the data (.csv, .json) and the scripts (.gp) but no "
-           "PNG; install gnuplot-nox and run `gnuplot NAME.gp` in "
-        << files.dir().string() << "\n";
-  }
-  for (const std::string& failure : writer.failures()) std::cerr << "hapticctl: " << failure << "\n";
+  writer.report_problems(files.dir());
   if (a.json) {
     std::cout << study_json(study, written).dump(1) << "\n";
   } else {

@@ -489,13 +489,7 @@ int run_stability(const StabilityArgs& a) {
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto written = files.commit();
   session.end_progress();
-  if (writer.gnuplot_missing()) {
-    std::cerr
-        << "hapticctl: gnuplot not found on PATH: wrote the data (.csv, .json) and the scripts (.gp) but no "
-           "PNG; install gnuplot-nox and run `gnuplot NAME.gp` in "
-        << files.dir().string() << "\n";
-  }
-  for (const std::string& failure : writer.failures()) std::cerr << "hapticctl: " << failure << "\n";
+  writer.report_problems(files.dir());
   int disagreements = 0;
   for (const auto& r : results) disagreements += r.agreement == SweepAgreement::disagree;
   if (a.json) {

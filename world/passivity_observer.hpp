@@ -100,6 +100,28 @@ struct PassivityObserverConfig {
 /// The longest device delay the observer pairs across, in periods.
 inline constexpr std::size_t max_output_delay = 16;
 
+/// Forces on their way to a device that adds `delay` periods: acting() is
+/// the one held over the period that just ended (pushed 1 + delay steps
+/// ago), and push() puts this step's in its place. Fixed storage, RT-safe.
+class ForcesInFlight {
+ public:
+  explicit ForcesInFlight(std::size_t delay = 0) noexcept : length_(std::min(delay, max_output_delay) + 1) {}
+  double acting() const noexcept { return forces_[head_]; }
+  void push(double force) noexcept {
+    forces_[head_] = force;
+    head_ = (head_ + 1) % length_;
+  }
+  void clear() noexcept {
+    forces_.fill(0.0);
+    head_ = 0;
+  }
+
+ private:
+  std::array<double, max_output_delay + 1> forces_{};
+  std::size_t length_ = 1;
+  std::size_t head_ = 0;
+};
+
 /// The velocity floor of one encoder count per period: resolution / T.
 constexpr double velocity_floor_for(double position_resolution, double period_s) noexcept {
   return position_resolution / period_s;
@@ -124,7 +146,8 @@ class PassivityObserver {
 
   /// Off the RT path. Throws std::invalid_argument on T <= 0, max_damping < 0,
   /// velocity_floor <= 0 (any not finite) or window_periods > Capacity.
-  explicit PassivityObserver(const PassivityObserverConfig& config) : config_(config) {
+  explicit PassivityObserver(const PassivityObserverConfig& config)
+      : config_(config), own_forces_(config.output_delay_periods) {
     const auto finite_positive = [](double x) { return std::isfinite(x) && x > 0.0; };
     if (!finite_positive(config.period_s))
       throw std::invalid_argument("passivity observer: period must be > 0");
@@ -152,8 +175,7 @@ class PassivityObserver {
     unstored_ = 0.0;
     stored_ = std::isfinite(stored_energy) && stored_energy > 0.0 ? stored_energy : 0.0;
     damping_ = 0.0;
-    own_forces_.fill(0.0);
-    own_head_ = 0;
+    own_forces_.clear();
     head_ = 0;
     size_ = 0;
   }
@@ -168,7 +190,7 @@ class PassivityObserver {
         stored_energy < 0.0) {
       ++rejected_;
       damping_ = 0.0;
-      hold_own_force(0.0);
+      own_forces_.push(0.0);
       return {};
     }
     const double t = config_.period_s;
@@ -182,7 +204,7 @@ class PassivityObserver {
     PassivityStep out;
     if (config_.correction == PassivityCorrection::measured) {
       // What the damper's force held over this period really did.
-      out.dissipated = -t * own_forces_[own_head_] * velocity;
+      out.dissipated = -t * own_forces_.acting() * velocity;
       contribution += out.dissipated;
     }
     unstored_ += contribution;
@@ -199,7 +221,7 @@ class PassivityObserver {
       }
     }
     damping_ = out.damping;
-    hold_own_force(out.force);
+    own_forces_.push(out.force);
     remember(contribution);
     return out;
   }
@@ -217,13 +239,6 @@ class PassivityObserver {
   const PassivityObserverConfig& config() const noexcept { return config_; }
 
  private:
-  /// own_forces_[own_head_] is the force of 1 + output_delay_periods steps
-  /// ago: the one held over the period that just ended. It is replaced by this step's.
-  void hold_own_force(double force) noexcept {
-    own_forces_[own_head_] = force;
-    own_head_ = (own_head_ + 1) % (config_.output_delay_periods + 1);
-  }
-
   /// Keeps the contribution; forgets the dissipation of the one leaving the window.
   void remember(double contribution) noexcept {
     const std::size_t window = config_.window_periods;
@@ -244,9 +259,7 @@ class PassivityObserver {
   double unstored_ = 0.0;
   double stored_ = 0.0;
   double damping_ = 0.0;
-  /// The controller's forces still on their way to the device (measured correction).
-  std::array<double, max_output_delay + 1> own_forces_{};
-  std::size_t own_head_ = 0;
+  ForcesInFlight own_forces_;  ///< the controller's, for the measured correction
   std::size_t rejected_ = 0;
   std::array<double, Capacity> window_{};
   std::size_t head_ = 0;

@@ -72,14 +72,16 @@ class PassivityControlledScene {
 
   /// Off the RT path; the observer's constructor checks the configuration.
   PassivityControlledScene(S scene, const PassivityObserverConfig& config)
-      : scene_(std::move(scene)), observer_(config), inverse_period_(1.0 / config.period_s) {}
+      : scene_(std::move(scene)),
+        observer_(config),
+        inverse_period_(1.0 / config.period_s),
+        scene_forces_(config.output_delay_periods) {}
 
   void reset(double y) noexcept {
     scene_.reset(y);
     observer_.reset(scene_.stored_energy(y));
     previous_y_ = y;
-    scene_forces_.fill(0.0);
-    head_ = 0;
+    scene_forces_.clear();
   }
 
   double step(double y) noexcept {
@@ -87,10 +89,9 @@ class PassivityControlledScene {
     previous_y_ = y;
     // The scene's force held over the period that just ended: its output of
     // 1 + the device's delay steps ago.
-    const PassivityStep control = observer_.step(scene_forces_[head_], velocity, scene_.stored_energy(y));
+    const PassivityStep control = observer_.step(scene_forces_.acting(), velocity, scene_.stored_energy(y));
     const double force = scene_.step(y);
-    scene_forces_[head_] = force;
-    head_ = (head_ + 1) % (observer_.config().output_delay_periods + 1);
+    scene_forces_.push(force);
     return force + control.force;
   }
 
@@ -114,9 +115,7 @@ class PassivityControlledScene {
   ScenePassivityObserver observer_;
   double inverse_period_;
   double previous_y_ = 0.0;
-  /// N: the scene's outputs still on their way to the device (the device's delay, plus the hold).
-  std::array<double, max_output_delay + 1> scene_forces_{};
-  std::size_t head_ = 0;
+  ForcesInFlight scene_forces_;  ///< N: the scene's, through the hold and the device's delay
 };
 
 /// The defaults of the scene options (docs/scenes.md says why each).
