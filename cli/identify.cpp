@@ -397,8 +397,7 @@ int run_identify(const hapticctl::CommonOptions& opts, const IdentifyArgs& args)
   std::cout << "identify " << analysis::to_string(kind) << " on " << session.driver() << " (" << model.summary
             << ", model from " << model.source << "), " << hand_text << "\n";
   print_identification(id, configured, result);
-  if (writer.gnuplot_missing()) std::cerr << "hapticctl: gnuplot not found: figures as .csv/.gp only\n";
-  for (const auto& failure : writer.failures()) std::cerr << "hapticctl: " << failure << "\n";
+  writer.report_problems(files.dir());
   std::cout << restored << "\n" << written.size() << " files in " << files.dir().string() << "\n";
   if (!model_path.empty()) std::cout << "model file: " << model_path.string() << "\n";
   if (args.apply) {

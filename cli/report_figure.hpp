@@ -110,7 +110,6 @@ class FigureWriter {
   /// unless those variables are already set (gnuplot -e).
   static std::string script(const Figure& figure);
 
-  bool gnuplot_missing() const noexcept { return missing_; }
   /// One line per figure gnuplot could not draw (with gnuplot's message).
   const std::vector<std::string>& failures() const noexcept { return failures_; }
   /// Tells stderr what was not drawn: gnuplot missing (with what to do in

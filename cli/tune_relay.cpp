@@ -522,8 +522,7 @@ int run_tune(const hapticctl::CommonOptions& opts, const TuneArgs& args) {
                 << " ms: " << t.warning << "\n";
     }
   }
-  if (writer.gnuplot_missing()) std::cerr << "hapticctl: gnuplot not found: figures as .csv/.gp only\n";
-  for (const auto& failure : writer.failures()) std::cerr << "hapticctl: " << failure << "\n";
+  writer.report_problems(files.dir());
   std::cout << restored << "\n" << written.size() << " files in " << files.dir().string() << "\n";
   return warned ? exit_refused : exit_ok;
 }
