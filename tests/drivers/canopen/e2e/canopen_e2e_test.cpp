@@ -595,8 +595,16 @@ TEST(Canopen, A2To31CountJumpOf0x6064LatchesInItsPeriodWithTheFigures) {
   EXPECT_NE(static_cast<unsigned>(flags[jump]) & 1u, 0U) << "the fault flag on the jump's own sample";
   EXPECT_EQ(applied[jump], 0.0) << "zero output from the jump's period";
   EXPECT_GT(std::abs(position[jump] - position[jump - 1]), 800000.0);
-  for (std::size_t i = jump; i < applied.size(); ++i)
-    ASSERT_LT(std::abs(applied[i]), 1.0) << "row " << i << ": at torque_limit after the jump";
+  // While latched, nothing reaches the drive. After the clear the spring
+  // wheel (tuned to 1 Hz) renders again under the 1 Hz hand and may reach
+  // torque_limit by itself, however long the test took to clear it (CI's
+  // ASan run saw it at row 3710): that span is the scene's, judged by
+  // check_latches_zero_and_clears_without_a_step above.
+  std::size_t cleared = jump;
+  while (cleared < flags.size() && (static_cast<unsigned>(flags[cleared]) & 1u) != 0) ++cleared;
+  ASSERT_LT(cleared, flags.size()) << "the latch was never cleared in the recording";
+  for (std::size_t i = jump; i < cleared; ++i)
+    ASSERT_EQ(applied[i], 0.0) << "row " << i << ": torque while latched after the jump";
 }
 
 // Issue 17, defect 10: the daemon checks the SDO methods' members like

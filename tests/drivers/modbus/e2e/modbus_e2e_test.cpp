@@ -184,6 +184,23 @@ std::string loop(Transport t, const std::string& keys) {
   return "[loop]\nperiod = \"" + std::to_string(std::lround(period_of(t) * 1e3)) + "ms\"\n" + keys + "\n";
 }
 
+/// hapticd on the real clock against `a`. A host too loaded to carry the
+/// period (CI's sanitizer stage saw 3 of 200 exchanges late at 5 ms) is
+/// refused at configure with its figure, as it must be; such a start is
+/// tried again, at most twice, and said so. The last start is judged
+/// whatever it shows.
+std::unique_ptr<Daemon> start_on_the_real_clock(const TempDir& dir, const AmplifierProcess& a, Transport t,
+                                                const std::string& device_keys = "") {
+  const std::string config =
+      modbus_device(a, t) + device_keys + loop(t, "clock = \"real\"\noverrun_limit = 0") + scene;
+  for (int attempt = 1;; ++attempt) {
+    auto d = std::make_unique<Daemon>(dir, config);
+    const std::string log = d->running() ? std::string() : d->log();
+    if (log.find("periodic exchanges at configure") == std::string::npos || attempt == 3) return d;
+    std::printf("modbus: hapticd refused the link on this host (start %d): %s; again\n", attempt, log.c_str());
+  }
+}
+
 json status_of(const Daemon& d) {
   const auto r = d.ctl({"status", "--json"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
@@ -328,8 +345,8 @@ void fault_and_clear(const Daemon& d, AmplifierProcess& amplifier, const std::st
 TEST_P(ModbusEndToEnd, AnExceptionAndATimeoutStreakZeroTheOutputAndFaultClearResumes) {
   AmplifierProcess amplifier(GetParam(), swing_hand);
   TempDir dir;
-  Daemon d(dir, modbus_device(amplifier, GetParam()) +
-                    loop(GetParam(), "clock = \"real\"\noverrun_limit = 0") + scene);
+  const auto started = start_on_the_real_clock(dir, amplifier, GetParam());
+  Daemon& d = *started;
   ASSERT_TRUE(d.running()) << d.log();
   const auto start = d.ctl({"record", "start", "--path", "m.csv", "--json"});
   ASSERT_EQ(start.exit_code, 0) << start.err;
@@ -374,8 +391,8 @@ TEST_P(ModbusEndToEnd, AKilledAmplifierZeroesTheOutputAndLatches) {
   auto amplifier = std::make_unique<AmplifierProcess>(GetParam(), swing_hand);
   const int port = amplifier->port();
   TempDir dir;
-  Daemon d(dir, modbus_device(*amplifier, GetParam()) +
-                    loop(GetParam(), "clock = \"real\"\noverrun_limit = 0") + scene);
+  const auto started = start_on_the_real_clock(dir, *amplifier, GetParam());
+  Daemon& d = *started;
   ASSERT_TRUE(d.running()) << d.log();
   const auto start = d.ctl({"record", "start", "--path", "k.csv", "--json"});
   ASSERT_EQ(start.exit_code, 0) << start.err;
@@ -422,8 +439,8 @@ TEST_P(ModbusEndToEnd, AKilledAmplifierZeroesTheOutputAndLatches) {
 TEST_P(ModbusEndToEnd, AKilledHapticdLetsTheAmplifierWatchdogDisableIt) {
   AmplifierProcess amplifier(GetParam(), swing_hand);
   TempDir dir;
-  Daemon d(dir, modbus_device(amplifier, GetParam()) +
-                    loop(GetParam(), "clock = \"real\"\noverrun_limit = 0") + scene);
+  const auto started = start_on_the_real_clock(dir, amplifier, GetParam());
+  Daemon& d = *started;
   ASSERT_TRUE(d.running()) << d.log();
   std::this_thread::sleep_for(400ms);
   const json before = amplifier.state();
@@ -461,8 +478,8 @@ const char* const turning_above_zero =
 TEST_P(ModbusEndToEnd, A2To31CountPositionJumpLatchesInItsPeriodWithTheFigures) {
   AmplifierProcess amplifier(GetParam(), turning_above_zero);
   TempDir dir;
-  Daemon d(dir, modbus_device(amplifier, GetParam()) +
-                    loop(GetParam(), "clock = \"real\"\noverrun_limit = 0") + scene);
+  const auto started = start_on_the_real_clock(dir, amplifier, GetParam());
+  Daemon& d = *started;
   ASSERT_TRUE(d.running()) << d.log();
   const auto start = d.ctl({"record", "start", "--path", "j.csv", "--json"});
   ASSERT_EQ(start.exit_code, 0) << start.err;
@@ -525,8 +542,9 @@ TEST_P(ModbusEndToEnd, A2To31CountPositionJumpLatchesInItsPeriodWithTheFigures) 
 TEST(ModbusSigterm, ASigtermDuringAFaultClearOnASilentAmplifierEndsTheDaemon) {
   AmplifierProcess amplifier(Transport::tcp, swing_hand);
   TempDir dir;
-  Daemon d(dir, modbus_device(amplifier, Transport::tcp) + "connect_timeout = \"20s\"\n" +
-                    loop(Transport::tcp, "clock = \"real\"\noverrun_limit = 0") + scene);
+  const auto started =
+      start_on_the_real_clock(dir, amplifier, Transport::tcp, "connect_timeout = \"20s\"\n");
+  Daemon& d = *started;
   ASSERT_TRUE(d.running()) << d.log();
   std::this_thread::sleep_for(300ms);
   ASSERT_EQ(amplifier.command("timeout 1000000"), "ok");
