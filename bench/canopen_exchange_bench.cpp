@@ -30,8 +30,8 @@
 
 #include "drivers/canopen/canopen_session.hpp"
 #include "drivers/canopen/cyclic_exchange.hpp"
-#include "drivers/canopen/sim/drive_bus.hpp"
-#include "drivers/canopen/sim/simulated_drive.hpp"
+#include "sim/canopen/drive_bus.hpp"
+#include "sim/canopen/simulated_drive.hpp"
 
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;

@@ -37,9 +37,9 @@
 #include "drivers/gpio_pwm/gpio_lines.hpp"
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
 #include "drivers/gpio_pwm/quadrature_decoder.hpp"
-#include "drivers/gpio_pwm/sim/board.hpp"
-#include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
-#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "sim/gpio_pwm/board.hpp"
+#include "sim/gpio_pwm/quadrature_encoder.hpp"
+#include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 

@@ -11,6 +11,7 @@ declare -A allowed=(
   [rt]="rt"
   [rpc]="rpc"
   [drivers]="drivers rt rpc world analysis"
+  [sim]="sim drivers rt rpc world analysis"
   [client]="client rpc world"
   [cli]="cli client rpc world analysis"
 )
@@ -33,6 +34,10 @@ if [ "${2:-}" = "--self-test" ]; then
   mkdir -p "$scratch/drivers/x"
   echo '#include "daemon/service.hpp"' >"$scratch/drivers/x/bad.cpp"
   if check "$scratch" >/dev/null; then echo "self-test: a planted violation passed"; exit 1; fi
-  echo "self-test: planted violation caught"; exit 0
+  # A driver including its simulated peer: the peer may lean on the driver,
+  # never the other way round.
+  echo '#include "sim/canopen/simulated_drive.hpp"' >"$scratch/drivers/x/bad.cpp"
+  if check "$scratch" >/dev/null; then echo "self-test: a driver including sim/ passed"; exit 1; fi
+  echo "self-test: planted violations caught"; exit 0
 fi
 check "$root" && echo "layering: clean"

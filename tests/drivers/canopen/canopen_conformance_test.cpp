@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <thread>
 
-#include "drivers/canopen/sim/drive_bus.hpp"
-#include "drivers/canopen/sim/simulated_drive.hpp"
+#include "sim/canopen/drive_bus.hpp"
+#include "sim/canopen/simulated_drive.hpp"
 #include "tests/drivers/conformance/device_conformance.hpp"
 
 namespace {

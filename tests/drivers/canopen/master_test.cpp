@@ -15,7 +15,7 @@
 #include "drivers/canopen/cyclic_exchange.hpp"
 #include "drivers/canopen/drive_setup.hpp"
 #include "drivers/canopen/sdo_client.hpp"
-#include "drivers/canopen/sim/simulated_drive.hpp"
+#include "sim/canopen/simulated_drive.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace canopen = hapticd::drivers::canopen;

@@ -17,8 +17,8 @@
 #include <vector>
 
 #include "drivers/canopen/canopen_session.hpp"
-#include "drivers/canopen/sim/drive_bus.hpp"
-#include "drivers/canopen/sim/simulated_drive.hpp"
+#include "sim/canopen/drive_bus.hpp"
+#include "sim/canopen/simulated_drive.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace canopen = hapticd::drivers::canopen;

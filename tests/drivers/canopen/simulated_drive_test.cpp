@@ -13,8 +13,8 @@
 #include "drivers/canopen/301/pdo.hpp"
 #include "drivers/canopen/301/sdo.hpp"
 #include "drivers/canopen/402/state_machine.hpp"
-#include "drivers/canopen/sim/commands.hpp"
-#include "drivers/canopen/sim/simulated_drive.hpp"
+#include "sim/canopen/commands.hpp"
+#include "sim/canopen/simulated_drive.hpp"
 
 namespace co = hapticd::drivers::canopen::cia301;
 namespace c4 = hapticd::drivers::canopen::cia402;

@@ -15,8 +15,8 @@
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/can_socket.hpp"
 #include "drivers/canopen/canopen_session.hpp"
-#include "drivers/canopen/sim/drive_bus.hpp"
-#include "drivers/canopen/sim/simulated_drive.hpp"
+#include "sim/canopen/drive_bus.hpp"
+#include "sim/canopen/simulated_drive.hpp"
 #include "drivers/stop_request.hpp"
 
 namespace canopen = hapticd::drivers::canopen;

@@ -11,7 +11,7 @@
 #include <thread>
 
 #include "drivers/gpio_pwm/gpio_lines.hpp"
-#include "drivers/gpio_pwm/sim/board.hpp"
+#include "sim/gpio_pwm/board.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {

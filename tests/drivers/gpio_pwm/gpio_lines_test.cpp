@@ -12,8 +12,8 @@
 #include <thread>
 
 #include "drivers/gpio_pwm/gpio_lines.hpp"
-#include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
-#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "sim/gpio_pwm/quadrature_encoder.hpp"
+#include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 #include "tests/drivers/gpio_pwm/line_backends.hpp"
 #include "tests/support/alloc_counter.hpp"
 

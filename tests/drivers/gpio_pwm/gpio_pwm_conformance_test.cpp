@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "drivers/gpio_pwm/sim/board.hpp"
+#include "sim/gpio_pwm/board.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "tests/drivers/conformance/device_conformance.hpp"
 

@@ -11,7 +11,7 @@
 #include <thread>
 
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
-#include "drivers/gpio_pwm/sim/board.hpp"
+#include "sim/gpio_pwm/board.hpp"
 #include "drivers/stop_request.hpp"
 #include "tests/support/alloc_counter.hpp"
 

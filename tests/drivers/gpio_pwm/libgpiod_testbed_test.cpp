@@ -11,7 +11,7 @@
 #include <functional>
 #include <thread>
 
-#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
 namespace {

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 
 namespace hapticd::drivers::gpio_pwm::testing_support {
 namespace {

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "drivers/gpio_pwm/pwm_plan.hpp"
-#include "drivers/gpio_pwm/sim/pwm_channel_model.hpp"
+#include "sim/gpio_pwm/pwm_channel_model.hpp"
 #include "drivers/gpio_pwm/sysfs_value.hpp"
 
 namespace hapticd::drivers::gpio_pwm {

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "drivers/gpio_pwm/quadrature_decoder.hpp"
-#include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
+#include "sim/gpio_pwm/quadrature_encoder.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 namespace {

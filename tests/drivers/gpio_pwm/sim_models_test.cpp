@@ -5,10 +5,10 @@
 #include <cerrno>
 #include <cstring>
 
-#include "drivers/gpio_pwm/sim/amplifier.hpp"
-#include "drivers/gpio_pwm/sim/gpio_chip_model.hpp"
-#include "drivers/gpio_pwm/sim/pwm_channel_model.hpp"
-#include "drivers/gpio_pwm/sim/quadrature_encoder.hpp"
+#include "sim/gpio_pwm/amplifier.hpp"
+#include "sim/gpio_pwm/gpio_chip_model.hpp"
+#include "sim/gpio_pwm/pwm_channel_model.hpp"
+#include "sim/gpio_pwm/quadrature_encoder.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
 namespace {

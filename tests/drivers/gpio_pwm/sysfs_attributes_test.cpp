@@ -11,7 +11,7 @@
 #include <fstream>
 #include <random>
 
-#include "drivers/gpio_pwm/sim/sysfs_peripherals.hpp"
+#include "sim/gpio_pwm/sysfs_peripherals.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
 #include "drivers/stop_request.hpp"
 #include "tests/support/alloc_counter.hpp"

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "drivers/gpio_pwm/sim/umockdev_gpio_testbed.hpp"
+#include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 
 int main(int argc, char** argv) {
   if (!hapticd::drivers::gpio_pwm::sim::ensure_umockdev_preload(argc, argv)) {

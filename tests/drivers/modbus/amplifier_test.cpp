@@ -9,7 +9,7 @@
 
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_frame.hpp"
-#include "drivers/modbus/sim/amplifier.hpp"
+#include "sim/modbus/amplifier.hpp"
 #include "loopback_plant.hpp"
 
 namespace mb = hapticd::drivers::modbus;

@@ -3,7 +3,7 @@
 #include <memory>
 
 #include "drivers/modbus/modbus_config.hpp"
-#include "drivers/modbus/sim/amplifier_server.hpp"
+#include "sim/modbus/amplifier_server.hpp"
 #include "loopback_plant.hpp"
 #include "tests/drivers/conformance/device_conformance.hpp"
 

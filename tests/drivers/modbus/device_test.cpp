@@ -14,7 +14,7 @@
 
 #include "c_alloc_counter.hpp"
 #include "drivers/modbus/modbus_device.hpp"
-#include "drivers/modbus/sim/amplifier_server.hpp"
+#include "sim/modbus/amplifier_server.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 #include "drivers/stop_request.hpp"
 #include "hostile_server.hpp"

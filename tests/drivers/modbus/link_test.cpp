@@ -25,7 +25,7 @@
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_frame.hpp"
 #include "drivers/modbus/modbus_link.hpp"
-#include "drivers/modbus/sim/amplifier_server.hpp"
+#include "sim/modbus/amplifier_server.hpp"
 #include "loopback_plant.hpp"
 #include "tests/support/alloc_counter.hpp"
 

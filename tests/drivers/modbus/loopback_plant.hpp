@@ -1,7 +1,7 @@
 #pragma once
 // The shared plant simulator behind the simulated amplifier, owned together
 // (the tests' plant: the loopback device's plant).
-#include "drivers/modbus/sim/simulator_plant.hpp"
+#include "sim/modbus/simulator_plant.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 
 namespace hapticd::drivers::modbus::testing {

@@ -2,7 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "drivers/modbus/modbus_config.hpp"
-#include "drivers/modbus/sim/peer_commands.hpp"
+#include "sim/modbus/peer_commands.hpp"
 #include "loopback_plant.hpp"
 
 namespace mb = hapticd::drivers::modbus;

@@ -208,7 +208,7 @@ TEST(GpioPwmEndToEnd, SpringWheelStepMatchesTheLoopbackRunAndTheLinesFollowTheTo
 // hapticd-devsim gpio-pwm runs hapticd with the board inside it; the
 // shipped example configures against it and passes the stability gate.
 TEST(GpioPwmEndToEnd, DevsimRunsTheShippedConfigAgainstTheBoard) {
-  const auto devsim = std::filesystem::path(HAPTICD_BINARY_DIR) / "drivers/devsim/hapticd-devsim";
+  const auto devsim = std::filesystem::path(HAPTICD_BINARY_DIR) / "sim/devsim/hapticd-devsim";
   const auto r =
       run(devsim, {"gpio-pwm", "--plant", "damping=0.002", "--", hapticd_binary().string(), "--config",
                    std::string(HAPTICD_SOURCE_DIR) + "/config/gpio-pwm.toml", "--check-config"});

@@ -22,8 +22,8 @@
 
 #include "drivers/simulation/hand_script.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
-#include "drivers/usb_hid/sim/simulated_board.hpp"
-#include "drivers/usb_hid/sim/umockdev_board.hpp"
+#include "sim/usb_hid/simulated_board.hpp"
+#include "sim/usb_hid/umockdev_board.hpp"
 #include "support.hpp"
 
 namespace {

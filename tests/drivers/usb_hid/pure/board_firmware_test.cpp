@@ -7,7 +7,7 @@
 #include <array>
 #include <cstdint>
 
-#include "drivers/usb_hid/sim/board_firmware.hpp"
+#include "sim/usb_hid/board_firmware.hpp"
 
 namespace hapticd::drivers::usb_hid::sim {
 namespace {

@@ -1,13 +1,13 @@
 #pragma once
 // A simulated board on an emulated USB bus, for tests that run libusb's
-// real Linux code path (see drivers/usb_hid/sim/umockdev_board.hpp).
+// real Linux code path (see sim/usb_hid/umockdev_board.hpp).
 
 #include <gtest/gtest.h>
 
 #include <memory>
 
-#include "drivers/usb_hid/sim/simulated_board.hpp"
-#include "drivers/usb_hid/sim/umockdev_board.hpp"
+#include "sim/usb_hid/simulated_board.hpp"
+#include "sim/usb_hid/umockdev_board.hpp"
 
 namespace hapticd::drivers::usb_hid::testing {
 

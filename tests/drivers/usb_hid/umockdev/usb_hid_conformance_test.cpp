@@ -5,8 +5,8 @@
 #include <memory>
 
 #include "drivers/simulation/plant_simulator.hpp"
-#include "drivers/usb_hid/sim/simulated_board.hpp"
-#include "drivers/usb_hid/sim/umockdev_board.hpp"
+#include "sim/usb_hid/simulated_board.hpp"
+#include "sim/usb_hid/umockdev_board.hpp"
 #include "tests/drivers/conformance/device_conformance.hpp"
 
 namespace {

@@ -1,0 +1,127 @@
+#include "sim/canopen/devsim_peer.hpp"
+
+#include <pthread.h>
+#include <signal.h>
+
+#include <atomic>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <string>
+#include <thread>
+
+#include "drivers/canopen/can_socket.hpp"
+#include "sim/canopen/drive_bus.hpp"
+#include "sim/canopen/simulated_drive.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
+#include "world/units.hpp"
+
+namespace hapticd::drivers::canopen::sim {
+
+namespace {
+
+/// The shared plant simulator as the drive's plant: one step() per SYNC.
+class SimulatorPlant final : public DrivePlant {
+ public:
+  explicit SimulatorPlant(simulation::PlantSimulator& simulator) : simulator_(simulator) {}
+  double position() const override {
+    double p = last_;
+    if (simulator_.sense(p) == IoResult::ok && std::isfinite(p)) last_ = p;
+    return last_;
+  }
+  double velocity() const override { return simulator_.snapshot().motor_velocity; }
+  void step(double force) override { (void)simulator_.step(force); }
+
+ private:
+  simulation::PlantSimulator& simulator_;
+  mutable double last_ = 0.0;
+};
+
+struct Options {
+  std::string listen;
+  int node = 1;
+  std::string period = "1ms";
+  double rated_torque = 1.0;
+  std::string plant;
+  std::string hand;
+};
+
+int run_peer(const Options& o) {
+  const std::string path(unix_path_of(o.listen));
+  if (path.empty()) {
+    std::cerr << "hapticd-devsim canopen: --listen must be unix:/path, got '" << o.listen << "'\n";
+    return 2;
+  }
+  const double period_s = world::units::parse_duration_s(o.period).value_or(-1.0);
+  if (!(period_s > 0.0)) {
+    std::cerr << "hapticd-devsim canopen: --period '" << o.period << "' is not a duration (1ms, 250us)\n";
+    return 2;
+  }
+  const simulation::PlantConfig plant_config = devsim::plant_from(o.plant, period_s);
+  simulation::PlantSimulator simulator(plant_config, simulation::parse_hand_script(o.hand));
+  SimulatorPlant plant(simulator);
+  DriveSettings settings;
+  settings.node_id = static_cast<std::uint8_t>(o.node);
+  settings.rated_torque_mnm = static_cast<std::uint32_t>(std::llround(o.rated_torque * 1e3));
+  const double unit = plant_config.motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0;
+  settings.position_units_per_si = plant_config.counts / unit;  // one increment per encoder count
+  settings.velocity_units_per_si = plant_config.counts / unit;
+  SimulatedDrive drive(settings, plant);
+
+  // SIGINT/SIGTERM end the peer: blocked here, taken by sigwait below.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  DriveBus bus(path, drive);
+  std::atomic<bool> stop{false};
+  std::thread loop([&] { bus.run(stop); });
+  std::cout << "hapticd-devsim canopen: CiA 402 drive, node " << o.node << ", listening on " << o.listen
+            << std::endl;
+  std::thread([&bus] {
+    for (std::string line; std::getline(std::cin, line);) {
+      if (line.empty()) continue;
+      std::cout << bus.command(line) << std::endl;
+    }
+  }).detach();  // blocked in getline until stdin closes; ends with the process
+  int signal = 0;
+  sigwait(&stop_signals, &signal);
+  stop = true;
+  loop.join();
+  std::cout << "hapticd-devsim canopen: stopped (" << bus.command("status") << ")" << std::endl;
+  return 0;
+}
+
+}  // namespace
+
+devsim::SimulatedPeer canopen_peer() {
+  return {
+      "canopen", "CiA 402 drive on the unix seam (NMT, SDO, PDO, SYNC, heartbeat, EMCY, fault switches)",
+      [](CLI::App& app, int& exit_code) {
+        auto options = std::make_shared<Options>();
+        auto* cmd = app.add_subcommand("canopen", "simulated CiA 402 drive for the canopen driver");
+        cmd->add_option("--listen", options->listen, "unix:/path the driver's interface names")->required();
+        cmd->add_option("--node", options->node, "the drive's node-ID")->check(CLI::Range(1, 127));
+        cmd->add_option("--period", options->period, "the plant's step per SYNC: hapticd's loop period");
+        cmd->add_option("--rated-torque", options->rated_torque,
+                        "0x6076 motor rated torque, N m (N): 0x6071 is per mille of it")
+            ->check(CLI::PositiveNumber);
+        devsim::add_plant_option(*cmd, options->plant);
+        cmd->add_option(
+            "--hand", options->hand,
+            "the scripted hand, as the loopback's: \"mode=hold trajectory=step amplitude=0.785 at=0.5\"");
+        cmd->callback([options, &exit_code] {
+          try {
+            exit_code = run_peer(*options);
+          } catch (const std::exception& e) {
+            std::cerr << "hapticd-devsim canopen: " << e.what() << "\n";
+            exit_code = 1;
+          }
+        });
+      }};
+}
+
+}  // namespace hapticd::drivers::canopen::sim
