@@ -600,10 +600,10 @@ TEST(Canopen, A2To31CountJumpOf0x6064LatchesInItsPeriodWithTheFigures) {
   // torque_limit by itself, however long the test took to clear it (CI's
   // ASan run saw it at row 3710): that span is the scene's, judged by
   // check_latches_zero_and_clears_without_a_step above.
-  std::size_t cleared = jump;
-  while (cleared < flags.size() && (static_cast<unsigned>(flags[cleared]) & 1u) != 0) ++cleared;
-  ASSERT_LT(cleared, flags.size()) << "the latch was never cleared in the recording";
-  for (std::size_t i = jump; i < cleared; ++i)
+  std::size_t resumed = jump;
+  while (resumed < flags.size() && (static_cast<unsigned>(flags[resumed]) & 1u) != 0) ++resumed;
+  ASSERT_LT(resumed, flags.size()) << "the latch was never cleared in the recording";
+  for (std::size_t i = jump; i < resumed; ++i)
     ASSERT_EQ(applied[i], 0.0) << "row " << i << ": torque while latched after the jump";
 }
 
