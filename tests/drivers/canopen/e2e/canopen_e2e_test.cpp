@@ -51,7 +51,7 @@ const std::string turning_hand = "mode=hold trajectory=sine amplitude=0.3 freque
 const std::string plant = "damping=0.002 max_force=1.2";  // the loopback's rigid wheel, J = 0.01 kg m^2
 
 std::filesystem::path devsim_binary() {
-  return std::filesystem::path(HAPTICD_BINARY_DIR) / "drivers" / "devsim" / "hapticd-devsim";
+  return std::filesystem::path(HAPTICD_BINARY_DIR) / "sim" / "devsim" / "hapticd-devsim";
 }
 
 /// hapticd-devsim canopen in its own process: commands on its stdin, replies in its log.

@@ -68,7 +68,7 @@ class AmplifierProcess {
  public:
   AmplifierProcess(Transport transport, const std::string& hand, int port = 0) {
     std::vector<std::string> args{
-        (std::filesystem::path(HAPTICD_BINARY_DIR) / "drivers" / "devsim" / "hapticd-devsim").string(),
+        (std::filesystem::path(HAPTICD_BINARY_DIR) / "sim" / "devsim" / "hapticd-devsim").string(),
         "modbus",
         "--transport",
         name_of(transport),
