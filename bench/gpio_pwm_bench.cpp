@@ -10,7 +10,7 @@
 //     umockdev chip: each is a round trip to umockdev's handler thread, so
 //     this is the emulation's cost, far above a kernel ioctl;
 //   BM_DecodeEdge: the quadrature decoder's cost per edge (pure);
-//   BM_DevicePeriod/<counter>: GpioPwmDevice::read() + write() against the
+//   BM_DevicePeriod/<counter>: the Device's read() + write() against the
 //     simulated board, the whole per-period work of the driver (fault poll,
 //     count pread or the decoded count, duty pwrite, outputs ioctl); the
 //     board steps the shared plant simulator inside that ioctl (lockstep),
@@ -35,6 +35,7 @@
 #include <thread>
 
 #include "drivers/gpio_pwm/gpio_lines.hpp"
+#include "drivers/device.hpp"
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
 #include "drivers/gpio_pwm/quadrature_decoder.hpp"
 #include "sim/gpio_pwm/board.hpp"
@@ -187,7 +188,8 @@ void BM_DevicePeriod(benchmark::State& state) {
     c.encoder_a_line = gp::parse_line_spec("encoder_a_line", "ENC_A");
     c.encoder_b_line = gp::parse_line_spec("encoder_b_line", "ENC_B");
   }
-  gp::GpioPwmDevice device(c);
+  // Through the framework's Device, as the daemon drives it.
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<gp::GpioPwmDevice>(c));
   device.configure({period_s});
   device.enable();
   hapticd::drivers::Reading reading;

@@ -52,7 +52,7 @@ BuiltDevice build_device(const config::DaemonConfig& config) {
   for (const auto& p : device.parameters) given[p.key] = p.value;
   try {
     const drivers::DriverParameters parameters(device.driver, driver->parameters, given);
-    return {driver->make(parameters), parameters.to_json()};
+    return {drivers::make_device(*driver, parameters), parameters.to_json()};
   } catch (const drivers::ParameterError& e) {
     throw keyed_error(device, e.key(), e.what());
   } catch (const drivers::DeviceError& e) {

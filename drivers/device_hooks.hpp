@@ -1,15 +1,24 @@
 #pragma once
 /// \file
-/// The device seam (docs/drivers.md). A driver's life follows ros2_control's
-/// configure / activate and JACK2's open / start:
+/// What a driver implements: the hooks (docs/drivers.md), and the types they
+/// speak. A driver's life follows ros2_control's configure / activate and
+/// JACK2's open / start:
 ///
 ///   configure -> enable -> read/write once per period (RT) -> disable -> close
 ///                  ^                         |
 ///                  +---- clear_fault <-------+  (a latched device fault)
 ///
+/// The framework's Device (device.hpp) holds that state, calls each hook
+/// only in the state it is written for, turns a hook's exception into a
+/// DeviceError with its key, counts errors and faults, and implements the
+/// clear-fault contract: a driver writes none of that. As in ros2_control's
+/// system.cpp, a component supplies hooks only; a test driver may override
+/// read(), write() and model() and nothing else.
+///
 /// Everything but read() and write() runs outside the RT loop. Every driver
-/// lives in drivers/<kind>/ with its protocol note and a simulated peer.
-/// Units are SI: position in m (linear) or rad (rotary), force in N or N m.
+/// lives in drivers/<kind>/ with its protocol note; its simulated peer in
+/// sim/<kind>/. Units are SI: position in m (linear) or rad (rotary), force
+/// in N or N m.
 
 #include <cstdint>
 #include <functional>
@@ -68,25 +77,10 @@ struct DeviceModel {
   std::string description;  ///< a few words, e.g. "rotary, two-mass" or "Copley Accelnet, node 3"
 };
 
-enum class DeviceState { closed, configured, enabled, fault };
-std::string_view to_string(DeviceState state) noexcept;  ///< "closed", "configured", ...
-
 /// A driver-specific counter (late TPDOs, CRC errors, dropped frames ...).
 struct NamedCounter {
   std::string name;
   std::uint64_t value = 0;
-};
-
-/// Everything but the RT return codes (ros2_control: return codes plus a
-/// status struct). Read from non-RT threads at any time.
-struct DeviceStatus {
-  DeviceState state = DeviceState::closed;
-  std::uint64_t read_errors = 0;
-  std::uint64_t write_errors = 0;
-  std::uint64_t faults = 0;
-  std::string fault_reason;  ///< the device's own words ("EMCY 0x2310: over current"); "" if none
-  std::string last_error;
-  std::vector<NamedCounter> counters;
 };
 
 /// A non-RT lifecycle step failed: one line, with the figure ("3 frames =
@@ -116,36 +110,50 @@ struct DeviceMethod {
   rpc::ParamMembers members{};
 };
 
-class Device {
+/// What a driver says of itself besides the RT return codes (any non-RT
+/// thread, any time after construction).
+struct DeviceHealth {
+  bool faulted = false;      ///< the device is in fault now (its own latch)
+  std::string fault_reason;  ///< the device's own words ("EMCY 0x2310: over current"); "" if none
+  std::string last_error;    ///< the driver's last problem in words, "" if none
+  std::vector<NamedCounter> counters;
+};
+
+/// The hooks. The framework (Device) guarantees the order; a hook never
+/// checks it. Each non-RT hook may throw DeviceError (with the key to
+/// blame) or StopRequested; any other exception becomes a DeviceError
+/// naming the driver and the step.
+class DeviceHooks {
  public:
-  virtual ~Device() = default;
+  virtual ~DeviceHooks() = default;
 
-  // ---- non-RT lifecycle; each throws DeviceError, or std::logic_error when
-  // called out of order (a bug of the caller, not a device problem) ----
+  // ---- non-RT lifecycle ----
 
-  /// Open the bus, identify the device, read its identity and limits, check
-  /// the period against the link budget, arm the device's own watchdog.
-  /// read() is valid from here on; write() is refused until enable().
-  /// configure(), enable() and clear_fault() give way to loop.stop within
-  /// stop_slice, device disabled, and throw StopRequested.
-  virtual void configure(const LoopContext& loop) = 0;
-  /// Power stage on, with zero output first.
-  virtual void enable() = 0;
-  /// Device-side reset (CiA 402 fault-reset edge, Modbus reset register,
-  /// board reset bit), then enable again. Runs on the control thread WHILE the
-  /// RT thread keeps calling read()/write() (the engine holds the output at
-  /// zero): hand the request over lock-free and wait, bounded, for the device
-  /// to confirm. Returns what it cleared on the device, in words ("" if it had
-  /// no fault); throws DeviceError if the device stays in fault.
-  virtual std::string clear_fault() = 0;
-  /// Output to zero, power stage off. Every exit path; idempotent; the RT
-  /// thread is no longer calling read()/write().
-  virtual void disable() noexcept = 0;
-  /// Release the bus (disable() first if needed). Idempotent.
-  virtual void close() noexcept = 0;
+  /// closed -> configured. Open the bus, identify the device, read its
+  /// identity and limits, check the period against the link budget, arm the
+  /// device's own watchdog. Blocking waits give way to loop.stop (device
+  /// disabled, StopRequested thrown). read() is called from here on.
+  virtual void configure(const LoopContext& loop) { (void)loop; }
+  /// configured -> enabled: power stage on, with zero output first. Also
+  /// called when already enabled (again after a clear): idempotent.
+  virtual void enable() {}
+  /// While configured or enabled, on the control thread WHILE the RT thread
+  /// keeps calling read()/write() (the engine holds the output at zero):
+  /// device-side reset (CiA 402 fault-reset edge, Modbus reset register,
+  /// board reset bit), then enable again; hand the request over lock-free
+  /// and wait, bounded, for the device to confirm. Returns what it cleared
+  /// on the device, in words ("" if it had no fault); throws DeviceError if
+  /// the device stays in fault.
+  virtual std::string clear_fault() { return {}; }
+  /// enabled -> configured: output to zero, power stage off. The RT thread
+  /// is no longer calling read()/write().
+  virtual void disable() noexcept {}
+  /// configured -> closed (disable() has run): release the bus.
+  virtual void close() noexcept {}
 
-  // ---- RT, once per period, from one thread: no allocation, lock, text, or
-  // syscall other than the device I/O; bounded well inside the period ----
+  // ---- RT, once per period, from one thread: no allocation, lock, text,
+  // or syscall other than the device I/O; bounded well inside the period.
+  // read() from configure() on, write() only while enabled ----
 
   virtual IoResult read(Reading& out) noexcept = 0;
   /// Commands a force or torque for the coming period.
@@ -153,9 +161,9 @@ class Device {
 
   // ---- any non-RT thread ----
 
-  /// Valid after configure().
+  /// From configure() on.
   virtual DeviceModel model() const = 0;
-  virtual DeviceStatus status() const = 0;
+  virtual DeviceHealth health() const { return {}; }
   /// Control-plane methods of this driver (none by default).
   virtual std::vector<DeviceMethod> methods() { return {}; }
 };

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/registry.hpp"
+#include "drivers/driver_description.hpp"
 
 namespace hapticd::drivers::planned {
 

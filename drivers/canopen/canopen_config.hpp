@@ -11,7 +11,7 @@
 #include <string>
 #include <utility>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 
 namespace hapticd::drivers::canopen {
 

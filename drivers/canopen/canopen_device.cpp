@@ -90,81 +90,28 @@ CanopenDevice::CanopenDevice(CanopenConfig config) : config_(std::move(config)) 
 CanopenDevice::~CanopenDevice() { close(); }
 
 void CanopenDevice::configure(const LoopContext& loop) {
-  if (state_.load() != DeviceState::closed) throw std::logic_error("canopen: configure() twice");
   auto session = std::make_unique<CanopenSession>(config_);
   session->set_stop(loop.stop);
-  try {
-    session->configure(loop.period_s);
-  } catch (const SetupError& e) {
-    {
-      std::lock_guard lock(error_mutex_);
-      last_error_ = e.what();
-    }
-    throw DeviceError(e.what(), e.key());
-  }
+  session->configure(loop.period_s);
   session_ = std::move(session);
-  state_.store(DeviceState::configured);
 }
 
-void CanopenDevice::enable() {
-  if (!session_) throw std::logic_error("canopen: enable() before configure()");
-  try {
-    session_->enable();
-  } catch (const SetupError& e) {
-    std::lock_guard lock(error_mutex_);
-    last_error_ = e.what();
-    throw DeviceError(e.what(), e.key());
-  }
-  output_enabled_.store(true, std::memory_order_release);
-  state_.store(DeviceState::enabled);
-}
+void CanopenDevice::enable() { session_->enable(); }
 
-std::string CanopenDevice::clear_fault() {
-  if (!session_) throw std::logic_error("canopen: clear_fault() before configure()");
-  try {
-    return session_->clear_fault();
-  } catch (const SetupError& e) {
-    std::lock_guard lock(error_mutex_);
-    last_error_ = e.what();
-    throw DeviceError(e.what(), e.key());
-  }
-}
+std::string CanopenDevice::clear_fault() { return session_->clear_fault(); }
 
-void CanopenDevice::disable() noexcept {
-  output_enabled_.store(false, std::memory_order_release);
-  if (session_) session_->disable();
-  if (state_.load() == DeviceState::enabled) state_.store(DeviceState::configured);
-}
+void CanopenDevice::disable() noexcept { session_->disable(); }
 
 void CanopenDevice::close() noexcept {
-  disable();
   if (session_) session_->close();
   session_.reset();
-  state_.store(DeviceState::closed);
 }
 
-IoResult CanopenDevice::read(Reading& out) noexcept {
-  if (!session_) {
-    read_errors_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  const IoResult r = session_->read(out);
-  if (r == IoResult::error) read_errors_.fetch_add(1, std::memory_order_relaxed);
-  return r;
-}
+IoResult CanopenDevice::read(Reading& out) noexcept { return session_->read(out); }
 
-IoResult CanopenDevice::write(double force) noexcept {
-  if (!session_ || !output_enabled_.load(std::memory_order_acquire)) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  const IoResult r = session_->write(force);
-  if (r == IoResult::error) write_errors_.fetch_add(1, std::memory_order_relaxed);
-  return r;
-}
+IoResult CanopenDevice::write(double force) noexcept { return session_->write(force); }
 
 DeviceModel CanopenDevice::model() const {
-  if (!session_) throw std::logic_error("canopen: model() before configure()");
   DeviceModel m;
   m.motion = config_.motion;
   m.effective_mass = config_.mass;
@@ -181,19 +128,11 @@ DeviceModel CanopenDevice::model() const {
   return m;
 }
 
-DeviceStatus CanopenDevice::status() const {
-  DeviceStatus s;
-  s.read_errors = read_errors_.load(std::memory_order_relaxed);
-  s.write_errors = write_errors_.load(std::memory_order_relaxed);
-  {
-    std::lock_guard lock(error_mutex_);
-    s.last_error = last_error_;
-  }
-  s.state = state_.load();
+DeviceHealth CanopenDevice::health() const {
+  DeviceHealth s;
   if (!session_) return s;
   const SessionStatus st = session_->status();
-  if (st.faulted && s.state != DeviceState::closed) s.state = DeviceState::fault;
-  s.faults = st.counters.faults;
+  s.faulted = st.faulted;
   s.fault_reason = st.fault_reason;
   const CyclicCounters& c = st.counters;
   s.counters = {{"periods", c.periods},

@@ -1,25 +1,24 @@
 #pragma once
 /// \file
-/// The canopen driver behind drivers::Device: a CiA 402 drive in cyclic
-/// synchronous torque over SocketCAN (or the unix: seam of the simulated
-/// drive). The work is the session's (canopen_session.hpp); this file maps
-/// it onto the lifecycle, the status, the device model and the commissioning
-/// methods device.sdo.read / device.sdo.write. See README.md.
+/// The canopen driver's hooks: a CiA 402 drive in cyclic synchronous torque
+/// over SocketCAN (or the unix: seam of the simulated drive). The work is
+/// the session's (canopen_session.hpp); this file maps it onto the hooks,
+/// the health, the device model and the commissioning methods
+/// device.sdo.read / device.sdo.write. The framework's Device holds the
+/// lifecycle. See README.md.
 
-#include <atomic>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
 #include "drivers/canopen/canopen_config.hpp"
 #include "drivers/canopen/canopen_session.hpp"
-#include "drivers/device.hpp"
-#include "drivers/registry.hpp"
+#include "drivers/device_hooks.hpp"
+#include "drivers/driver_description.hpp"
 
 namespace hapticd::drivers::canopen {
 
-class CanopenDevice final : public Device {
+class CanopenDevice final : public DeviceHooks {
  public:
   /// Validates the config (throws ConfigError naming the key).
   explicit CanopenDevice(CanopenConfig config);
@@ -35,7 +34,7 @@ class CanopenDevice final : public Device {
   IoResult write(double force) noexcept override;
 
   DeviceModel model() const override;
-  DeviceStatus status() const override;
+  DeviceHealth health() const override;
   std::vector<DeviceMethod> methods() override;
 
   const CanopenConfig& config() const noexcept { return config_; }
@@ -43,11 +42,6 @@ class CanopenDevice final : public Device {
  private:
   CanopenConfig config_;
   std::unique_ptr<CanopenSession> session_;  ///< from configure() to close()
-  std::atomic<DeviceState> state_{DeviceState::closed};
-  std::atomic<bool> output_enabled_{false};  ///< write() sends only between enable() and disable()
-  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0};
-  mutable std::mutex error_mutex_;  // last_error_ (non-RT)
-  std::string last_error_;
 };
 
 /// The registry entry: parameters, summary, factory.

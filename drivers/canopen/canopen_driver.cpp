@@ -110,7 +110,7 @@ CanopenConfig canopen_config_from(const DriverParameters& p) {
 DriverDescription canopen_driver() {
   static const std::vector<ParameterSpec> parameters = make_parameters();
   return {"canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)", true,
-          parameters, [](const DriverParameters& p) -> std::unique_ptr<Device> {
+          parameters, [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
             return std::make_unique<CanopenDevice>(canopen_config_from(p));
           }};
 }

@@ -305,8 +305,7 @@ std::chrono::microseconds sdo_timeout(const CanopenConfig& c) {
 }  // namespace
 
 void CanopenSession::configure(double period_s) {
-  if (exchange_) throw std::logic_error("canopen: configure() twice");
-  if (!(period_s > 0.0)) throw std::logic_error("canopen: configure() needs a period > 0");
+  if (!(period_s > 0.0)) throw SetupError("canopen: the loop period must be > 0 s", "period");
   period_s_ = period_s;
   // The budget first: a period the bus cannot carry is refused before touching it.
   const CyclicMapping mapping = standard_mapping(config_.node_id, config_.velocity_pdo);
@@ -407,7 +406,6 @@ bool CanopenSession::loop_running(double at_least_s) const {
 }
 
 void CanopenSession::enable() {
-  if (!exchange_) throw std::logic_error("canopen: enable() before configure()");
   const std::string step = "canopen: enabling node " + std::to_string(config_.node_id);
   {
     std::lock_guard lock(sdo_mutex_);
@@ -437,7 +435,6 @@ void CanopenSession::enable() {
 }
 
 std::string CanopenSession::clear_fault() {
-  if (!exchange_) throw std::logic_error("canopen: clear_fault() before configure()");
   const std::string step = "canopen: clearing the fault of node " + std::to_string(config_.node_id);
   const SessionStatus before = status();
   if (!before.faulted) return "";

@@ -2,7 +2,7 @@
 /// \file
 /// One CANopen drive driven by hapticd: the socket, the setup, the
 /// per-period exchange, and the hand-over between the RT loop and the other
-/// threads. canopen_device.cpp puts it behind drivers::Device.
+/// threads. canopen_device.cpp maps it onto the driver's hooks.
 ///
 /// Threads. configure(), enable(), disable(), close() run when the RT loop
 /// does not. read()/write() belong to the RT loop (or, before it runs and
@@ -27,7 +27,7 @@
 #include "drivers/canopen/canopen_config.hpp"
 #include "drivers/canopen/cyclic_exchange.hpp"
 #include "drivers/canopen/drive_setup.hpp"
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "rt/seqlock.hpp"
 #include "rt/spsc_ring.hpp"
 

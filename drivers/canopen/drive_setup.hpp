@@ -26,6 +26,7 @@
 #include "drivers/canopen/301/pdo.hpp"
 #include "drivers/canopen/402/state_machine.hpp"
 #include "drivers/canopen/sdo_client.hpp"
+#include "drivers/device_hooks.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -67,16 +68,10 @@ struct SetupResult {
   std::vector<std::string> notes;  ///< what the drive lacks that the driver did without
 };
 
-/// One line for a setup that cannot go on; key: the config parameter to blame ("" if none).
-class SetupError : public std::runtime_error {
- public:
-  SetupError(const std::string& message, std::string key)
-      : std::runtime_error(message), key_(std::move(key)) {}
-  const std::string& key() const noexcept { return key_; }
-
- private:
-  std::string key_;
-};
+/// One line for a setup that cannot go on; key: the config parameter to
+/// blame ("" if none). The framework's DeviceError: it reaches the daemon as
+/// it is thrown.
+using SetupError = DeviceError;
 
 /// 0x6076 motor rated torque (mN m) as the drive has it now; nullopt if it
 /// has no 0x6076. Throws SdoError for any other failure.

@@ -275,7 +275,7 @@ DriverDescription gpio_pwm_driver() {
           "GPIO lines (libgpiod 1.6) and a kernel PWM channel driving an H-bridge, position from a kernel "
           "counter "
           "or two encoder lines (Hapkit-class rigs)",
-          true, gpio_pwm_parameters(), [](const DriverParameters& p) -> std::unique_ptr<Device> {
+          true, gpio_pwm_parameters(), [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
             return std::make_unique<GpioPwmDevice>(gpio_pwm_config_from(p));
           }};
 }

@@ -10,9 +10,9 @@
 #include <string>
 #include <string_view>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/parameter.hpp"
-#include "drivers/registry.hpp"
+#include "drivers/driver_description.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 

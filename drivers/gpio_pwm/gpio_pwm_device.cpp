@@ -39,7 +39,6 @@ GpioPwmDevice::~GpioPwmDevice() { close(); }
 
 void GpioPwmDevice::configure(const LoopContext& loop) {
   std::lock_guard lock(lifecycle_);
-  if (state_.load() != DeviceState::closed) throw std::logic_error("gpio-pwm: configure() while configured");
   if (!(loop.period_s > 0.0)) throw DeviceError("gpio-pwm: the loop period must be > 0 s", "period");
   stop_ = loop.stop;
   try {
@@ -117,7 +116,7 @@ void GpioPwmDevice::configure(const LoopContext& loop) {
              ? "charge pump on " + line_words(*chip_, offsets[static_cast<std::size_t>(slot_[pump_out])])
              : "NO charge pump: nothing stops the motor if hapticd is killed");
     fault_latched_.store(false);
-    state_.store(DeviceState::configured);
+    enabled_ = false;
   } catch (...) {
     release();
     throw;
@@ -126,9 +125,7 @@ void GpioPwmDevice::configure(const LoopContext& loop) {
 
 void GpioPwmDevice::enable() {
   std::lock_guard lock(lifecycle_);
-  const DeviceState s = state_.load();
-  if (s == DeviceState::closed) throw std::logic_error("gpio-pwm: enable() before configure()");
-  if (s == DeviceState::enabled) return;
+  if (enabled_) return;
   if (const int error = pwm_->off(); error != 0) {
     throw TransportError("pwm_channel",
                          std::string("gpio-pwm: setting duty 0 failed: ") + system_reason(error), error);
@@ -137,7 +134,7 @@ void GpioPwmDevice::enable() {
   // as the first charge-pump edge: every output commit is one period's
   // (the simulated board counts one period per commit), and the power stage
   // is never on before the loop drives it.
-  state_.store(DeviceState::enabled);
+  enabled_ = true;
 }
 
 bool GpioPwmDevice::fault_line_active() {
@@ -180,8 +177,6 @@ void GpioPwmDevice::pulse_reset() {
 
 std::string GpioPwmDevice::clear_fault() {
   std::lock_guard lock(lifecycle_);
-  if (state_.load() == DeviceState::closed)
-    throw std::logic_error("gpio-pwm: clear_fault() before configure()");
   if (!fault_latched_.load(std::memory_order_acquire)) return "";
   if (reset_) pulse_reset();
   if (fault_ && fault_line_active()) {
@@ -205,34 +200,27 @@ void GpioPwmDevice::set_outputs(bool enable, bool brake) noexcept {
   put(brake_out, brake);
   put(pump_out, pump_);
   if (const int error = outputs_->set(std::span<const int>(levels_.data(), used_outputs_)); error != 0) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
+    output_failed_ = true;
     last_errno_.store(error, std::memory_order_relaxed);
   }
 }
 
 void GpioPwmDevice::drive_off() noexcept {
-  if (const int error = pwm_->off(); error != 0) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
-    last_errno_.store(error, std::memory_order_relaxed);
-  }
+  if (const int error = pwm_->off(); error != 0) last_errno_.store(error, std::memory_order_relaxed);
   set_outputs(false, true);
 }
 
 IoResult GpioPwmDevice::read(Reading& out) noexcept {
-  if (state_.load(std::memory_order_acquire) == DeviceState::closed) return IoResult::error;
   if (fault_ && fault_->pending() != 0) {  // one poll() per period; a read only when an edge came
     std::array<EdgeEvent, kernel_event_queue_depth> events;
     const int n = fault_->read(events);
     if (n < 0) {
-      read_errors_.fetch_add(1, std::memory_order_relaxed);
       last_errno_.store(-n, std::memory_order_relaxed);
       return IoResult::error;
     }
     for (int i = 0; i < n; ++i) {
       const bool active = events[static_cast<std::size_t>(i)].rising != config_.fault_line.active_low;
-      if (active && !fault_latched_.exchange(true, std::memory_order_acq_rel)) {
-        faults_.fetch_add(1, std::memory_order_relaxed);
-      }
+      if (active) fault_latched_.store(true, std::memory_order_release);
     }
   }
   if (fault_latched_.load(std::memory_order_acquire)) return IoResult::fault;
@@ -240,12 +228,10 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
   if (counter_) {
     std::uint64_t raw = 0;
     if (const int error = counter_->read(raw); error != 0) {
-      read_errors_.fetch_add(1, std::memory_order_relaxed);
       last_errno_.store(error, std::memory_order_relaxed);
       return IoResult::error;
     }
     if (!unwrap_->update(raw)) {
-      read_errors_.fetch_add(1, std::memory_order_relaxed);
       counter_range_errors_.fetch_add(1, std::memory_order_relaxed);
       return IoResult::error;
     }
@@ -258,7 +244,6 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
 }
 
 IoResult GpioPwmDevice::write(double force) noexcept {
-  if (state_.load(std::memory_order_acquire) != DeviceState::enabled) return IoResult::error;
   if (fault_latched_.load(std::memory_order_acquire)) {
     drive_off();
     // drive_off() is a PWM write and an ioctl: a fault clear can land
@@ -270,18 +255,16 @@ IoResult GpioPwmDevice::write(double force) noexcept {
   const DriveResult drive = split_force(force, scaling_, direction_positive_);
   direction_positive_ = drive.command.positive;
   IoResult result = drive.valid ? IoResult::ok : IoResult::error;
-  if (!drive.valid) write_errors_.fetch_add(1, std::memory_order_relaxed);
   // The duty first, then the lines (direction, enable, pump) in one ioctl:
   // a sign change runs the new duty with the old direction for the few
   // microseconds between the two calls.
   if (const int error = pwm_->set_duty(drive.command.duty_ns); error != 0) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
     last_errno_.store(error, std::memory_order_relaxed);
     result = IoResult::error;
   }
-  const std::uint64_t errors_before = write_errors_.load(std::memory_order_relaxed);
+  output_failed_ = false;
   set_outputs(true, false);
-  if (write_errors_.load(std::memory_order_relaxed) != errors_before) result = IoResult::error;
+  if (output_failed_) result = IoResult::error;
   return result;
 }
 
@@ -291,8 +274,8 @@ void GpioPwmDevice::disable() noexcept {
 }
 
 void GpioPwmDevice::disable_locked() noexcept {
-  if (state_.load() != DeviceState::enabled) return;
-  if (pwm_->off() != 0) write_errors_.fetch_add(1, std::memory_order_relaxed);
+  if (!enabled_) return;
+  if (const int error = pwm_->off(); error != 0) last_errno_.store(error, std::memory_order_relaxed);
   // Enable inactive and the brake on; the pump keeps its level and stops.
   const auto put = [this](Output role, bool logical) {
     if (slot_[role] >= 0)
@@ -300,18 +283,15 @@ void GpioPwmDevice::disable_locked() noexcept {
   };
   put(enable_out, false);
   put(brake_out, true);
-  if (outputs_->set(std::span<const int>(levels_.data(), used_outputs_)) != 0) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
-  }
-  state_.store(DeviceState::configured);
+  if (const int error = outputs_->set(std::span<const int>(levels_.data(), used_outputs_)); error != 0)
+    last_errno_.store(error, std::memory_order_relaxed);
+  enabled_ = false;
 }
 
 void GpioPwmDevice::close() noexcept {
   std::lock_guard lock(lifecycle_);
-  if (state_.load() == DeviceState::closed) return;
   disable_locked();
   release();
-  state_.store(DeviceState::closed);
 }
 
 void GpioPwmDevice::release() noexcept {
@@ -345,18 +325,11 @@ DeviceModel GpioPwmDevice::model() const {
   return m;
 }
 
-DeviceStatus GpioPwmDevice::status() const {
+DeviceHealth GpioPwmDevice::health() const {
   std::lock_guard lock(lifecycle_);
-  DeviceStatus s;
-  s.state = state_.load();
-  const bool fault = s.state != DeviceState::closed && fault_latched_.load();
-  if (fault) {
-    s.state = DeviceState::fault;
-    s.fault_reason = fault_reason_;
-  }
-  s.read_errors = read_errors_.load();
-  s.write_errors = write_errors_.load();
-  s.faults = faults_.load();
+  DeviceHealth s;
+  s.faulted = chip_ != nullptr && fault_latched_.load();
+  if (s.faulted) s.fault_reason = fault_reason_;
   if (const int e = last_errno_.load(); e != 0) s.last_error = system_reason(e);
   s.counters.push_back({"counter_range_errors", counter_range_errors_.load()});
   if (pwm_) s.counters.push_back({"pwm_writes", pwm_->writes()});

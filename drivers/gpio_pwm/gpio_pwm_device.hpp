@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/gpio_pwm/counter_unwrap.hpp"
 #include "drivers/gpio_pwm/drive_command.hpp"
 #include "drivers/gpio_pwm/gpio_lines.hpp"
@@ -28,7 +28,7 @@
 
 namespace hapticd::drivers::gpio_pwm {
 
-class GpioPwmDevice final : public Device {
+class GpioPwmDevice final : public DeviceHooks {
  public:
   /// Validates the configuration (throws ParameterError naming the key).
   explicit GpioPwmDevice(GpioPwmConfig config);
@@ -39,11 +39,10 @@ class GpioPwmDevice final : public Device {
   /// Opens the chip, requests the lines, configures the PWM channel to
   /// enabled at duty 0, opens the counter or starts the quadrature thread.
   /// Enable inactive, brake active. Throws TransportError (a DeviceError
-  /// with the key) or std::logic_error when not closed.
+  /// with the key).
   void configure(const LoopContext& loop) override;
   /// Arms the output: duty 0 now; the enable line goes active and the
-  /// brake is released with the first write(). Throws std::logic_error
-  /// before configure().
+  /// brake is released with the first write().
   void enable() override;
   /// Pulses the reset line (if any), checks the fault line reads inactive,
   /// then clears the latch. Returns what was cleared ("" if nothing was
@@ -62,7 +61,7 @@ class GpioPwmDevice final : public Device {
   /// From the config (the device cannot measure its own mass): motion,
   /// mass, damping, the encoder's resolution; no added delay.
   DeviceModel model() const override;
-  DeviceStatus status() const override;
+  DeviceHealth health() const override;
   const GpioPwmConfig& config() const noexcept { return config_; }
   /// One line: chip, PWM, position source, and whether the rig is safe if
   /// hapticd is killed (a charge pump) or not.
@@ -104,12 +103,13 @@ class GpioPwmDevice final : public Device {
   // RT state.
   bool direction_positive_ = true;
   bool pump_ = false;
+  bool output_failed_ = false;  ///< the last set_outputs() failed
 
   // Shared with non-RT threads.
-  mutable std::mutex lifecycle_;                         // non-RT calls only
-  std::atomic<DeviceState> state_{DeviceState::closed};  // closed, configured or enabled
+  mutable std::mutex lifecycle_;  // non-RT calls only
+  bool enabled_ = false;          // under lifecycle_: disable() has something to switch off
   std::atomic<bool> fault_latched_{false};
-  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0}, counter_range_errors_{0};
+  std::atomic<std::uint64_t> counter_range_errors_{0};
   std::atomic<int> last_errno_{0};
 };
 

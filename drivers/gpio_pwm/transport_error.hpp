@@ -8,7 +8,7 @@
 #include <string>
 #include <system_error>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 

@@ -136,7 +136,7 @@ simulation::HandScript hand_script_from(const DriverParameters& p) {
 
 DriverDescription loopback_driver() {
   return {"loopback", "simulated plant (rigid or two-mass), scripted hand, fault injection: tests and demos",
-          true, loopback_parameters(), [](const DriverParameters& p) -> std::unique_ptr<Device> {
+          true, loopback_parameters(), [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
             return std::make_unique<LoopbackDevice>(loopback_config_from(p), hand_script_from(p));
           }};
 }

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "drivers/registry.hpp"
+#include "drivers/driver_description.hpp"
 #include "drivers/simulation/hand_script.hpp"
 #include "drivers/simulation/plant_config.hpp"
 

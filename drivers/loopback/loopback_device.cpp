@@ -11,30 +11,18 @@
 
 namespace hapticd::drivers::loopback {
 
-namespace {
-
 using nlohmann::json;
 using rpc::RpcError;
 namespace code = rpc::code;
 
-constexpr bool valid_from(DeviceState state, bool needs_enabled) noexcept {
-  return needs_enabled ? state == DeviceState::enabled : state != DeviceState::closed;
-}
-
-}  // namespace
-
 LoopbackDevice::LoopbackDevice(const LoopbackConfig& config, const HandScript& hand)
     : simulator_(std::make_unique<simulation::PlantSimulator>(config, hand)) {}
 
-void LoopbackDevice::require(bool condition, const char* what) const {
-  if (!condition) {
-    throw std::logic_error(std::string("loopback: ") + what + " while " +
-                           std::string(to_string(state_.load(std::memory_order_acquire))));
-  }
+std::unique_ptr<Device> make_loopback_device(const LoopbackConfig& config, const HandScript& hand) {
+  return std::make_unique<Device>("loopback", std::make_unique<LoopbackDevice>(config, hand));
 }
 
 void LoopbackDevice::configure(const LoopContext& loop) {
-  require(state_.load(std::memory_order_acquire) == DeviceState::closed, "configure()");
   if (!(loop.period_s > 0.0) || !std::isfinite(loop.period_s)) {
     throw DeviceError("loopback: the loop period must be > 0 s", "period");
   }
@@ -44,59 +32,27 @@ void LoopbackDevice::configure(const LoopContext& loop) {
     config.period_s = loop.period_s;
     simulator_ = std::make_unique<simulation::PlantSimulator>(config, simulator_->hand());
   }
-  state_.store(DeviceState::configured, std::memory_order_release);
 }
 
 void LoopbackDevice::enable() {
-  const DeviceState s = state_.load(std::memory_order_acquire);
-  require(s == DeviceState::configured || s == DeviceState::enabled, "enable()");
   simulator_->reset_actuator();  // the amplifier comes on with zero output, nothing stale
-  state_.store(DeviceState::enabled, std::memory_order_release);
 }
 
 std::string LoopbackDevice::clear_fault() {
-  require(state_.load(std::memory_order_acquire) != DeviceState::closed, "clear_fault()");
   std::string cleared = simulator_->active_faults();
   simulator_->clear_faults();
   return cleared;
 }
 
 void LoopbackDevice::disable() noexcept {
-  DeviceState expected = DeviceState::enabled;
-  if (state_.compare_exchange_strong(expected, DeviceState::configured, std::memory_order_acq_rel)) {
-    simulator_->reset_actuator();  // the amplifier is off: nothing is applied any more
-  }
+  simulator_->reset_actuator();  // the amplifier is off: nothing is applied any more
 }
 
-void LoopbackDevice::close() noexcept {
-  disable();
-  state_.store(DeviceState::closed, std::memory_order_release);
-}
+IoResult LoopbackDevice::read(Reading& out) noexcept { return simulator_->sense(out.position); }
 
-IoResult LoopbackDevice::read(Reading& out) noexcept {
-  if (!valid_from(state_.load(std::memory_order_acquire), false)) {
-    refused_reads_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  return simulator_->sense(out.position);
-}
-
-IoResult LoopbackDevice::write(double force) noexcept {
-  // Disabled: the amplifier is off, the command is refused and the plant
-  // does not advance (enable() empties the delay line).
-  if (!valid_from(state_.load(std::memory_order_acquire), true)) {
-    refused_writes_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  return simulator_->step(force);
-}
-
-void LoopbackDevice::set_initial_state(double position, double velocity) {
-  if (state_.load(std::memory_order_acquire) == DeviceState::enabled) {
-    throw std::logic_error("loopback: set_initial_state() only while disabled");
-  }
-  simulator_->set_initial_state(position, velocity);
-}
+/// The framework calls it only while enabled: disabled, the amplifier is
+/// off and the plant does not advance (enable() empties the delay line).
+IoResult LoopbackDevice::write(double force) noexcept { return simulator_->step(force); }
 
 DeviceModel LoopbackDevice::model() const {
   const LoopbackConfig& c = simulator_->config();
@@ -113,17 +69,12 @@ DeviceModel LoopbackDevice::model() const {
   return m;
 }
 
-DeviceStatus LoopbackDevice::status() const {
-  const auto counters = simulator_->counters();
-  DeviceStatus s;
-  s.state = state_.load(std::memory_order_acquire);
-  if (s.state != DeviceState::closed && simulator_->faulted()) s.state = DeviceState::fault;
-  s.read_errors = counters.read_errors + refused_reads_.load(std::memory_order_relaxed);
-  s.write_errors = counters.write_errors + refused_writes_.load(std::memory_order_relaxed);
-  s.faults = counters.faults;
-  s.last_error = simulator_->active_faults();
-  if (simulator_->faulted()) s.fault_reason = "injected fault: the simulated amplifier is off";
-  return s;
+DeviceHealth LoopbackDevice::health() const {
+  DeviceHealth h;
+  h.faulted = simulator_->faulted();
+  h.last_error = simulator_->active_faults();
+  if (h.faulted) h.fault_reason = "injected fault: the simulated amplifier is off";
+  return h;
 }
 
 namespace {

@@ -1,23 +1,23 @@
 #pragma once
 /// \file
-/// The loopback device: the shared plant simulator behind the Device
-/// interface, for tests and demos. write() advances the plant by exactly one
+/// The loopback driver's hooks: the shared plant simulator behind the
+/// framework's Device (drivers/device.hpp), for tests and demos. write() advances the plant by exactly one
 /// period (simulated time = writes * T, independent of the wall clock);
 /// read() returns the encoder's position. The scripted hand and fault
 /// injection are control-plane methods of this driver (hand.set,
 /// fault.inject), not special cases of the daemon. See README.md.
 ///
 /// Threads: read()/write() belong to one RT thread. The lifecycle runs off
-/// the RT path; clear_fault(), methods(), status() and the simulator's
+/// the RT path; clear_fault(), methods(), health() and the simulator's
 /// thread-safe calls (set_hand, inject_fault, snapshot) may run at any time.
 
-#include <atomic>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 
@@ -27,7 +27,7 @@ using simulation::Fault;
 using simulation::HandScript;
 using simulation::PlantSnapshot;
 
-class LoopbackDevice final : public Device {
+class LoopbackDevice final : public DeviceHooks {
  public:
   /// Validates the config (throws std::invalid_argument) and builds the
   /// simulator for config.period_s (configure() rebuilds it if the loop's
@@ -38,11 +38,10 @@ class LoopbackDevice final : public Device {
   void enable() override;
   std::string clear_fault() override;
   void disable() noexcept override;
-  void close() noexcept override;
   IoResult read(Reading& out) noexcept override;
   IoResult write(double force) noexcept override;
   DeviceModel model() const override;
-  DeviceStatus status() const override;
+  DeviceHealth health() const override;
   /// hand.set and fault.inject (docs/protocol.md).
   std::vector<DeviceMethod> methods() override;
 
@@ -61,15 +60,14 @@ class LoopbackDevice final : public Device {
   }
   void clear_faults() noexcept { simulator_->clear_faults(); }
   PlantSnapshot snapshot() const noexcept { return simulator_->snapshot(); }
-  /// Only while disabled (the RT thread is not stepping the plant).
-  void set_initial_state(double position, double velocity);
+  /// Only while the RT thread is not stepping the plant (disabled).
+  void set_initial_state(double position, double velocity) { simulator_->set_initial_state(position, velocity); }
 
  private:
-  void require(bool condition, const char* what) const;
-
   std::unique_ptr<simulation::PlantSimulator> simulator_;
-  std::atomic<DeviceState> state_{DeviceState::closed};
-  std::atomic<std::uint64_t> refused_reads_{0}, refused_writes_{0};
 };
+
+/// The framework's Device around a loopback driver (tests, tools).
+std::unique_ptr<Device> make_loopback_device(const LoopbackConfig& config, const HandScript& hand = {});
 
 }  // namespace hapticd::drivers::loopback

@@ -140,8 +140,7 @@ void ModbusDevice::check_period(double period_s) {
 }
 
 void ModbusDevice::configure(const LoopContext& loop) {
-  if (state_.load() != DeviceState::closed) throw std::logic_error("modbus: configure() twice");
-  if (!(loop.period_s > 0.0)) throw std::logic_error("modbus: configure() with a period <= 0");
+  if (!(loop.period_s > 0.0)) throw DeviceError("modbus: the loop period must be > 0 s", "period");
   period_s_ = loop.period_s;
   stop_ = loop.stop;
   link_->set_stop(loop.stop);
@@ -190,12 +189,10 @@ void ModbusDevice::configure(const LoopContext& loop) {
     command_counts_.store(0);
     latched_.store(false);
     rt_active_.store(false);
-    state_.store(DeviceState::configured, std::memory_order_release);
     start_keepalive();
   } catch (...) {
-    state_.store(DeviceState::closed);
     if (armed) (void)link_->write_register(*config_.map.watchdog, 0);
-    link_->close();
+    link_->close();  // the framework's close() then finds nothing to switch off
     throw;
   }
 }
@@ -348,7 +345,6 @@ IoResult ModbusDevice::latch(FaultCause cause, const LinkResult& last, const Amp
     rt::seq_store(f_fault_, s.fault);
     fault_version_.write_end();
     latched_.store(true, std::memory_order_release);
-    faults_.fetch_add(1, std::memory_order_relaxed);
   }
   command_counts_.store(0, std::memory_order_relaxed);
   return IoResult::fault;
@@ -387,15 +383,10 @@ IoResult ModbusDevice::exchange(Reading& out) noexcept {
   // Transient: a timeout, a bad CRC, a malformed reply, busy/acknowledge.
   if (++streak_ >= config_.failure_streak) return latch(FaultCause::failure_streak, r, {});
   if (latched) return IoResult::fault;
-  read_errors_.fetch_add(1, std::memory_order_relaxed);
   return IoResult::error;
 }
 
 IoResult ModbusDevice::read(Reading& out) noexcept {
-  if (state_.load(std::memory_order_acquire) == DeviceState::closed) {
-    read_errors_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
   if (!rt_active_.load(std::memory_order_relaxed)) rt_active_.store(true, std::memory_order_release);
   int expected = free_owner;
   if (!owner_.compare_exchange_strong(expected, rt_owner, std::memory_order_acquire,
@@ -417,17 +408,12 @@ IoResult ModbusDevice::read(Reading& out) noexcept {
 }
 
 IoResult ModbusDevice::write(double force) noexcept {
-  if (state_.load(std::memory_order_acquire) != DeviceState::enabled) {
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
   if (latched_.load(std::memory_order_acquire)) {
     command_counts_.store(0, std::memory_order_relaxed);
     return IoResult::fault;
   }
   if (!std::isfinite(force)) {
     command_counts_.store(0, std::memory_order_relaxed);
-    write_errors_.fetch_add(1, std::memory_order_relaxed);
     return IoResult::error;
   }
   bool saturated = false;
@@ -562,9 +548,7 @@ void ModbusDevice::wait_enabled(const char* doing) {
 }
 
 void ModbusDevice::enable() {
-  const DeviceState st = state_.load();
-  if (st == DeviceState::closed) throw std::logic_error("modbus: enable() before configure()");
-  if (st == DeviceState::enabled) return;
+  if (expect_enabled_.load()) return;  // again after a clear: clear_fault() enabled it
   acquire_control("enabling");
   try {
     command_counts_.store(0);
@@ -572,7 +556,6 @@ void ModbusDevice::enable() {
     set_power_stage(true);
     wait_enabled("enabling");
     expect_enabled_.store(true);
-    state_.store(DeviceState::enabled, std::memory_order_release);
   } catch (...) {
     release_control();
     throw;
@@ -581,8 +564,6 @@ void ModbusDevice::enable() {
 }
 
 std::string ModbusDevice::clear_fault() {
-  if (state_.load() == DeviceState::closed)
-    throw std::logic_error("modbus: clear_fault() before configure()");
   acquire_control("clearing the fault");
   std::string cleared;
   try {
@@ -638,7 +619,6 @@ std::string ModbusDevice::clear_fault() {
 }
 
 void ModbusDevice::disable() noexcept {
-  if (state_.load() == DeviceState::closed) return;
   try {
     acquire_control("disabling");
   } catch (...) {
@@ -651,7 +631,7 @@ void ModbusDevice::disable() noexcept {
   // Each step on its own: after a stop every exchange has one slice, and a
   // torque 0 answered late must not keep the power stage on.
   bool off = false;
-  if (!link_down_) {
+  if (!link_down_ && link_->is_open()) {
     try {
       write_zero_command("writing torque 0");
     } catch (...) {
@@ -664,12 +644,12 @@ void ModbusDevice::disable() noexcept {
     }
   }
   power_off_confirmed_ = off;
-  if (state_.load() == DeviceState::enabled) state_.store(DeviceState::configured);
   release_control();
 }
 
 void ModbusDevice::close() noexcept {
-  if (state_.load() == DeviceState::closed) return;
+  // Configured but never enabled, the power stage is still confirmed off
+  // (and the watchdog disarmed below) only by the same steps as disable().
   disable();
   stop_keepalive();
   try {
@@ -684,7 +664,7 @@ void ModbusDevice::close() noexcept {
     (void)link_->write_register(*config_.map.watchdog, 0);
   link_->close();
   link_down_ = false;
-  state_.store(DeviceState::closed);
+  power_off_confirmed_ = false;  // a second close() has nothing to disarm
   release_control();
 }
 
@@ -743,14 +723,10 @@ DeviceModel ModbusDevice::model() const {
   return m;
 }
 
-DeviceStatus ModbusDevice::status() const {
-  DeviceStatus s;
-  const bool latched = latched_.load();
-  s.state = latched ? DeviceState::fault : state_.load();
-  s.read_errors = read_errors_.load();
-  s.write_errors = write_errors_.load();
-  s.faults = faults_.load();
-  if (latched) s.fault_reason = describe(fault_record());
+DeviceHealth ModbusDevice::health() const {
+  DeviceHealth s;
+  s.faulted = latched_.load();
+  if (s.faulted) s.fault_reason = describe(fault_record());
   const LinkCounters& c = link_->counters();
   s.counters = {{"requests", c.requests.load()},
                 {"responses", c.responses.load()},

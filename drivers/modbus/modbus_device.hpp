@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The `modbus` Device: a servo amplifier over Modbus RTU or TCP. README.md
+/// The `modbus` driver's hooks: a servo amplifier over Modbus RTU or TCP. README.md
 /// in this folder is the protocol note (wire, timing, errors, watchdog).
 ///
 /// RT path: read() makes the period's transaction (writes the command
@@ -31,7 +31,7 @@
 #include <string>
 #include <thread>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_link.hpp"
 #include "drivers/modbus/register_map.hpp"
@@ -70,7 +70,7 @@ struct ModbusSample {
   std::uint64_t period = 0;
 };
 
-class ModbusDevice final : public Device {
+class ModbusDevice final : public DeviceHooks {
  public:
   explicit ModbusDevice(ModbusConfig config);
   ~ModbusDevice() override;
@@ -90,7 +90,7 @@ class ModbusDevice final : public Device {
 
   // Any non-RT thread.
   DeviceModel model() const override;
-  DeviceStatus status() const override;
+  DeviceHealth health() const override;
   LinkBudget budget() const;
   ModbusSample sample() const;
   const ModbusConfig& config() const noexcept { return config_; }
@@ -141,7 +141,6 @@ class ModbusDevice final : public Device {
   double period_s_ = 0.0;
 
   std::atomic<int> owner_{free_owner};
-  std::atomic<DeviceState> state_{DeviceState::closed};
   std::atomic<bool> expect_enabled_{false};
   std::atomic<bool> latched_{false};
   std::atomic<std::int16_t> command_counts_{0};
@@ -177,7 +176,7 @@ class ModbusDevice final : public Device {
   std::atomic<std::uint64_t> s_period_{0};
 
   // Counters (relaxed; one writer each).
-  std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0}, saturations_{0}, busy_{0};
+  std::atomic<std::uint64_t> saturations_{0}, busy_{0};
 };
 
 }  // namespace hapticd::drivers::modbus

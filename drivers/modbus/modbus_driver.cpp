@@ -71,7 +71,7 @@ ModbusConfig config_from(const DriverParameters& given) {
 
 DriverDescription modbus_driver() {
   return {"modbus", "servo amplifier over Modbus RTU or TCP (libmodbus): fc 23 per period, watchdog register",
-          true, specs(), [](const DriverParameters& p) -> std::unique_ptr<Device> {
+          true, specs(), [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
             return std::make_unique<ModbusDevice>(config_from(p));
           }};
 }

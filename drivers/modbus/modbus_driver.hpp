@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The `modbus` driver's registry entry: its parameter table and factory.
-#include "drivers/registry.hpp"
+#include "drivers/driver_description.hpp"
 
 namespace hapticd::drivers::modbus {
 

@@ -9,7 +9,7 @@
 
 #include <string_view>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/parameter.hpp"
 #include "world/plant.hpp"
 

@@ -29,7 +29,7 @@
 #include <string_view>
 #include <vector>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/simulation/hand_script.hpp"
 #include "drivers/simulation/plant_config.hpp"
 #include "rt/seqlock.hpp"

@@ -24,7 +24,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/usb_hid/host_session.hpp"
 #include "drivers/usb_hid/usb_hid_config.hpp"
 #include "drivers/usb_hid/usb_transport.hpp"
@@ -32,15 +32,8 @@
 namespace hapticd::drivers::usb_hid {
 
 /// A lifecycle step failed; `key` names the parameter to blame ("" if none).
-class LinkError : public std::runtime_error {
- public:
-  LinkError(const std::string& message, std::string key = {})
-      : std::runtime_error(message), key_(std::move(key)) {}
-  const std::string& key() const noexcept { return key_; }
-
- private:
-  std::string key_;
-};
+/// The framework's DeviceError: it reaches the daemon as it is thrown.
+using LinkError = DeviceError;
 
 struct LinkStatus {
   bool configured = false;

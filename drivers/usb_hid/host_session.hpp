@@ -13,7 +13,7 @@
 #include <span>
 #include <string>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 
 namespace hapticd::drivers::usb_hid {

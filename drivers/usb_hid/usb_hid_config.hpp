@@ -10,7 +10,7 @@
 #include <string>
 #include <string_view>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 #include "drivers/usb_hid/usb_transport.hpp"
 

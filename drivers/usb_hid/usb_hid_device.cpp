@@ -11,65 +11,21 @@ UsbHidDevice::UsbHidDevice(const UsbHidConfig& config) : link_(config) {}
 UsbHidDevice::~UsbHidDevice() { close(); }
 
 void UsbHidDevice::configure(const LoopContext& loop) {
-  if (state_.load(std::memory_order_acquire) != DeviceState::closed)
-    throw std::logic_error("usb-hid: configure() twice");
   link_.set_stop(loop.stop);
-  try {
-    link_.configure(loop.period_s);
-  } catch (const LinkError& e) {
-    throw DeviceError(e.what(), e.key());
-  }
-  state_.store(DeviceState::configured, std::memory_order_release);
+  link_.configure(loop.period_s);
 }
 
-void UsbHidDevice::enable() {
-  if (state_.load(std::memory_order_acquire) == DeviceState::closed)
-    throw std::logic_error("usb-hid: enable() before configure()");
-  try {
-    link_.enable();
-  } catch (const LinkError& e) {
-    throw DeviceError(e.what(), e.key());
-  }
-  state_.store(DeviceState::enabled, std::memory_order_release);
-}
+void UsbHidDevice::enable() { link_.enable(); }
 
-std::string UsbHidDevice::clear_fault() {
-  if (state_.load(std::memory_order_acquire) == DeviceState::closed)
-    throw std::logic_error("usb-hid: clear_fault() before configure()");
-  try {
-    return link_.clear_fault();
-  } catch (const LinkError& e) {
-    throw DeviceError(e.what(), e.key());
-  }
-}
+std::string UsbHidDevice::clear_fault() { return link_.clear_fault(); }
 
-void UsbHidDevice::disable() noexcept {
-  if (state_.load(std::memory_order_acquire) != DeviceState::enabled) return;
-  link_.disable();
-  state_.store(DeviceState::configured, std::memory_order_release);
-}
+void UsbHidDevice::disable() noexcept { link_.disable(); }
 
-void UsbHidDevice::close() noexcept {
-  disable();
-  link_.close();
-  state_.store(DeviceState::closed, std::memory_order_release);
-}
+void UsbHidDevice::close() noexcept { link_.close(); }
 
-IoResult UsbHidDevice::read(Reading& out) noexcept {
-  if (state_.load(std::memory_order_acquire) == DeviceState::closed) {
-    refused_reads_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  return link_.read(out);
-}
+IoResult UsbHidDevice::read(Reading& out) noexcept { return link_.read(out); }
 
-IoResult UsbHidDevice::write(double force) noexcept {
-  if (state_.load(std::memory_order_acquire) != DeviceState::enabled) {
-    refused_writes_.fetch_add(1, std::memory_order_relaxed);
-    return IoResult::error;
-  }
-  return link_.write(force);
-}
+IoResult UsbHidDevice::write(double force) noexcept { return link_.write(force); }
 
 DeviceModel UsbHidDevice::model() const {
   const UsbHidConfig& c = link_.config();
@@ -89,14 +45,10 @@ DeviceModel UsbHidDevice::model() const {
   return m;
 }
 
-DeviceStatus UsbHidDevice::status() const {
+DeviceHealth UsbHidDevice::health() const {
   const LinkStatus l = link_.status();
-  DeviceStatus s;
-  s.state = state_.load(std::memory_order_acquire);
-  if (s.state != DeviceState::closed && l.fault.reason != LinkFault::none) s.state = DeviceState::fault;
-  s.read_errors = l.read_errors + refused_reads_.load(std::memory_order_relaxed);
-  s.write_errors = l.write_errors + refused_writes_.load(std::memory_order_relaxed);
-  s.faults = l.faults;
+  DeviceHealth s;
+  s.faulted = l.fault.reason != LinkFault::none;
   s.fault_reason = l.fault_text;
   const TransportCounters& t = l.transport;
   if (t.hotplug_arrivals > 0 && l.fault.reason == LinkFault::unplugged)
@@ -272,7 +224,7 @@ DriverDescription usb_hid_driver() {
   d.summary = "USB encoder/motor board over libusb-1.0 (interrupt IN and OUT reports)";
   d.ready = true;
   d.parameters = usb_hid_parameters();
-  d.make = [](const DriverParameters& p) -> std::unique_ptr<Device> {
+  d.make = [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
     return std::make_unique<UsbHidDevice>(usb_hid_config_from(p));
   };
   return d;

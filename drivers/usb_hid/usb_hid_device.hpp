@@ -1,23 +1,22 @@
 #pragma once
 /// \file
-/// The usb-hid Device: drivers/device.hpp's lifecycle over BoardLink (which
-/// holds the transport and the host session), and the driver's registry
-/// entry (typed parameters, README.md "Configuration").
+/// The usb-hid driver's hooks over BoardLink (which holds the transport and
+/// the host session), and the driver's registry entry (typed parameters,
+/// README.md "Configuration"). The framework's Device holds the lifecycle.
 
-#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/parameter.hpp"
-#include "drivers/registry.hpp"
+#include "drivers/driver_description.hpp"
 #include "drivers/usb_hid/board_link.hpp"
 #include "drivers/usb_hid/usb_hid_config.hpp"
 
 namespace hapticd::drivers::usb_hid {
 
-class UsbHidDevice final : public Device {
+class UsbHidDevice final : public DeviceHooks {
  public:
   explicit UsbHidDevice(const UsbHidConfig& config);
   ~UsbHidDevice() override;
@@ -30,15 +29,13 @@ class UsbHidDevice final : public Device {
   IoResult read(Reading& out) noexcept override;
   IoResult write(double force) noexcept override;
   DeviceModel model() const override;
-  DeviceStatus status() const override;
+  DeviceHealth health() const override;
 
   const UsbHidConfig& config() const noexcept { return link_.config(); }
   LinkStatus link_status() const { return link_.status(); }
 
  private:
   BoardLink link_;
-  std::atomic<DeviceState> state_{DeviceState::closed};
-  std::atomic<std::uint64_t> refused_reads_{0}, refused_writes_{0};
 };
 
 /// The typed values of [device.usb-hid] as a config. Throws ParameterError naming the key.

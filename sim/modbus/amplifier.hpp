@@ -40,7 +40,7 @@
 #include <cstdint>
 #include <span>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/modbus/modbus_frame.hpp"
 #include "drivers/modbus/register_map.hpp"
 

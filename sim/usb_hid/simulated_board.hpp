@@ -18,7 +18,7 @@
 #include <span>
 #include <thread>
 
-#include "drivers/device.hpp"
+#include "drivers/device_hooks.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 #include "sim/usb_hid/board_firmware.hpp"

@@ -39,8 +39,8 @@ TEST(MinimalConfig, BuildsTheBuiltInDefaultsDevice) {
   const BuiltDevice builtin = build_device(config::default_config());
   const BuiltDevice minimal = build_device(minimal_config(dir));
   // The loopback is a plugin like any driver: reach its config through its type.
-  const auto* builtin_loopback = dynamic_cast<const drivers::loopback::LoopbackDevice*>(builtin.device.get());
-  const auto* minimal_loopback = dynamic_cast<const drivers::loopback::LoopbackDevice*>(minimal.device.get());
+  const auto* builtin_loopback = &builtin.device->hooks_as<drivers::loopback::LoopbackDevice>();
+  const auto* minimal_loopback = &minimal.device->hooks_as<drivers::loopback::LoopbackDevice>();
   ASSERT_NE(builtin_loopback, nullptr);
   ASSERT_NE(minimal_loopback, nullptr);
   const auto& a = builtin_loopback->config();

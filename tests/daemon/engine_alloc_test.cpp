@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "daemon/engine/engine.hpp"
+#include "drivers/device.hpp"
 #include "drivers/loopback/loopback_device.hpp"
 #include "rt/clock.hpp"
 #include "rt/loop_timing.hpp"
@@ -149,7 +150,7 @@ std::vector<NamedPlan> every_scene_plan() {
 
 struct Rig {
   explicit Rig(std::size_t telemetry_capacity = 1u << 14, const EngineOptions* options = nullptr)
-      : device(rotary_config()),
+      : loopback(rotary_config()),
         engine(options ? *options : quiet_options(telemetry_capacity), device, clock),
         schedule(clock, rt::Nanos{1'000'000}) {
     hapticd::testing::start(device);
@@ -165,7 +166,9 @@ struct Rig {
   }
 
   rt::VirtualClock clock;
-  loopback::LoopbackDevice device;
+  hapticd::testing::LoopbackRig loopback;
+  hapticd::drivers::Device& device = loopback.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = loopback.plant;
   Engine engine;
   rt::PeriodicSchedule schedule;
 };
@@ -218,38 +221,33 @@ TEST(EngineAlloc, CounterIsLinkedAndCountsADeliberateAllocation) {
 }
 
 namespace {
-/// A device whose RT path allocates: shows that an allocation made inside
-/// run_cycle (not only in the test body) is counted by the guard.
-class AllocatingDevice final : public hapticd::drivers::Device {
+/// A driver whose RT path allocates: shows that an allocation made inside
+/// run_cycle (not only in the test body) is counted by the guard. A test
+/// component: read, write and the model, over the loopback's simulator.
+class AllocatingHooks final : public hapticd::drivers::DeviceHooks {
  public:
-  explicit AllocatingDevice(hapticd::drivers::Device& inner) : inner_(inner) {}
-  void configure(const hapticd::drivers::LoopContext& loop) override { inner_.configure(loop); }
-  void enable() override { inner_.enable(); }
-  std::string clear_fault() override { return inner_.clear_fault(); }
-  void disable() noexcept override { inner_.disable(); }
-  void close() noexcept override { inner_.close(); }
-  hapticd::drivers::DeviceModel model() const override { return inner_.model(); }
+  explicit AllocatingHooks(const loopback::LoopbackConfig& config) : plant_(config) {}
+  hapticd::drivers::DeviceModel model() const override { return plant_.model(); }
   hapticd::drivers::IoResult read(hapticd::drivers::Reading& out) noexcept override {
     void* p = ::operator new(32, std::nothrow);
     escape(p);
     ::operator delete(p);
-    return inner_.read(out);
+    return plant_.read(out);
   }
-  hapticd::drivers::IoResult write(double force) noexcept override { return inner_.write(force); }
-  hapticd::drivers::DeviceStatus status() const override { return inner_.status(); }
+  hapticd::drivers::IoResult write(double force) noexcept override { return plant_.write(force); }
 
  private:
-  hapticd::drivers::Device& inner_;
+  loopback::LoopbackDevice plant_;
 };
 }  // namespace
 
 TEST(EngineAlloc, GuardSeesAnAllocationInsideRunCycle) {
   rt::VirtualClock clock;
-  loopback::LoopbackDevice inner(rotary_config());
-  AllocatingDevice device(inner);
+  hapticd::drivers::Device device("allocating", std::make_unique<AllocatingHooks>(rotary_config()));
   Engine engine(quiet_options(), device, clock);
   rt::PeriodicSchedule schedule(clock, rt::Nanos{1'000'000});
-  hapticd::testing::start(inner);
+  device.configure({1e-3});
+  device.enable();
   schedule.start();
   engine.publish(make_plan("spring-wheel", {}, 0.5));
   std::size_t n = 0;
@@ -264,7 +262,7 @@ TEST(EngineAlloc, GuardSeesAnAllocationInsideRunCycle) {
 
 TEST(EngineAlloc, EverySceneAlternativeRunsAndInstallsWithoutAllocating) {
   Rig rig;
-  rig.device.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=3");
+  rig.plant.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=3");
   std::vector<TelemetrySample> buffer(4096);
   auto plans = every_scene_plan();
   ASSERT_EQ(plans.size(), 32u);
@@ -307,7 +305,7 @@ TEST(EngineAlloc, HandSineFaultsClearAndOverrunsDoNotAllocate) {
   options.read_error_limit = 5;
   options.overrun_limit = 3;
   Rig rig(0, &options);
-  rig.device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
+  rig.plant.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
   rig.engine.publish(make_plan("spring-wheel", {{"damping", 0.5}}, 0.1));
   std::vector<TelemetrySample> buffer(4096);
 
@@ -317,29 +315,29 @@ TEST(EngineAlloc, HandSineFaultsClearAndOverrunsDoNotAllocate) {
   EXPECT_GT(s.torque_limited, 0u);
 
   // Transient read errors (below the limit): zero output, counted, no latch.
-  rig.device.inject_fault(loopback::Fault::read_error, 3);
+  rig.plant.inject_fault(loopback::Fault::read_error, 3);
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::none);
   // NaN position: latch, then the clear/reset path.
-  rig.device.inject_fault(loopback::Fault::nan, 1);
+  rig.plant.inject_fault(loopback::Fault::nan, 1);
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::non_finite_position);
   rig.engine.clear_fault();
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::none);
   // Device fault, then cleared.
-  rig.device.inject_fault(loopback::Fault::fault, 10);
+  rig.plant.inject_fault(loopback::Fault::fault, 10);
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::device_fault);
   rig.engine.clear_fault();
   allocs += rig.guarded(100);
   // Read-error streak latches.
-  rig.device.inject_fault(loopback::Fault::read_error, 20);
+  rig.plant.inject_fault(loopback::Fault::read_error, 20);
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::read_error_streak);
   rig.engine.clear_fault();
   // Stall (stale reading, write errors) latches a write error.
-  rig.device.inject_fault(loopback::Fault::stall, 5);
+  rig.plant.inject_fault(loopback::Fault::stall, 5);
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::write_error);
   rig.engine.clear_fault();
@@ -382,13 +380,13 @@ TEST(EngineAlloc, HandSineFaultsClearAndOverrunsDoNotAllocate) {
 // another fault is latched: nothing allocates on the RT side.
 TEST(EngineAlloc, PositionJumpsLatchAndClearWithoutAllocating) {
   Rig rig;
-  rig.device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
+  rig.plant.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
   rig.engine.publish(make_plan("spring-wheel", {{"damping", 0.5}}, 0.5));
   std::vector<TelemetrySample> buffer(4096);
   std::size_t allocs = rig.guarded(1000);
   EXPECT_EQ(rig.engine.fault(), FaultReason::none) << "the hand's sine is motion";
 
-  rig.device.inject_fault(loopback::Fault::encoder_jump, std::int64_t{1} << 31);
+  rig.plant.inject_fault(loopback::Fault::encoder_jump, std::int64_t{1} << 31);
   allocs += rig.guarded(100);
   EXPECT_EQ(rig.engine.fault(), FaultReason::encoder_jump);
   {
@@ -396,11 +394,11 @@ TEST(EngineAlloc, PositionJumpsLatchAndClearWithoutAllocating) {
     rig.engine.clear_fault();
     for (int i = 0; i < 1000; ++i) rig.cycle();
     rig.engine.estop();
-    rig.device.inject_fault(loopback::Fault::encoder_jump, -5000);  // refused while latched
+    rig.plant.inject_fault(loopback::Fault::encoder_jump, -5000);  // refused while latched
     for (int i = 0; i < 100; ++i) rig.cycle();
     rig.engine.clear_fault();
     for (int i = 0; i < 100; ++i) rig.cycle();
-    rig.device.inject_fault(loopback::Fault::encoder_jump, 5000);
+    rig.plant.inject_fault(loopback::Fault::encoder_jump, 5000);
     for (int i = 0; i < 100; ++i) rig.cycle();
     allocs += guard.count();
   }
@@ -415,7 +413,7 @@ TEST(EngineAlloc, PositionJumpsLatchAndClearWithoutAllocating) {
 
 TEST(EngineAlloc, FullTelemetryRingDropsWithoutAllocating) {
   Rig rig(64);
-  rig.device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
+  rig.plant.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=2");
   rig.engine.publish(
       make_plan("wall", {{"stiffness", 50.0}, {"damping", 0.2}, {"delay", 1.0}}, 0.5, world::Motion::linear));
   const std::size_t allocs = rig.guarded(guarded_cycles);

@@ -47,13 +47,10 @@ constexpr double torque_limit = 0.8;
 /// A device whose read() returns `position` (or an error when `error_next`
 /// is set, once) and whose write() records the force: the engine sees
 /// exactly the readings the test scripts.
-class ScriptedDevice final : public drivers::Device {
+/// A test component (ros2_control's): read, write and the model, nothing
+/// else; the framework's Device holds its lifecycle.
+class ScriptedDevice final : public drivers::DeviceHooks {
  public:
-  void configure(const drivers::LoopContext&) override {}
-  void enable() override {}
-  std::string clear_fault() override { return {}; }
-  void disable() noexcept override {}
-  void close() noexcept override {}
   drivers::IoResult read(drivers::Reading& out) noexcept override {
     if (error_next) {
       error_next = false;
@@ -67,7 +64,6 @@ class ScriptedDevice final : public drivers::Device {
     return drivers::IoResult::ok;
   }
   drivers::DeviceModel model() const override { return {}; }
-  drivers::DeviceStatus status() const override { return {}; }
 
   double position = 0.0;
   bool error_next = false;
@@ -106,7 +102,9 @@ class EnginePlausibility : public ::testing::Test {
     options.realtime.hold_dma_latency = false;
     options.telemetry_capacity = 1u << 12;
     options.position_rule = rule;
-    engine = std::make_unique<Engine>(options, device, clock);
+    engine = std::make_unique<Engine>(options, framework, clock);
+    if (framework.status().state == drivers::DeviceState::closed) framework.configure({period_s});
+    framework.enable();
     schedule.start();
     engine->publish(wheel());
   }
@@ -128,7 +126,8 @@ class EnginePlausibility : public ::testing::Test {
   static bool has(const TelemetrySample& s, std::uint32_t flag) { return (s.flags & flag) != 0; }
 
   rt::VirtualClock clock;
-  ScriptedDevice device;
+  drivers::Device framework{"scripted", std::make_unique<ScriptedDevice>()};
+  ScriptedDevice& device = framework.hooks_as<ScriptedDevice>();
   std::unique_ptr<Engine> engine;
   rt::PeriodicSchedule schedule{clock, rt::Nanos{1'000'000}};
 };

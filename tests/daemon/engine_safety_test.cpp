@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "daemon/engine/engine.hpp"
+#include "drivers/device.hpp"
 #include "drivers/loopback/loopback_device.hpp"
 #include "rt/clock.hpp"
 #include "rt/loop_timing.hpp"
@@ -73,7 +74,7 @@ class EngineSafety : public ::testing::Test {
   void SetUp() override { options = quiet_options(); }
   /// Builds the engine with the current options; the device optionally displaced first.
   void build(std::optional<double> initial_position = std::nullopt) {
-    if (initial_position) device.set_initial_state(*initial_position, 0.0);
+    if (initial_position) plant.set_initial_state(*initial_position, 0.0);
     engine = std::make_unique<Engine>(options, device, clock);
     hapticd::testing::start(device);
     schedule.start();
@@ -99,7 +100,9 @@ class EngineSafety : public ::testing::Test {
 
   EngineOptions options;
   rt::VirtualClock clock;
-  loopback::LoopbackDevice device{rotary_config()};
+  hapticd::testing::LoopbackRig device_rig{rotary_config()};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   std::unique_ptr<Engine> engine;
   rt::PeriodicSchedule schedule{clock, period};
 };
@@ -113,7 +116,7 @@ using hapticd::daemon::flag_torque_limited;
 
 TEST_F(EngineSafety, NoPlanMeansZeroOutput) {
   build(0.2);
-  device.set_hand("mode=hold trajectory=sine amplitude=0.3 frequency=5");
+  plant.set_hand("mode=hold trajectory=sine amplitude=0.3 frequency=5");
   for (const auto& s : cycles(50)) {
     EXPECT_EQ(s.applied, 0.0);
     EXPECT_EQ(s.command, 0.0);
@@ -124,7 +127,7 @@ TEST_F(EngineSafety, TorqueLimitClipsBothSigns) {
   build();
   // Relay of 1 N m with the device at 0: reference -0.1 gives -1, +0.1 gives +1.
   engine->publish(make_plan("relay", {{"amplitude", 1.0}, {"reference", -0.1}}, 0.25));
-  device.set_hand("mode=hold trajectory=constant position=0");
+  plant.set_hand("mode=hold trajectory=constant position=0");
   for (const auto& s : cycles(20)) {
     EXPECT_DOUBLE_EQ(s.command, -1.0);
     EXPECT_EQ(s.applied, -0.25);
@@ -148,7 +151,7 @@ TEST_F(EngineSafety, TorqueLimitClipsBothSigns) {
 
 TEST_F(EngineSafety, TorqueLimitHoldsForAnOscillatingSpring) {
   build();
-  device.set_hand("mode=hold trajectory=step position=0 amplitude=0.5 at=0.01");
+  plant.set_hand("mode=hold trajectory=step position=0 amplitude=0.5 at=0.01");
   engine->publish(wheel(0.1));
   std::size_t limited = 0;
   for (const auto& s : cycles(2000)) {
@@ -167,17 +170,17 @@ TEST_F(EngineSafety, TorqueLimitHoldsForAnOscillatingSpring) {
 
 TEST_F(EngineSafety, NanPositionZeroesThatCycleAndLatchesUntilCleared) {
   build();
-  device.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
+  plant.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
   engine->publish(wheel());
   const auto before = cycles(100);
   EXPECT_GT(std::abs(before.back().applied), 0.01);  // the wheel swings against the held device
 
-  device.inject_fault(loopback::Fault::nan, 1);
+  plant.inject_fault(loopback::Fault::nan, 1);
   const TelemetrySample nan_cycle = cycle();
   EXPECT_EQ(nan_cycle.applied, 0.0);
   EXPECT_TRUE(has(nan_cycle, flag_fault_latched));
   EXPECT_EQ(engine->fault(), FaultReason::non_finite_position);
-  EXPECT_EQ(device.snapshot().commanded_force, 0.0);
+  EXPECT_EQ(plant.snapshot().commanded_force, 0.0);
 
   // The position is finite again, but the latch holds the output at zero.
   for (const auto& s : cycles(200)) {
@@ -198,13 +201,13 @@ TEST_F(EngineSafety, NanPositionZeroesThatCycleAndLatchesUntilCleared) {
 
 TEST_F(EngineSafety, ClearRestartsAtTheMeasuredPositionEvenIfTheDeviceMovedDuringTheLatch) {
   build();
-  device.set_hand("mode=hold trajectory=constant position=0");
+  plant.set_hand("mode=hold trajectory=constant position=0");
   engine->publish(wheel());
   cycles(10);
   engine->estop();
   EXPECT_EQ(cycle().applied, 0.0);
   // The hand moves the device while the output is held at zero.
-  device.set_hand("mode=hold trajectory=ramp from=0 to=0.4 rate=2 at=0");
+  plant.set_hand("mode=hold trajectory=ramp from=0 to=0.4 rate=2 at=0");
   cycles(300);  // ends at 0.4 rad, still
   engine->clear_fault();
   for (const auto& s : cycles(50)) EXPECT_NEAR(s.applied, 0.0, 1e-12);
@@ -213,7 +216,7 @@ TEST_F(EngineSafety, ClearRestartsAtTheMeasuredPositionEvenIfTheDeviceMovedDurin
 /// The loopback, except that its read() lets the control thread's
 /// fault.clear land once, mid-cycle: after the engine's top-of-cycle latch
 /// check and before the command (what a real device's slow read() allows).
-class ClearingMidCycle final : public hapticd::drivers::Device {
+class ClearingMidCycle final : public hapticd::drivers::DeviceHooks {
  public:
   explicit ClearingMidCycle(loopback::LoopbackDevice& inner) : inner_(inner) {}
   void configure(const hapticd::drivers::LoopContext& loop) override { inner_.configure(loop); }
@@ -231,7 +234,7 @@ class ClearingMidCycle final : public hapticd::drivers::Device {
   }
   hapticd::drivers::IoResult write(double force) noexcept override { return inner_.write(force); }
   hapticd::drivers::DeviceModel model() const override { return inner_.model(); }
-  hapticd::drivers::DeviceStatus status() const override { return inner_.status(); }
+  hapticd::drivers::DeviceHealth health() const override { return inner_.health(); }
   Engine* engine = nullptr;
   bool clear_next_read = false;
 
@@ -244,17 +247,19 @@ class ClearingMidCycle final : public hapticd::drivers::Device {
 // computed a command from the stale scene state, without the reset at the
 // measured position: a torque step of 0.18 N m at the resume.
 TEST_F(EngineSafety, ClearLandingMidCycleTakesEffectNextCycleWithTheReset) {
-  ClearingMidCycle clearing(device);
-  engine = std::make_unique<Engine>(options, clearing, clock);
+  hapticd::drivers::Device clearing_device("clearing", std::make_unique<ClearingMidCycle>(plant));
+  auto& clearing = clearing_device.hooks_as<ClearingMidCycle>();
+  engine = std::make_unique<Engine>(options, clearing_device, clock);
   clearing.engine = engine.get();
-  hapticd::testing::start(device);
+  clearing_device.configure({plant.config().period_s});
+  clearing_device.enable();
   schedule.start();
-  device.set_hand("mode=hold trajectory=constant position=0");
+  plant.set_hand("mode=hold trajectory=constant position=0");
   engine->publish(wheel());
   cycles(10);
   engine->estop();
   cycle();
-  device.set_hand("mode=hold trajectory=ramp from=0 to=0.4 rate=2 at=0");
+  plant.set_hand("mode=hold trajectory=ramp from=0 to=0.4 rate=2 at=0");
   cycles(300);  // the device moved 0.4 rad while the output was held at zero
   clearing.clear_next_read = true;
   const TelemetrySample during = cycle();
@@ -265,15 +270,15 @@ TEST_F(EngineSafety, ClearLandingMidCycleTakesEffectNextCycleWithTheReset) {
 
 TEST_F(EngineSafety, DeviceFaultZeroesAndLatches) {
   build();
-  device.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
+  plant.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
   engine->publish(wheel());
   cycles(100);
-  device.inject_fault(loopback::Fault::fault);  // until cleared
+  plant.inject_fault(loopback::Fault::fault);  // until cleared
   const TelemetrySample s = cycle();
   EXPECT_EQ(s.applied, 0.0);
   EXPECT_TRUE(has(s, flag_fault_latched));
   EXPECT_EQ(engine->fault(), FaultReason::device_fault);
-  device.clear_faults();
+  plant.clear_faults();
   for (const auto& t : cycles(20)) EXPECT_EQ(t.applied, 0.0);
   EXPECT_EQ(engine->fault(), FaultReason::device_fault);
   engine->clear_fault();
@@ -284,11 +289,11 @@ TEST_F(EngineSafety, DeviceFaultZeroesAndLatches) {
 TEST_F(EngineSafety, ReadErrorsZeroTheCycleAndLatchAtTheLimit) {
   options.read_error_limit = 3;
   build();
-  device.set_hand("mode=hold trajectory=sine amplitude=0.3 frequency=2");
+  plant.set_hand("mode=hold trajectory=sine amplitude=0.3 frequency=2");
   engine->publish(wheel());
   cycles(100);
   // Two consecutive errors: zero output in those cycles, no latch.
-  device.inject_fault(loopback::Fault::read_error, 2);
+  plant.inject_fault(loopback::Fault::read_error, 2);
   for (const auto& s : cycles(2)) {
     EXPECT_TRUE(has(s, flag_read_error));
     EXPECT_EQ(s.applied, 0.0);
@@ -299,7 +304,7 @@ TEST_F(EngineSafety, ReadErrorsZeroTheCycleAndLatchAtTheLimit) {
   EXPECT_NE(recovered.applied, 0.0);
   EXPECT_EQ(engine->fault(), FaultReason::none);
   // Three consecutive: the third latches.
-  device.inject_fault(loopback::Fault::read_error, 3);
+  plant.inject_fault(loopback::Fault::read_error, 3);
   const auto errors = cycles(3);
   EXPECT_FALSE(has(errors[1], flag_fault_latched));
   EXPECT_TRUE(has(errors[2], flag_fault_latched));
@@ -312,7 +317,7 @@ TEST_F(EngineSafety, ReadErrorsZeroTheCycleAndLatchAtTheLimit) {
 TEST_F(EngineSafety, OverrunStreakLatchesAndZeroesInTheSameCycle) {
   options.overrun_limit = 3;
   build();
-  device.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
+  plant.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
   engine->publish(wheel());
   cycles(100);
   // Two late cycles, then an on-time one: the streak restarts.
@@ -334,7 +339,7 @@ TEST_F(EngineSafety, OverrunStreakLatchesAndZeroesInTheSameCycle) {
   EXPECT_FALSE(has(late[1], flag_fault_latched));
   EXPECT_TRUE(has(late[2], flag_fault_latched));
   EXPECT_EQ(late[2].applied, 0.0);
-  EXPECT_EQ(device.snapshot().commanded_force, 0.0);
+  EXPECT_EQ(plant.snapshot().commanded_force, 0.0);
   EXPECT_EQ(engine->fault(), FaultReason::overrun_streak);
   for (const auto& s : cycles(10)) EXPECT_EQ(s.applied, 0.0);
   EXPECT_EQ(engine->stats().max_overrun_streak, 3u);
@@ -342,7 +347,7 @@ TEST_F(EngineSafety, OverrunStreakLatchesAndZeroesInTheSameCycle) {
 
 TEST_F(EngineSafety, EstopZeroesTheNextCycle) {
   build();
-  device.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
+  plant.set_hand("mode=hold trajectory=step position=0 amplitude=0.3 at=0.005");
   engine->publish(wheel());
   EXPECT_NE(cycles(100).back().applied, 0.0);
   engine->estop();
@@ -350,7 +355,7 @@ TEST_F(EngineSafety, EstopZeroesTheNextCycle) {
   EXPECT_EQ(s.applied, 0.0);
   EXPECT_TRUE(has(s, flag_fault_latched));
   EXPECT_EQ(engine->fault(), FaultReason::estop);
-  EXPECT_EQ(device.snapshot().commanded_force, 0.0);
+  EXPECT_EQ(plant.snapshot().commanded_force, 0.0);
 }
 
 TEST_F(EngineSafety, FirstPlanOnADisplacedDeviceStartsRelaxed) {
@@ -358,7 +363,7 @@ TEST_F(EngineSafety, FirstPlanOnADisplacedDeviceStartsRelaxed) {
   // in the very first cycle. A reset at a stale position (0) would command
   // k * 0.3 = 0.3 N m at once.
   build(0.3);
-  device.set_hand("mode=hold trajectory=constant position=0.3");
+  plant.set_hand("mode=hold trajectory=constant position=0.3");
   engine->publish(wheel());
   const TelemetrySample first = cycle();
   EXPECT_NEAR(first.position, 0.3, 1e-3);
@@ -369,7 +374,7 @@ TEST_F(EngineSafety, FirstPlanOnADisplacedDeviceStartsRelaxed) {
 TEST_F(EngineSafety, FirstWallOnADisplacedDeviceDoesNotPush) {
   // Device already inside the wall when it is loaded: no K * depth step.
   build(0.3);
-  device.set_hand("mode=hold trajectory=constant position=0.3");
+  plant.set_hand("mode=hold trajectory=constant position=0.3");
   engine->publish(make_plan("wall", {{"stiffness", 100.0}, {"damping", 0.0}, {"position", 0.0}}, 0.8));
   for (const auto& s : cycles(50)) EXPECT_EQ(s.applied, 0.0);
 }
@@ -378,7 +383,7 @@ TEST_F(EngineSafety, NewPlanTakesEffectAtTheBoundaryResetAtTheMeasuredPosition) 
   build();
   // The hand moves the device the whole time, so the position of the
   // previous cycle is not the position of the switching cycle.
-  device.set_hand("mode=hold trajectory=sine amplitude=0.4 frequency=2");
+  plant.set_hand("mode=hold trajectory=sine amplitude=0.4 frequency=2");
   engine->publish(make_plan("free", {}, 0.8));
   const auto free_run = cycles(500);
   for (const auto& s : free_run) EXPECT_EQ(s.applied, 0.0);
@@ -403,7 +408,7 @@ TEST_F(EngineSafety, NewPlanTakesEffectAtTheBoundaryResetAtTheMeasuredPosition) 
 
 TEST_F(EngineSafety, LatestPublicationWinsAtTheBoundary) {
   build();
-  device.set_hand("mode=hold trajectory=constant position=0");
+  plant.set_hand("mode=hold trajectory=constant position=0");
   const auto first = engine->publish(make_plan("relay", {{"amplitude", 0.1}, {"reference", -1.0}}, 0.8));
   const auto second = engine->publish(make_plan("relay", {{"amplitude", 0.2}, {"reference", -1.0}}, 0.8));
   EXPECT_EQ(second.superseded_seq, first.seq);
@@ -415,8 +420,10 @@ TEST_F(EngineSafety, LatestPublicationWinsAtTheBoundary) {
 
 TEST(EngineThread, PublishThenWaitAppliedReturnsTheCycle) {
   rt::RealClock clock;
-  loopback::LoopbackDevice device(rotary_config());
-  device.set_hand("mode=hold trajectory=constant position=0");
+  hapticd::testing::LoopbackRig device_rig{rotary_config()};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  plant.set_hand("mode=hold trajectory=constant position=0");
   hapticd::testing::start(device);
   Engine engine(quiet_options(), device, clock);
   const auto& report = engine.start();

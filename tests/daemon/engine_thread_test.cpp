@@ -71,8 +71,10 @@ std::unique_ptr<LoopPlan> plan_number(int i) {
 TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   auto config = loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::rotary);
   config.damping = 0.002;
-  loopback::LoopbackDevice device(config);
-  device.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=3");
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  plant.set_hand("mode=hold trajectory=sine amplitude=0.2 frequency=3");
   hapticd::testing::start(device);
 
   EngineOptions options;
@@ -120,9 +122,9 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
     }
     if (i % 17 == 5) engine.estop();
     if (i % 17 == 9) engine.clear_fault();
-    if (i % 23 == 3) device.inject_fault(loopback::Fault::nan, 1);
+    if (i % 23 == 3) plant.inject_fault(loopback::Fault::nan, 1);
     if (i % 23 == 12) engine.clear_fault();
-    if (i % 50 == 25) device.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=2");
+    if (i % 50 == 25) plant.set_hand("mode=hold trajectory=sine amplitude=0.1 frequency=2");
     if (i % 40 == 7) {  // stats.reset from the control thread, done by the loop thread
       const auto since = engine.reset_stats(10s);
       ASSERT_TRUE(since.has_value());

@@ -46,7 +46,7 @@ loopback::LoopbackConfig wheel_config(double damping) {
 }
 
 DeviceModel model_of(const loopback::LoopbackDevice& device) {
-  return hapticd::daemon::make_device_model(device, T);
+  return hapticd::daemon::make_device_model(device.model(), T);
 }
 
 // By value: the outcome is usually a temporary.

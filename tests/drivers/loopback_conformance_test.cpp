@@ -13,7 +13,7 @@ struct LoopbackConformance {
   ParameterTable parameters() { return {}; }  // the driver's defaults: a rigid wheel
   double period_s() { return 1e-3; }
   static hapticd::drivers::loopback::LoopbackDevice& loopback(hapticd::drivers::Device& device) {
-    return dynamic_cast<hapticd::drivers::loopback::LoopbackDevice&>(device);
+    return device.hooks_as<hapticd::drivers::loopback::LoopbackDevice>();
   }
   void inject_device_fault(hapticd::drivers::Device& device) {
     loopback(device).inject_fault(hapticd::drivers::simulation::Fault::fault);

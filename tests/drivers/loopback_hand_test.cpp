@@ -32,7 +32,9 @@ TEST(LoopbackHand, IdealHoldTracksStepExactlyWhileTheMotorPushes) {
   // Freudenberg 2.1: the hand turns the wheel 45 degrees at t = 0.5 s and
   // holds it; the virtual spring torque the scene commands is what the hand feels.
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=hold trajectory=step amplitude=0.785398 at=0.5"));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold trajectory=step amplitude=0.785398 at=0.5")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   const double res = config.resolution();
   const double k = 1.0;  // N m/rad virtual spring
@@ -42,7 +44,7 @@ TEST(LoopbackHand, IdealHoldTracksStepExactlyWhileTheMotorPushes) {
     device.write(-k * r.position);
     const double t = n * config.period_s;
     const double expected = t >= 0.5 ? 0.785398 : 0.0;
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     ASSERT_EQ(s.motor_position, expected) << "n=" << n;
     ASSERT_EQ(s.motor_velocity, 0.0) << "n=" << n;
     if (n > 501) {  // holding still: the hand provides the reaction to the motor
@@ -56,13 +58,15 @@ TEST(LoopbackHand, IdealHoldTracksStepExactlyWhileTheMotorPushes) {
 
 TEST(LoopbackHand, IdealHoldTracksSineExactlyAtSampleTimes) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(
-      config, parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0"));
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=hold trajectory=sine amplitude=0.0872665 frequency=1 phase=0")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 1; n <= 2000; ++n) {
     device.write(0.1 * std::sin(n * 0.01));
     const double t = n * config.period_s;
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     ASSERT_NEAR(s.motor_position, 0.0872665 * std::sin(2.0 * pi * t), 1e-15) << "n=" << n;
     ASSERT_NEAR(s.motor_velocity, 0.0872665 * 2.0 * pi * std::cos(2.0 * pi * t), 1e-13) << "n=" << n;
   }
@@ -74,41 +78,47 @@ TEST(LoopbackHand, IdealHoldHandForceIsInertialReaction) {
   // from (r(t), r'(t)) is J r'' at t + T/3, to O((w T)^2). The first step
   // is the impulse that takes the wheel from rest to the sine's velocity.
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=hold trajectory=sine amplitude=0.1 frequency=2"));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold trajectory=sine amplitude=0.1 frequency=2")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   const double w = 2.0 * pi * 2.0;
   device.write(0.0);
-  EXPECT_NEAR(device.snapshot().hand_force, 2.0 * config.mass * 0.1 * w / config.period_s, 1e-3);
+  EXPECT_NEAR(plant.snapshot().hand_force, 2.0 * config.mass * 0.1 * w / config.period_s, 1e-3);
   for (int n = 2; n <= 1000; ++n) {
     device.write(0.0);
     const double t = (n - 1 + 1.0 / 3.0) * config.period_s;
     const double expected = -config.mass * 0.1 * w * w * std::sin(w * t);
-    ASSERT_NEAR(device.snapshot().hand_force, expected, 1e-3 * config.mass * 0.1 * w * w) << "n=" << n;
+    ASSERT_NEAR(plant.snapshot().hand_force, expected, 1e-3 * config.mass * 0.1 * w * w) << "n=" << n;
   }
 }
 
 TEST(LoopbackHand, RampHoldFollowsRateThenStops) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=hold trajectory=ramp rate=2 from=0.1 to=0.5 at=0.1"));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold trajectory=ramp rate=2 from=0.1 to=0.5 at=0.1")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 1; n <= 500; ++n) {
     device.write(0.0);
     const double t = n * config.period_s;
     const double expected = t <= 0.1 ? 0.1 : std::min(0.5, 0.1 + 2.0 * (t - 0.1));
-    ASSERT_NEAR(device.snapshot().motor_position, expected, 1e-12) << "n=" << n;
+    ASSERT_NEAR(plant.snapshot().motor_position, expected, 1e-12) << "n=" << n;
   }
-  EXPECT_EQ(device.snapshot().motor_velocity, 0.0);
+  EXPECT_EQ(plant.snapshot().motor_velocity, 0.0);
 }
 
 TEST(LoopbackHand, ReleaseAtLetsGoAtTheRightSample) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=hold position=0.1 release_at=0.2"));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold position=0.1 release_at=0.2")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   const double force = 0.01;
   for (int n = 1; n <= 400; ++n) {
     device.write(force);
     const double t = n * config.period_s;
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     if (n <= 200) {
       ASSERT_EQ(s.motor_position, 0.1) << "n=" << n;
       ASSERT_FALSE(s.hand_released);
@@ -123,13 +133,15 @@ TEST(LoopbackHand, ReleaseAtLetsGoAtTheRightSample) {
 
 TEST(LoopbackHand, ForceModeStepsAtTheGivenTime) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=force force=0.2 at=1"));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=force force=0.2 at=1")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 1; n <= 1500; ++n) {
     device.write(0.0);
     const double t = n * config.period_s;
     const double active = std::max(0.0, t - 1.0);
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     ASSERT_NEAR(s.motor_position, 0.2 * active * active / (2.0 * config.mass), 1e-12) << "n=" << n;
     ASSERT_EQ(s.hand_force, (n - 1) * config.period_s >= 1.0 ? 0.2 : 0.0) << "n=" << n;
   }
@@ -138,9 +150,11 @@ TEST(LoopbackHand, ForceModeStepsAtTheGivenTime) {
 TEST(LoopbackHand, ImpedanceIsAnExactDampedSpring) {
   // J x'' + b x' + k x = 0 from x(0) = 0.1: underdamped closed form.
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config);
-  device.set_initial_state(0.1, 0.0);
-  device.set_hand(parse_hand_script("mode=impedance stiffness=50 damping=1 position=0"));
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  plant.set_initial_state(0.1, 0.0);
+  plant.set_hand(parse_hand_script("mode=impedance stiffness=50 damping=1 position=0"));
   hapticd::testing::start(device);
   const double m = config.mass, k = 50.0, b = 1.0;
   const double wn = std::sqrt(k / m), zeta = b / (2.0 * std::sqrt(k * m));
@@ -149,74 +163,82 @@ TEST(LoopbackHand, ImpedanceIsAnExactDampedSpring) {
     device.write(0.0);
     const double t = n * config.period_s;
     const double x = 0.1 * std::exp(-zeta * wn * t) * (std::cos(wd * t) + zeta * wn / wd * std::sin(wd * t));
-    ASSERT_NEAR(device.snapshot().motor_position, x, 1e-12) << "n=" << n;
+    ASSERT_NEAR(plant.snapshot().motor_position, x, 1e-12) << "n=" << n;
   }
 }
 
 TEST(LoopbackHand, ImpedanceStaticBalanceWithMotorForce) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config, parse_hand_script("mode=impedance stiffness=50 damping=1 position=0.2"));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=impedance stiffness=50 damping=1 position=0.2")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 0; n < 3000; ++n) device.write(0.5);
-  const auto s = device.snapshot();
+  const auto s = plant.snapshot();
   EXPECT_NEAR(s.motor_position, 0.2 + 0.5 / 50.0, 1e-12);
   EXPECT_NEAR(s.hand_force, -0.5, 1e-9);
 }
 
 TEST(LoopbackHand, StiffNonIdealHoldFollowsClosely) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config,
-                        parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1"));
+  hapticd::testing::LoopbackRig device_rig{config,
+                        parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1")};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 1; n <= 400; ++n) {
     device.write(0.0);
     // A spring, not a constraint: just after the step the wheel is still on its way.
     if (n == 102) {
-      EXPECT_LT(device.snapshot().motor_position, 0.25);
+      EXPECT_LT(plant.snapshot().motor_position, 0.25);
     }
   }
-  EXPECT_NEAR(device.snapshot().motor_position, 0.5, 1e-6);
-  EXPECT_NEAR(device.snapshot().hand_force, 0.0, 1e-3);
+  EXPECT_NEAR(plant.snapshot().motor_position, 0.5, 1e-6);
+  EXPECT_NEAR(plant.snapshot().hand_force, 0.0, 1e-3);
 }
 
 TEST(LoopbackHand, ScriptTimesCountFromActivation) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 0; n < 100; ++n) device.write(0.0);
-  device.set_hand(parse_hand_script("mode=hold trajectory=step amplitude=0.3 at=0.05"));
+  plant.set_hand(parse_hand_script("mode=hold trajectory=step amplitude=0.3 at=0.05"));
   for (int n = 1; n <= 100; ++n) {
     device.write(0.0);
-    ASSERT_EQ(device.snapshot().motor_position, n * config.period_s >= 0.05 ? 0.3 : 0.0) << n;
+    ASSERT_EQ(plant.snapshot().motor_position, n * config.period_s >= 0.05 ? 0.3 : 0.0) << n;
   }
 }
 
 TEST(LoopbackHand, SetHandFromAnotherThreadWhileRunning) {
   const LoopbackConfig config = wheel();
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   std::atomic<bool> done{false};
   std::atomic<int> torn{0};
   std::thread control([&] {
     int i = 0;
     while (!done.load()) {
-      const auto s = device.snapshot();  // consistent: time and period from the same period
+      const auto s = plant.snapshot();  // consistent: time and period from the same period
       if (s.time_s != static_cast<double>(s.period) * config.period_s) torn.fetch_add(1);
-      device.set_hand(i++ % 2 == 0 ? std::string("mode=impedance stiffness=20 damping=0.5 position=0.1")
+      plant.set_hand(i++ % 2 == 0 ? std::string("mode=impedance stiffness=20 damping=0.5 position=0.1")
                                    : std::string("mode=hold position=0.1"));
     }
   });
   for (int n = 0; n < 20000; ++n) {
     ASSERT_EQ(device.write(0.0), IoResult::ok);
-    ASSERT_TRUE(std::isfinite(device.snapshot().motor_position));
+    ASSERT_TRUE(std::isfinite(plant.snapshot().motor_position));
   }
   done.store(true);
   control.join();
   EXPECT_EQ(torn.load(), 0);
-  device.set_hand("mode=hold position=0.1");
+  plant.set_hand("mode=hold position=0.1");
   device.write(0.0);
-  EXPECT_EQ(device.snapshot().motor_position, 0.1);
-  EXPECT_EQ(device.hand().to_text(), parse_hand_script("mode=hold position=0.1").to_text());
+  EXPECT_EQ(plant.snapshot().motor_position, 0.1);
+  EXPECT_EQ(plant.hand().to_text(), parse_hand_script("mode=hold position=0.1").to_text());
 }
 
 TEST(HandScriptParse, AcceptsTheDocumentedForms) {

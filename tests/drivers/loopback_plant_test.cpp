@@ -32,14 +32,16 @@ LoopbackConfig rotary_rigid(double mass, double damping = 0.0) {
 
 TEST(LoopbackPlant, FreeMassUnderConstantForceIsParabolaAtSampleTimes) {
   const LoopbackConfig config = rotary_rigid(0.01);
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   const double force = 0.01;
   const double res = config.resolution();
   for (int n = 1; n <= 500; ++n) {
     ASSERT_EQ(device.write(force), IoResult::ok);
     const double t = n * config.period_s;
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     EXPECT_EQ(s.period, static_cast<std::uint64_t>(n));
     EXPECT_NEAR(s.motor_position, force * t * t / (2.0 * config.mass), 1e-12) << "n=" << n;
     EXPECT_NEAR(s.motor_velocity, force * t / config.mass, 1e-12) << "n=" << n;
@@ -55,7 +57,9 @@ TEST(LoopbackPlant, ViscousDampingMatchesClosedForm) {
   LoopbackConfig config = LoopbackConfig::defaults(Motion::linear);
   config.mass = 0.1;
   config.damping = 2.0;
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   const double f = 1.0, m = config.mass, b = config.damping;
   for (int n = 1; n <= 2000; ++n) {
@@ -63,7 +67,7 @@ TEST(LoopbackPlant, ViscousDampingMatchesClosedForm) {
     const double t = n * config.period_s;
     const double x = f / b * t - f * m / (b * b) * (1.0 - std::exp(-b * t / m));
     const double v = f / b * (1.0 - std::exp(-b * t / m));
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     ASSERT_NEAR(s.body_position, x, 1e-12) << "n=" << n;
     ASSERT_NEAR(s.body_velocity, v, 1e-12) << "n=" << n;
   }
@@ -72,10 +76,12 @@ TEST(LoopbackPlant, ViscousDampingMatchesClosedForm) {
 TEST(LoopbackPlant, CoulombBelowLevelStaysAtRest) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.coulomb = 0.1;
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (int n = 0; n < 1000; ++n) device.write(n % 2 == 0 ? 0.099 : -0.05);
-  const auto s = device.snapshot();
+  const auto s = plant.snapshot();
   EXPECT_EQ(s.motor_position, 0.0);
   EXPECT_EQ(s.motor_velocity, 0.0);
   EXPECT_TRUE(s.stuck);
@@ -85,18 +91,20 @@ TEST(LoopbackPlant, CoulombBelowLevelStaysAtRest) {
 TEST(LoopbackPlant, CoulombAboveLevelAcceleratesWithNetForce) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.coulomb = 0.1;
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   for (const double force : {0.3, -0.3}) {
     device.disable();
-    device.set_initial_state(0.0, 0.0);
+    plant.set_initial_state(0.0, 0.0);
     hapticd::testing::start(device);
-    const auto start = device.snapshot();
+    const auto start = plant.snapshot();
     for (int n = 1; n <= 300; ++n) {
       device.write(force);
       const double t = n * config.period_s;
       const double net = force - std::copysign(config.coulomb, force);
-      const auto s = device.snapshot();
+      const auto s = plant.snapshot();
       ASSERT_NEAR(s.motor_position, net * t * t / (2.0 * config.mass), 1e-12) << "F=" << force << " n=" << n;
       ASSERT_FALSE(s.stuck);
     }
@@ -107,28 +115,32 @@ TEST(LoopbackPlant, CoulombAboveLevelAcceleratesWithNetForce) {
 TEST(LoopbackPlant, CoulombSlidingMassStopsAndSticks) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.coulomb = 0.1;  // deceleration Fc/m = 10 rad/s^2
-  LoopbackDevice device(config);
-  device.set_initial_state(0.0, 1.0);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  plant.set_initial_state(0.0, 1.0);
   hapticd::testing::start(device);
   for (int n = 1; n <= 400; ++n) device.write(0.05);  // below the friction level
   // v0^2 / (2 (Fc - F)/m) with F helping: deceleration (0.1 - 0.05)/0.01 = 5.
-  const auto s = device.snapshot();
+  const auto s = plant.snapshot();
   EXPECT_TRUE(s.stuck);
   EXPECT_EQ(s.motor_velocity, 0.0);
   EXPECT_NEAR(s.motor_position, 1.0 / (2.0 * 5.0), 1e-12);
   for (int n = 0; n < 100; ++n) device.write(0.05);
-  EXPECT_EQ(device.snapshot().motor_position, s.motor_position);
+  EXPECT_EQ(plant.snapshot().motor_position, s.motor_position);
 }
 
 TEST(LoopbackPlant, EncoderQuantizesToCounts) {
   const LoopbackConfig config = rotary_rigid(0.01);
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   const double res = 2.0 * std::acos(-1.0) / 16384.0;
-  EXPECT_DOUBLE_EQ(device.model().position_resolution, res);
+  EXPECT_DOUBLE_EQ(plant.model().position_resolution, res);
   for (int count = -3; count <= 3; ++count) {
     for (const double fraction : {0.001, 0.5, 0.999}) {
       device.disable();
-      device.set_initial_state((count + fraction) * res, 0.0);
+      plant.set_initial_state((count + fraction) * res, 0.0);
       hapticd::testing::start(device);
       Reading r;
       ASSERT_EQ(device.read(r), IoResult::ok);
@@ -142,15 +154,17 @@ TEST(LoopbackPlant, EncoderQuantizesToCounts) {
 TEST(LoopbackPlant, SaturationClampsTheForce) {
   LoopbackConfig config = rotary_rigid(0.01);
   config.max_force = 0.8;
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   ASSERT_EQ(device.write(5.0), IoResult::ok);
-  EXPECT_EQ(device.snapshot().applied_force, 0.8);
-  EXPECT_EQ(device.snapshot().commanded_force, 0.8);
+  EXPECT_EQ(plant.snapshot().applied_force, 0.8);
+  EXPECT_EQ(plant.snapshot().commanded_force, 0.8);
   ASSERT_EQ(device.write(-5.0), IoResult::ok);
-  EXPECT_EQ(device.snapshot().applied_force, -0.8);
+  EXPECT_EQ(plant.snapshot().applied_force, -0.8);
   ASSERT_EQ(device.write(0.3), IoResult::ok);
-  EXPECT_EQ(device.snapshot().applied_force, 0.3);
+  EXPECT_EQ(plant.snapshot().applied_force, 0.3);
   // Position after +0.8, -0.8, +0.3 held one period each.
   const double t = config.period_s, m = config.mass;
   double x = 0.0, v = 0.0;
@@ -158,14 +172,16 @@ TEST(LoopbackPlant, SaturationClampsTheForce) {
     x += v * t + f * t * t / (2.0 * m);
     v += f * t / m;
   }
-  EXPECT_NEAR(device.snapshot().motor_position, x, 1e-15);
+  EXPECT_NEAR(plant.snapshot().motor_position, x, 1e-15);
 }
 
 TEST(LoopbackPlant, NonFiniteCommandIsRefusedAndZeroApplied) {
-  LoopbackDevice device(rotary_rigid(0.01));
+  hapticd::testing::LoopbackRig device_rig{rotary_rigid(0.01)};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   EXPECT_EQ(device.write(std::nan("")), IoResult::error);
-  EXPECT_EQ(device.snapshot().applied_force, 0.0);
+  EXPECT_EQ(plant.snapshot().applied_force, 0.0);
   EXPECT_EQ(device.status().write_errors, 1U);
 }
 
@@ -174,8 +190,12 @@ TEST(LoopbackPlant, DelayShiftsResponseByExactlyDSamples) {
     LoopbackConfig config = rotary_rigid(0.01, 0.01);
     LoopbackConfig delayed = config;
     delayed.delay = d;
-    LoopbackDevice a(config), b(delayed);
-    EXPECT_EQ(b.model().delay_periods, d);
+    hapticd::testing::LoopbackRig a_rig{config}, b_rig{delayed};
+    hapticd::drivers::Device& a = a_rig.device;
+    hapticd::drivers::Device& b = b_rig.device;
+    hapticd::drivers::loopback::LoopbackDevice& a_plant = a_rig.plant;
+    hapticd::drivers::loopback::LoopbackDevice& b_plant = b_rig.plant;
+    EXPECT_EQ(b_plant.model().delay_periods, d);
     hapticd::testing::start(a);
     hapticd::testing::start(b);
     std::vector<double> xa, xb;
@@ -183,8 +203,8 @@ TEST(LoopbackPlant, DelayShiftsResponseByExactlyDSamples) {
       const double f = 0.5 * std::sin(0.05 * n) + (n == 10 ? 0.3 : 0.0);
       a.write(f);
       b.write(f);
-      xa.push_back(a.snapshot().motor_position);
-      xb.push_back(b.snapshot().motor_position);
+      xa.push_back(a_plant.snapshot().motor_position);
+      xb.push_back(b_plant.snapshot().motor_position);
     }
     for (int n = 0; n < d; ++n) EXPECT_EQ(xb[n], 0.0) << "d=" << d;
     for (int n = d; n < 300; ++n) ASSERT_EQ(xb[n], xa[n - d]) << "d=" << d << " n=" << n;
@@ -192,16 +212,18 @@ TEST(LoopbackPlant, DelayShiftsResponseByExactlyDSamples) {
 }
 
 TEST(LoopbackPlant, WriteBeforeStartIsRefused) {
-  LoopbackDevice device(rotary_rigid(0.01));
+  hapticd::testing::LoopbackRig device_rig{rotary_rigid(0.01)};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   Reading r;
   EXPECT_EQ(device.read(r), IoResult::error);
   EXPECT_EQ(device.write(0.1), IoResult::error);
-  EXPECT_EQ(device.snapshot().period, 0U);
+  EXPECT_EQ(plant.snapshot().period, 0U);
   hapticd::testing::start(device);
   EXPECT_EQ(device.write(0.1), IoResult::ok);
   device.disable();
   EXPECT_EQ(device.write(0.1), IoResult::error);
-  EXPECT_EQ(device.snapshot().period, 1U);
+  EXPECT_EQ(plant.snapshot().period, 1U);
   EXPECT_EQ(device.status().state, hapticd::drivers::DeviceState::configured);
 }
 
@@ -212,21 +234,24 @@ LoopbackConfig two_mass_linear() {
 }
 
 TEST(LoopbackTwoMass, InfoReportsTotalMassAndFullModel) {
-  LoopbackDevice device(two_mass_linear());
-  EXPECT_DOUBLE_EQ(device.model().effective_mass, 5.4);
-  EXPECT_DOUBLE_EQ(device.model().viscous_damping, 3.5);
-  ASSERT_TRUE(device.two_mass().has_value());
-  EXPECT_EQ(device.two_mass()->cable_stiffness, 79.5e3);
+  hapticd::testing::LoopbackRig device_rig{two_mass_linear()};
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  EXPECT_DOUBLE_EQ(plant.model().effective_mass, 5.4);
+  EXPECT_DOUBLE_EQ(plant.model().viscous_damping, 3.5);
+  ASSERT_TRUE(plant.two_mass().has_value());
+  EXPECT_EQ(plant.two_mass()->cable_stiffness, 79.5e3);
   EXPECT_FALSE(LoopbackDevice(rotary_rigid(0.01)).two_mass().has_value());
 }
 
 TEST(LoopbackTwoMass, StaticDeflectionUnderHeldBodyIsForceOverCableStiffness) {
-  LoopbackDevice device(two_mass_linear());
-  device.set_hand(parse_hand_script("mode=hold trajectory=constant position=0"));
+  hapticd::testing::LoopbackRig device_rig{two_mass_linear()};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  plant.set_hand(parse_hand_script("mode=hold trajectory=constant position=0"));
   hapticd::testing::start(device);
   const double force = 5.0;
   for (int n = 0; n < 3000; ++n) device.write(force);
-  const auto s = device.snapshot();
+  const auto s = plant.snapshot();
   EXPECT_EQ(s.body_position, 0.0);
   EXPECT_NEAR(s.motor_position, force / 79.5e3, 1e-12);
   EXPECT_NEAR(s.motor_velocity, 0.0, 1e-12);
@@ -240,14 +265,16 @@ TEST(LoopbackTwoMass, StaticDeflectionUnderHeldBodyIsForceOverCableStiffness) {
 TEST(LoopbackTwoMass, BodySensorReadsTheBody) {
   LoopbackConfig config = two_mass_linear();
   config.sensor = hapticd::world::Sensor::body;
-  LoopbackDevice device(config);
-  device.set_hand(parse_hand_script("mode=hold position=0.01"));
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
+  plant.set_hand(parse_hand_script("mode=hold position=0.01"));
   hapticd::testing::start(device);
   for (int n = 0; n < 100; ++n) device.write(5.0);
   hapticd::drivers::Reading r;
   device.read(r);
   EXPECT_NEAR(r.position, std::floor(0.01 / 3.14e-6) * 3.14e-6, 1e-12);
-  EXPECT_NE(device.snapshot().motor_position, device.snapshot().body_position);
+  EXPECT_NE(plant.snapshot().motor_position, plant.snapshot().body_position);
 }
 
 // Polynomial product, coefficients lowest power first.
@@ -303,13 +330,15 @@ std::vector<std::complex<double>> durand_kerner(const std::vector<double>& c) {
 
 TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
   const LoopbackConfig config = two_mass_linear();
-  LoopbackDevice device(config);
+  hapticd::testing::LoopbackRig device_rig{config};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
   device.write(10.0);  // one-period force pulse, then the free response
   std::vector<double> d;
   for (int n = 0; n < 120; ++n) {
     device.write(0.0);
-    const auto s = device.snapshot();
+    const auto s = plant.snapshot();
     d.push_back(s.motor_position - s.body_position);
   }
   // The cable deflection is a sum of three discrete modes (the position
@@ -333,7 +362,7 @@ TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
   for (int i = 0; i < 3; ++i) {
     if (z(i).imag() > 0.0) lambda_measured = std::log(z(i)) / config.period_s;
   }
-  const Eigen::VectorXcd lambda = device.plant_model().dynamics.a.eigenvalues();
+  const Eigen::VectorXcd lambda = plant.plant_model().dynamics.a.eigenvalues();
   std::complex<double> lambda_model;
   for (Eigen::Index i = 0; i < lambda.size(); ++i) {
     if (lambda(i).imag() > 0.0) lambda_model = lambda(i);

@@ -19,7 +19,9 @@ using namespace hapticd::drivers::simulation;
 using hapticd::drivers::loopback::LoopbackDevice;
 
 void expect_same_run(const PlantConfig& config, const char* hand) {
-  LoopbackDevice device(config, parse_hand_script(hand));
+  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script(hand)};
+  hapticd::drivers::Device& device = device_rig.device;
+  hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   PlantSimulator simulator(config, parse_hand_script(hand));
   hapticd::testing::start(device);
   simulator.reset_actuator();
@@ -34,7 +36,7 @@ void expect_same_run(const PlantConfig& config, const char* hand) {
     ASSERT_EQ(device.write(force), IoResult::ok);
     ASSERT_EQ(simulator.step(force), IoResult::ok);
   }
-  const PlantSnapshot a = device.snapshot();
+  const PlantSnapshot a = plant.snapshot();
   const PlantSnapshot b = simulator.snapshot();
   EXPECT_EQ(a.period, b.period);
   EXPECT_EQ(a.motor_position, b.motor_position);

@@ -1,9 +1,11 @@
 #pragma once
 /// \file
-/// The conformance suite every Device passes (DRIVERS.md "Evidence every
-/// driver gives"): lifecycle order, allocation-free read()/write(), disable()
-/// zeroes the output, a device fault latches until clear_fault(), close() is
-/// idempotent, bad parameters are refused naming the key.
+/// The conformance suite every driver passes through the framework's Device
+/// (DRIVERS.md "Evidence every driver gives"): its hooks work in the
+/// lifecycle's order, allocation-free read()/write(), disable() zeroes the
+/// output, a device fault latches until clear_fault(), close() is
+/// idempotent, bad parameters are refused naming the key. The order
+/// itself is the framework's, tested once (tests/drivers/device_test.cpp).
 ///
 /// A driver adds itself with a fixture and one line, in its own test binary
 /// (which links hapticd_alloc_counter):
@@ -17,6 +19,7 @@
 ///   double period_s();
 ///   void inject_device_fault(drivers::Device&);    // the peer goes to fault with a reason
 ///   double observed_output(drivers::Device&);      // force/torque the peer applies now (SI)
+/// (device.hooks_as<TheDriversHooks>() reaches the driver's own object.)
 ///   std::vector<BadParameters> bad_parameters();   // refused tables and the key each must name
 
 #include <gtest/gtest.h>
@@ -45,7 +48,7 @@ inline std::unique_ptr<drivers::Device> make_device(const char* driver, const Pa
   const auto* description = drivers::find_driver(driver);
   if (description == nullptr || !description->ready)
     throw std::logic_error("no ready driver " + std::string(driver));
-  return description->make(drivers::DriverParameters(driver, description->parameters, table));
+  return drivers::make_device(*description, drivers::DriverParameters(driver, description->parameters, table));
 }
 
 /// The key a refused table names: building it (factory and configure) must throw.
@@ -75,31 +78,29 @@ class DeviceConformance : public ::testing::Test {
 
 TYPED_TEST_SUITE_P(DeviceConformance);
 
-TYPED_TEST_P(DeviceConformance, LifecycleOrderIsEnforced) {
+// The order itself (what is refused when, with logic_error) is the
+// framework's, tested once in tests/drivers/device_test.cpp; here each driver
+// shows that its hooks deliver in that order.
+TYPED_TEST_P(DeviceConformance, LifecycleStepsWorkInOrder) {
   auto device = this->make();
   drivers::Reading r;
   EXPECT_EQ(device->status().state, drivers::DeviceState::closed);
-  EXPECT_NE(device->read(r), drivers::IoResult::ok) << "read() before configure()";
-  EXPECT_NE(device->write(0.0), drivers::IoResult::ok) << "write() before configure()";
-  EXPECT_THROW(device->enable(), std::logic_error) << "enable() before configure()";
   device->configure({this->fixture.period_s()});
   EXPECT_EQ(device->status().state, drivers::DeviceState::configured);
-  EXPECT_THROW(device->configure({this->fixture.period_s()}), std::logic_error) << "configure() twice";
   EXPECT_EQ(device->read(r), drivers::IoResult::ok) << "read() is valid from configure() on";
   EXPECT_TRUE(std::isfinite(r.position));
-  EXPECT_NE(device->write(0.0), drivers::IoResult::ok) << "write() before enable()";
+  (void)device->model();  // valid from configure() on
   device->enable();
   EXPECT_EQ(device->status().state, drivers::DeviceState::enabled);
   EXPECT_EQ(device->read(r), drivers::IoResult::ok);
   EXPECT_EQ(device->write(0.0), drivers::IoResult::ok);
   device->disable();
   EXPECT_EQ(device->status().state, drivers::DeviceState::configured);
-  EXPECT_NE(device->write(0.0), drivers::IoResult::ok) << "write() after disable()";
   device->enable();  // again, as after a clear
+  EXPECT_EQ(device->read(r), drivers::IoResult::ok);
   EXPECT_EQ(device->write(0.0), drivers::IoResult::ok);
   device->close();
   EXPECT_EQ(device->status().state, drivers::DeviceState::closed);
-  EXPECT_NE(device->read(r), drivers::IoResult::ok) << "read() after close()";
 }
 
 TYPED_TEST_P(DeviceConformance, ReadAndWriteAllocateNothing) {
@@ -188,7 +189,7 @@ TYPED_TEST_P(DeviceConformance, BadParametersAreRefusedNamingTheKey) {
   EXPECT_EQ(refused_key(this->fixture, unknown), "no_such_key");
 }
 
-REGISTER_TYPED_TEST_SUITE_P(DeviceConformance, LifecycleOrderIsEnforced, ReadAndWriteAllocateNothing,
+REGISTER_TYPED_TEST_SUITE_P(DeviceConformance, LifecycleStepsWorkInOrder, ReadAndWriteAllocateNothing,
                             DisableZeroesTheOutput, DeviceFaultLatchesUntilCleared, CloseIsIdempotent,
                             BadParametersAreRefusedNamingTheKey);
 

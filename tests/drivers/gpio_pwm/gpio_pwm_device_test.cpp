@@ -10,6 +10,7 @@
 #include <numbers>
 #include <thread>
 
+#include "drivers/device.hpp"
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
 #include "sim/gpio_pwm/board.hpp"
 #include "drivers/stop_request.hpp"
@@ -113,14 +114,14 @@ class GpioPwmDeviceTest : public ::testing::Test {
 
 TEST_F(GpioPwmDeviceTest, LifecycleAndTheDefinedStates) {
   make_board(true);
-  GpioPwmDevice device(device_config(true));
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
   Reading r;
   EXPECT_EQ(device.read(r), IoResult::error);  // before configure
   EXPECT_THROW(device.enable(), std::logic_error);
   device.configure({period});
   EXPECT_THROW(device.configure({period}), std::logic_error);
-  EXPECT_NE(device.description().find("charge pump on PUMP (offset 5)"), std::string::npos)
-      << device.description();
+  EXPECT_NE(device.hooks_as<GpioPwmDevice>().description().find("charge pump on PUMP (offset 5)"), std::string::npos)
+      << device.hooks_as<GpioPwmDevice>().description();
   EXPECT_FALSE(line(0));  // enable inactive
   EXPECT_TRUE(line(6));   // brake applied
   EXPECT_EQ(pwm_chip_.state(0), (sim::PwmChannelState{50'000, 0, true, false}));
@@ -141,14 +142,14 @@ TEST_F(GpioPwmDeviceTest, LifecycleAndTheDefinedStates) {
   device.close();
   device.close();
   EXPECT_EQ(device.read(r), IoResult::error);
-  GpioPwmDevice again(device_config(true));
+  hapticd::drivers::Device again("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
   again.configure({period});  // every line was released
   EXPECT_TRUE(pwm_chip_.refused().empty());
 }
 
 TEST_F(GpioPwmDeviceTest, ForceAndPositionInLockstepWithAnExactReference) {
   make_board(true);
-  GpioPwmDevice device(device_config(true));
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
   device.configure({period});
   device.enable();
   Inertia reference(0.01);
@@ -172,7 +173,7 @@ TEST_F(GpioPwmDeviceTest, ForceAndPositionInLockstepWithAnExactReference) {
 
 TEST_F(GpioPwmDeviceTest, FaultLineLatchesZeroesInThatPeriodAndClearsWithAResetPulse) {
   make_board(true);
-  GpioPwmDevice device(device_config(true));
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
   device.configure({period});
   device.enable();
   Reading r;
@@ -208,7 +209,7 @@ TEST_F(GpioPwmDeviceTest, AResetPulseGivesWayToAStopAndReleasesTheLine) {
   make_board(true);
   GpioPwmConfig c = device_config(true);
   c.reset_pulse_s = 1.0;
-  GpioPwmDevice device(c);
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(c));
   StopRequest stop;
   device.configure({period, stop.token()});
   device.enable();
@@ -233,14 +234,14 @@ TEST_F(GpioPwmDeviceTest, AnActiveFaultAtConfigureIsResetOnceThenRefused) {
   make_board(true);
   board_->trip("over-temperature");
   {
-    GpioPwmDevice device(device_config(true));
+    hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
     device.configure({period});  // the reset pulse clears the board's latch
     EXPECT_FALSE(board_->fault());
   }
   GpioPwmConfig no_reset = device_config(true);
   no_reset.reset_line = {};
   board_->trip("over-temperature");
-  GpioPwmDevice device(no_reset);
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(no_reset));
   try {
     device.configure({period});
     FAIL();
@@ -252,7 +253,7 @@ TEST_F(GpioPwmDeviceTest, AnActiveFaultAtConfigureIsResetOnceThenRefused) {
 
 TEST_F(GpioPwmDeviceTest, ChargePumpTogglesWhileWritingAndStopsWhenDisabled) {
   make_board(true);
-  GpioPwmDevice device(device_config(true));
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
   device.configure({period});
   device.enable();
   Reading r;
@@ -271,7 +272,7 @@ TEST_F(GpioPwmDeviceTest, ChargePumpTogglesWhileWritingAndStopsWhenDisabled) {
 
 TEST_F(GpioPwmDeviceTest, ReadAndWriteDoNotAllocate) {
   make_board(true);
-  GpioPwmDevice device(device_config(true));
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
   device.configure({period});
   device.enable();
   Reading r;
@@ -286,7 +287,7 @@ TEST_F(GpioPwmDeviceTest, ReadAndWriteDoNotAllocate) {
 
 TEST_F(GpioPwmDeviceTest, QuadratureLinesGiveThePosition) {
   make_board(false);
-  GpioPwmDevice device(device_config(false));
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(false)));
   device.configure({period});
   device.enable();
   Reading r;

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "c_alloc_counter.hpp"
+#include "drivers/device.hpp"
 #include "drivers/modbus/modbus_device.hpp"
 #include "sim/modbus/amplifier_server.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
@@ -85,14 +86,15 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
     return mb::build_modbus_config(values);
   }
 
-  mb::ModbusDevice& configure(Values values = {}) {
+  hapticd::drivers::Device& configure(Values values = {}) {
     if (!amplifier_) start_amplifier(amplifier_settings(amplifier_config_));
-    device_ = std::make_unique<mb::ModbusDevice>(device_config(std::move(values)));
+    device_ = std::make_unique<hapticd::drivers::Device>(
+        "modbus", std::make_unique<mb::ModbusDevice>(device_config(std::move(values))));
     device_->configure(LoopContext{test_period_s, stop_.token()});
     return *device_;
   }
 
-  mb::ModbusDevice& enabled(Values values = {}) {
+  hapticd::drivers::Device& enabled(Values values = {}) {
     configure(std::move(values)).enable();
     return *device_;
   }
@@ -102,7 +104,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
   mb::testing::LoopbackPlant plant_;
   std::unique_ptr<mb::sim::Amplifier> amplifier_;
   std::unique_ptr<mb::sim::AmplifierServer> server_;
-  std::unique_ptr<mb::ModbusDevice> device_;
+  std::unique_ptr<hapticd::drivers::Device> device_;
 };
 
 std::string name(const ::testing::TestParamInfo<mb::Transport>& info) {
@@ -112,7 +114,7 @@ std::string name(const ::testing::TestParamInfo<mb::Transport>& info) {
 }  // namespace
 
 TEST_P(DeviceTest, LifecycleEnablesTheAmplifierAndDisableZeroesIt) {
-  mb::ModbusDevice& d = configure();
+  hapticd::drivers::Device& d = configure();
   EXPECT_TRUE(amplifier_->state().watchdog_armed);  // armed at configure
   Reading r;
   EXPECT_EQ(d.read(r), IoResult::ok);        // valid from configure
@@ -136,7 +138,7 @@ TEST_P(DeviceTest, LifecycleEnablesTheAmplifierAndDisableZeroesIt) {
 
 TEST_P(DeviceTest, OutOfOrderCallsAreLogicErrors) {
   start_amplifier(amplifier_settings(amplifier_config_));
-  mb::ModbusDevice d(device_config());
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config()));
   EXPECT_THROW(d.enable(), std::logic_error);
   d.configure(LoopContext{test_period_s});
   EXPECT_THROW(d.configure(LoopContext{test_period_s}), std::logic_error);
@@ -145,7 +147,7 @@ TEST_P(DeviceTest, OutOfOrderCallsAreLogicErrors) {
 // The model the stability gate gets says delay 1: the run must be the
 // loopback run of the same plant with delay = 1, sample by sample.
 TEST_P(DeviceTest, ARunEqualsTheLoopbackRunWithOnePeriodOfDelay) {
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   EXPECT_EQ(d.model().delay_periods, 1);
   // The loopback device's plant with one period of output delay.
   hapticd::drivers::simulation::PlantConfig lc;
@@ -173,7 +175,7 @@ TEST_P(DeviceTest, ARunEqualsTheLoopbackRunWithOnePeriodOfDelay) {
 }
 
 TEST_P(DeviceTest, AnExceptionLatchesAFaultWithItsCodeAndClears) {
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   Reading r;
   ASSERT_EQ(d.write(0.2), IoResult::ok);
   ASSERT_EQ(d.read(r), IoResult::ok);
@@ -193,7 +195,7 @@ TEST_P(DeviceTest, AnExceptionLatchesAFaultWithItsCodeAndClears) {
 }
 
 TEST_P(DeviceTest, BusyIsTransientButAStreakOfTimeoutsLatches) {
-  mb::ModbusDevice& d = enabled({{"response_timeout", 20e-3}});
+  hapticd::drivers::Device& d = enabled({{"response_timeout", 20e-3}});
   Reading r;
   server_->inject(mb::sim::Injection::exception, 1, mb::exception_code::server_device_busy);
   EXPECT_EQ(d.read(r), IoResult::error);
@@ -210,7 +212,7 @@ TEST_P(DeviceTest, BusyIsTransientButAStreakOfTimeoutsLatches) {
 }
 
 TEST_P(DeviceTest, AnAmplifierFaultIsReportedInItsOwnWordsAndResetOnTheAmplifier) {
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   Reading r;
   amplifier_->inject_fault(0x0001);
   EXPECT_EQ(d.read(r), IoResult::fault);
@@ -224,7 +226,7 @@ TEST_P(DeviceTest, AnAmplifierFaultIsReportedInItsOwnWordsAndResetOnTheAmplifier
 }
 
 TEST_P(DeviceTest, TheWatchdogDisablesTheAmplifierWhenThePeriodsStop) {
-  mb::ModbusDevice& d = enabled({{"watchdog_value", 50.0}});
+  hapticd::drivers::Device& d = enabled({{"watchdog_value", 50.0}});
   Reading r;
   ASSERT_EQ(d.write(0.3), IoResult::ok);
   ASSERT_EQ(d.read(r), IoResult::ok);
@@ -240,7 +242,7 @@ TEST_P(DeviceTest, TheWatchdogDisablesTheAmplifierWhenThePeriodsStop) {
 }
 
 TEST_P(DeviceTest, ASilentAmplifierLatchesAfterTheStreak) {
-  mb::ModbusDevice& d = enabled({{"response_timeout", 20e-3}});
+  hapticd::drivers::Device& d = enabled({{"response_timeout", 20e-3}});
   Reading r;
   server_->stop();  // the amplifier answers nothing any more
   EXPECT_EQ(d.read(r), IoResult::error);
@@ -254,7 +256,7 @@ TEST_P(DeviceTest, ASilentAmplifierLatchesAfterTheStreak) {
 }
 
 TEST_P(DeviceTest, ReadAndWriteAllocateNothing) {
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   ASSERT_TRUE(hapticd::testing::allocation_counting_active());
 #ifdef HAPTICD_SANITIZED
   GTEST_SKIP() << "C allocations are counted in the normal build (a sanitizer owns malloc here)";
@@ -282,7 +284,7 @@ INSTANTIATE_TEST_SUITE_P(ModbusDevice, DeviceTest, ::testing::Values(mb::Transpo
 
 class TcpDeviceTest : public DeviceTest {};
 TEST_P(TcpDeviceTest, ADroppedConnectionLatchesAndFaultClearReconnects) {
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   Reading r;
   server_->inject(mb::sim::Injection::drop);
   EXPECT_EQ(d.read(r), IoResult::fault);
@@ -296,8 +298,8 @@ TEST_P(TcpDeviceTest, ADroppedConnectionLatchesAndFaultClearReconnects) {
   EXPECT_EQ(server_->connections(), 2u);
 }
 TEST_P(TcpDeviceTest, TheMeasuredRoundTripIsInTheBudget) {
-  mb::ModbusDevice& d = configure();
-  const mb::LinkBudget b = d.budget();
+  hapticd::drivers::Device& d = configure();
+  const mb::LinkBudget b = d.hooks_as<mb::ModbusDevice>().budget();
   EXPECT_EQ(b.rtt_samples, 20);
   EXPECT_GT(b.rtt_p50_s, 0.0);
   EXPECT_LE(b.rtt_p50_s, b.rtt_p99_s);
@@ -307,7 +309,7 @@ TEST_P(TcpDeviceTest, TheMeasuredRoundTripIsInTheBudget) {
 TEST_P(TcpDeviceTest, ALinkSlowerThanTheResponseTimeoutIsRefusedWithTheFigure) {
   start_amplifier(amplifier_settings(amplifier_config_));
   server_->inject(mb::sim::Injection::late, 1000, 0, 3);  // every reply 3 ms late
-  mb::ModbusDevice d(device_config({{"response_timeout", 1e-3}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"response_timeout", 1e-3}})));
   try {
     d.configure(LoopContext{test_period_s});
     FAIL() << "a 3 ms round trip passed a 1 ms response timeout";
@@ -325,14 +327,14 @@ TEST_P(TcpDeviceTest, ARefusedStartLeavesTheWatchdogDisarmed) {
   start_amplifier(amplifier_settings(amplifier_config_));
   server_->inject(mb::sim::Injection::late, 30, 0, 3);  // the measurement's replies 3 ms late
   {
-    mb::ModbusDevice d(device_config({{"response_timeout", 1e-3}, {"watchdog_value", 30.0}}));
+    hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"response_timeout", 1e-3}, {"watchdog_value", 30.0}})));
     EXPECT_THROW(d.configure(LoopContext{test_period_s}), DeviceError);
   }
   EXPECT_FALSE(amplifier_->state().watchdog_armed);
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // 30 ms watchdog: it would have tripped
   EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
   EXPECT_EQ(amplifier_->state().fault, 0);
-  mb::ModbusDevice next(device_config({{"watchdog_value", 30.0}}));
+  hapticd::drivers::Device next("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"watchdog_value", 30.0}})));
   next.configure(LoopContext{test_period_s});
   EXPECT_TRUE(amplifier_->state().watchdog_armed);  // armed at the end of configure, fed by the keep-alive
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -345,7 +347,7 @@ INSTANTIATE_TEST_SUITE_P(ModbusDevice, TcpDeviceTest, ::testing::Values(mb::Tran
 class RtuDeviceTest : public DeviceTest {};
 TEST_P(RtuDeviceTest, AWrongSlaveIdTimesOutNamingTheKey) {
   start_amplifier(amplifier_settings(amplifier_config_));
-  mb::ModbusDevice d(device_config({{"slave_id", 7.0}, {"response_timeout", 20e-3}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"slave_id", 7.0}, {"response_timeout", 20e-3}})));
   try {
     d.configure(LoopContext{test_period_s});
     FAIL();
@@ -362,14 +364,14 @@ TEST_P(DeviceTest, AnAmplifierWithoutFunction23IsRefusedUnlessConfiguredSo) {
   settings.function_23 = false;
   start_amplifier(settings);
   try {
-    mb::ModbusDevice d(device_config());
+    hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config()));
     d.configure(LoopContext{test_period_s});
     FAIL();
   } catch (const DeviceError& e) {
     EXPECT_EQ(e.key(), "function_23");
     EXPECT_NE(text(e).find("set function_23 = false"), std::string::npos) << e.what();
   }
-  mb::ModbusDevice d(device_config({{"function_23", false}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"function_23", false}})));
   d.configure(LoopContext{test_period_s});
   d.enable();
   const auto before = d.status().counters[0].value;
@@ -386,21 +388,21 @@ TEST_P(DeviceTest, AnAmplifierInFaultAtStartIsRefusedUnlessResetOnStart) {
     amplifier_->tick(0.0);  // before the server thread: TSan found it racing that thread's tick()
   });
   try {
-    mb::ModbusDevice d(device_config());
+    hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config()));
     d.configure(LoopContext{test_period_s});
     FAIL();
   } catch (const DeviceError& e) {
     EXPECT_EQ(e.key(), "reset_on_start");
     EXPECT_NE(text(e).find("is in fault: watchdog (fault register 0x0004)"), std::string::npos) << e.what();
   }
-  mb::ModbusDevice d(device_config({{"reset_on_start", true}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"reset_on_start", true}})));
   d.configure(LoopContext{test_period_s});
   EXPECT_EQ(amplifier_->state().fault, 0);
 }
 
 TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
-  mb::ModbusDevice d(
-      mb::build_modbus_config({{"transport", std::string("rtu")}, {"device", std::string("/dev/null")}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(
+      mb::build_modbus_config({{"transport", std::string("rtu")}, {"device", std::string("/dev/null")}})));
   try {
     d.configure(LoopContext{1e-3});
     FAIL();
@@ -414,9 +416,9 @@ TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
         "least 13.5 ms, or TCP: no baud rate carries it with the spec's 1.75 ms silences above 19200 baud "
         "(silence = \"characters\" if the amplifier keeps 3.5 characters)");
   }
-  mb::ModbusDevice fast(mb::build_modbus_config({{"transport", std::string("rtu")},
+  hapticd::drivers::Device fast("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"transport", std::string("rtu")},
                                                  {"device", std::string("/dev/null")},
-                                                 {"silence", std::string("characters")}}));
+                                                 {"silence", std::string("characters")}})));
   try {
     fast.configure(LoopContext{1e-3});
     FAIL();
@@ -426,7 +428,7 @@ TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
 }
 
 TEST(ModbusDeviceBudget, AResponseTimeoutBeyondTheBudgetIsRefused) {
-  mb::ModbusDevice d(mb::build_modbus_config({{"response_timeout", 0.8e-3}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"response_timeout", 0.8e-3}})));
   try {
     d.configure(LoopContext{1e-3});
     FAIL();
@@ -437,7 +439,7 @@ TEST(ModbusDeviceBudget, AResponseTimeoutBeyondTheBudgetIsRefused) {
 }
 
 TEST_P(RtuDeviceTest, ACrcErrorIsATransientReadError) {
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   Reading r;
   server_->inject(mb::sim::Injection::crc_error);
   EXPECT_EQ(d.read(r), IoResult::error);
@@ -461,7 +463,7 @@ mb::sim::AmplifierSettings alive_counter_amplifier(const mb::ModbusConfig& c) {
 }
 
 /// Periods of torque `force` until one is not ok; how many were ok.
-int periods_ok(mb::ModbusDevice& d, int periods, double force, IoResult& last) {
+int periods_ok(hapticd::drivers::Device& d, int periods, double force, IoResult& last) {
   Reading r;
   for (int i = 0; i < periods; ++i) {
     (void)d.write(force);
@@ -477,7 +479,7 @@ int periods_ok(mb::ModbusDevice& d, int periods, double force, IoResult& last) {
 // the same value every period, and such an amplifier trips while hapticd runs.
 TEST_P(DeviceTest, AnAliveCounterAmplifierTripsOnTheRewrittenWatchdogValue) {
   start_amplifier(alive_counter_amplifier(amplifier_config_));
-  mb::ModbusDevice& d = enabled();
+  hapticd::drivers::Device& d = enabled();
   IoResult last = IoResult::ok;
   EXPECT_LT(periods_ok(d, 20, 0.1, last), 20);
   EXPECT_EQ(last, IoResult::fault);
@@ -488,7 +490,7 @@ TEST_P(DeviceTest, AnAliveCounterAmplifierTripsOnTheRewrittenWatchdogValue) {
 
 TEST_P(DeviceTest, WatchdogRefreshCounterKeepsAnAliveCounterAmplifierEnabled) {
   start_amplifier(alive_counter_amplifier(amplifier_config_));
-  mb::ModbusDevice& d = enabled({{"watchdog_refresh", std::string("counter")}});
+  hapticd::drivers::Device& d = enabled({{"watchdog_refresh", std::string("counter")}});
   IoResult last = IoResult::ok;
   EXPECT_EQ(periods_ok(d, 50, 0.1, last), 50) << d.status().fault_reason;
   const mb::sim::AmplifierState s = amplifier_->state();
@@ -504,7 +506,7 @@ TEST_P(DeviceTest, WatchdogRefreshCounterKeepsAnAliveCounterAmplifierEnabled) {
 TEST_P(DeviceTest, TheAliveCounterWrapsFrom0xFFFFTo0) {
   start_amplifier(alive_counter_amplifier(amplifier_config_));
   // watchdog_value is the counter's first value: 65530, ... 65535, 0, 1 ...
-  mb::ModbusDevice& d = enabled({{"watchdog_refresh", std::string("counter")}, {"watchdog_value", 65530.0}});
+  hapticd::drivers::Device& d = enabled({{"watchdog_refresh", std::string("counter")}, {"watchdog_value", 65530.0}});
   IoResult last = IoResult::ok;
   EXPECT_EQ(periods_ok(d, 20, 0.1, last), 20) << d.status().fault_reason;
   const mb::sim::AmplifierState s = amplifier_->state();
@@ -518,7 +520,7 @@ TEST_P(DeviceTest, TheAliveCounterWrapsFrom0xFFFFTo0) {
 // configure(), enable() and clear_fault() wait up to connect_timeout (10 s
 // here) for each exchange; a stop ends the wait after one slice.
 TEST_P(DeviceTest, EnableGivesWayToAStopOnASilentAmplifier) {
-  mb::ModbusDevice& d = configure({{"connect_timeout", 10.0}});
+  hapticd::drivers::Device& d = configure({{"connect_timeout", 10.0}});
   server_->inject(mb::sim::Injection::timeout, 1000000);
   stop_.request("the test");
   EXPECT_THROW(d.enable(), StopRequested);
@@ -527,7 +529,7 @@ TEST_P(DeviceTest, EnableGivesWayToAStopOnASilentAmplifier) {
 }
 
 TEST_P(DeviceTest, FaultClearGivesWayToAStopOnASilentAmplifier) {
-  mb::ModbusDevice& d = enabled({{"connect_timeout", 10.0}});
+  hapticd::drivers::Device& d = enabled({{"connect_timeout", 10.0}});
   server_->inject(mb::sim::Injection::timeout, 1000000);
   IoResult last = IoResult::ok;
   Reading r;
@@ -564,8 +566,8 @@ TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
   mb::testing::HostileServer server;
   server.silent = true;
   StopRequest stop;
-  mb::ModbusDevice d(mb::build_modbus_config(
-      {{"port", static_cast<double>(server.port())}, {"connect_timeout", 10.0}, {"link_budget", 0.9}}));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
+      {{"port", static_cast<double>(server.port())}, {"connect_timeout", 10.0}, {"link_budget", 0.9}})));
   std::thread stopper([&] {
     EXPECT_TRUE(eventually([&] { return server.requests.load() >= 1; }));
     stop.request("the test");
@@ -591,11 +593,11 @@ TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
 // naming the unit), the streak latches, and the device status counts them.
 TEST(ModbusDeviceHostile, RepliesFromAnotherUnitAreRefusedCountedAndLatch) {
   mb::testing::HostileServer server;
-  mb::ModbusDevice d(mb::build_modbus_config({{"port", static_cast<double>(server.port())},
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"port", static_cast<double>(server.port())},
                                               {"link_budget", 0.9},
                                               {"rtt_samples", 20.0},
                                               {"failure_streak", 3.0},
-                                              {"watchdog_value", 1000.0}}));
+                                              {"watchdog_value", 1000.0}})));
   d.configure(LoopContext{test_period_s});
   d.enable();
   Reading r;

@@ -10,8 +10,10 @@
 #include <chrono>
 #include <thread>
 
+#include "drivers/device.hpp"
 #include "drivers/stop_request.hpp"
 #include "drivers/usb_hid/board_link.hpp"
+#include "drivers/usb_hid/usb_hid_device.hpp"
 #include "emulated_board_fixture.hpp"
 #include "tests/support/alloc_counter.hpp"
 
@@ -97,20 +99,23 @@ TEST_F(EmulatedBoardTest, LifecycleOutputOnThenOff) {
   EXPECT_TRUE(testbed->counters().kernel_driver_bound);
 }
 
+// The order is the framework's (tests/drivers/device_test.cpp); here the
+// board's hooks under it: refused calls never reach the board, and a close
+// that never configured leaves the interface unclaimed.
 TEST_F(EmulatedBoardTest, OutOfOrderCallsAreRefusedNotFatal) {
-  BoardLink link(sim_config());
+  hapticd::drivers::Device device("usb-hid", std::make_unique<UsbHidDevice>(sim_config()));
   Reading r;
-  EXPECT_EQ(link.read(r), IoResult::error);
-  EXPECT_EQ(link.write(0.1), IoResult::error);
-  EXPECT_THROW(link.enable(), std::logic_error);
-  EXPECT_THROW(link.clear_fault(), std::logic_error);
-  link.disable();
-  link.close();
-  link.configure(1e-3);
-  EXPECT_THROW(link.configure(1e-3), std::logic_error);
-  link.close();
-  link.close();
-  EXPECT_EQ(link.read(r), IoResult::error) << "closed";
+  EXPECT_EQ(device.read(r), IoResult::error);
+  EXPECT_EQ(device.write(0.1), IoResult::error);
+  EXPECT_THROW(device.enable(), std::logic_error);
+  EXPECT_THROW(device.clear_fault(), std::logic_error);
+  device.disable();
+  device.close();
+  device.configure({1e-3});
+  EXPECT_THROW(device.configure({1e-3}), std::logic_error);
+  device.close();
+  device.close();
+  EXPECT_EQ(device.read(r), IoResult::error) << "closed";
   EXPECT_FALSE(testbed->counters().claimed);
 }
 
