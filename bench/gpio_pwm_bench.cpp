@@ -34,15 +34,15 @@
 #include <fstream>
 #include <thread>
 
-#include "drivers/gpio_pwm/gpio_lines.hpp"
 #include "drivers/device.hpp"
+#include "drivers/gpio_pwm/gpio_lines.hpp"
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
 #include "drivers/gpio_pwm/quadrature_decoder.hpp"
+#include "drivers/gpio_pwm/sysfs_attributes.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 #include "sim/gpio_pwm/board.hpp"
 #include "sim/gpio_pwm/quadrature_encoder.hpp"
 #include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
-#include "drivers/gpio_pwm/sysfs_attributes.hpp"
-#include "drivers/simulation/plant_simulator.hpp"
 
 namespace gp = hapticd::drivers::gpio_pwm;
 namespace fs = std::filesystem;

@@ -33,9 +33,9 @@
 #include "drivers/modbus/modbus_link.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/rtu_timing.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 #include "sim/modbus/amplifier_server.hpp"
 #include "sim/modbus/simulator_plant.hpp"
-#include "drivers/simulation/plant_simulator.hpp"
 
 namespace mb = hapticd::drivers::modbus;
 

@@ -97,14 +97,18 @@ void Device::close() noexcept {
 }
 
 IoResult Device::counted_read(IoResult r) noexcept {
-  if (r == IoResult::fault) count_fault();
-  else read_errors_.fetch_add(1, std::memory_order_relaxed);
+  if (r == IoResult::fault)
+    count_fault();
+  else
+    read_errors_.fetch_add(1, std::memory_order_relaxed);
   return r;
 }
 
 IoResult Device::counted_write(IoResult r) noexcept {
-  if (r == IoResult::fault) count_fault();
-  else write_errors_.fetch_add(1, std::memory_order_relaxed);
+  if (r == IoResult::fault)
+    count_fault();
+  else
+    write_errors_.fetch_add(1, std::memory_order_relaxed);
   return r;
 }
 
@@ -122,10 +126,10 @@ DeviceStatus Device::status() const {
   DeviceHealth health = hooks_->health();
   DeviceStatus s;
   const Lifecycle l = state_.load(std::memory_order_acquire);
-  s.state = l == Lifecycle::closed       ? DeviceState::closed
+  s.state = l == Lifecycle::closed                                       ? DeviceState::closed
             : latched_.load(std::memory_order_acquire) || health.faulted ? DeviceState::fault
-            : l == Lifecycle::configured ? DeviceState::configured
-                                         : DeviceState::enabled;
+            : l == Lifecycle::configured                                 ? DeviceState::configured
+                                                                         : DeviceState::enabled;
   s.read_errors = read_errors_.load(std::memory_order_relaxed);
   s.write_errors = write_errors_.load(std::memory_order_relaxed);
   s.faults = faults_.load(std::memory_order_relaxed);

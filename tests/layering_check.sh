@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Layering: a folder may include project headers only from the folders below
-# it (DESIGN.md "Layers"). Lower layers never include the daemon. Prints
+# it (docs/architecture.md). Lower layers never include the daemon. A
+# driver's own tests/ folder (drivers/skeleton/tests) is test code, not the
+# layer. Prints
 # every offending include and exits 1; `--self-test` proves the check fails
 # on a planted violation.
 set -euo pipefail
@@ -25,7 +27,8 @@ check() {
       case " ${allowed[$layer]} " in *" $target "*) continue ;; esac
       echo "layering: $file includes $target/ (a $layer/ file may include only: ${allowed[$layer]})"
       bad=1
-    done < <(grep -rHE '^#include "[^/"]+/' "$dir/$layer" --include='*.hpp' --include='*.cpp' --include='*.h' || true)
+    done < <(grep -rHE '^#include "[^/"]+/' "$dir/$layer" --include='*.hpp' --include='*.cpp' --include='*.h' |
+      grep -vE "^$dir/$layer/[^:]*/tests/" || true)
   done
   return $bad
 }

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "drivers/device_hooks.hpp"
+#include "drivers/parameter.hpp"
 
 namespace hapticd::drivers::canopen {
 
@@ -60,5 +61,9 @@ struct Scaling {
 };
 /// rated_torque_mnm: 0x6076 as read (mN m), used when config.rated_torque is 0.
 Scaling scaling(const CanopenConfig& config, std::uint32_t rated_torque_mnm);
+
+/// The typed config from a checked [device.canopen] table; throws
+/// ParameterError naming the key.
+CanopenConfig canopen_config_from(const DriverParameters& parameters);
 
 }  // namespace hapticd::drivers::canopen

@@ -44,9 +44,4 @@ class CanopenDevice final : public DeviceHooks {
   std::unique_ptr<CanopenSession> session_;  ///< from configure() to close()
 };
 
-/// The registry entry: parameters, summary, factory.
-DriverDescription canopen_driver();
-/// The typed config from a checked [device.canopen] table; throws ParameterError naming the key.
-CanopenConfig canopen_config_from(const DriverParameters& parameters);
-
 }  // namespace hapticd::drivers::canopen

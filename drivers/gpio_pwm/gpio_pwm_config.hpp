@@ -11,8 +11,8 @@
 #include <string_view>
 
 #include "drivers/device_hooks.hpp"
-#include "drivers/parameter.hpp"
 #include "drivers/driver_description.hpp"
+#include "drivers/parameter.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 
@@ -90,7 +90,5 @@ const std::vector<ParameterSpec>& gpio_pwm_parameters();
 /// The configuration from checked parameters; throws ParameterError naming
 /// the key for what the table alone cannot check (combinations, line names).
 GpioPwmConfig gpio_pwm_config_from(const DriverParameters& parameters);
-/// The registry's entry (drivers/registry.cpp).
-DriverDescription gpio_pwm_driver();
 
 }  // namespace hapticd::drivers::gpio_pwm

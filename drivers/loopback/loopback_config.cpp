@@ -2,95 +2,10 @@
 
 #include <stdexcept>
 
-#include "drivers/loopback/loopback_device.hpp"
 #include "drivers/simulation/key_value.hpp"
 #include "world/parameter.hpp"
 
 namespace hapticd::drivers::loopback {
-
-namespace {
-
-using P = ParameterSpec;
-
-std::vector<ParameterSpec> make_parameters() {
-  // Ranges: world::parameter_range, as for the scenes (a value outside is a
-  // typo, not a device); PlantConfig::validate() checks the same.
-  namespace r = world::parameter_range;
-  const LoopbackConfig rotary = LoopbackConfig::defaults(Motion::rotary);
-  const LoopbackConfig linear = LoopbackConfig::defaults(Motion::linear);
-  const world::TwoMassPlant tm{};
-  auto note = [](double v, const char* unit) {
-    return "rotary; " + to_text(ParameterValue(v)) + " " + unit + " when motion = linear";
-  };
-  return {
-      motion_parameter("rotary (wheel: rad, N m, kg m^2) or linear (m, N, kg); selects the defaults below"),
-      P::choice("plant", {"rigid", "two-mass", "two_mass"},
-                "rigid (one mass) or two-mass (motor and body joined by a cable, Diaz & Gil eq. 3-9)")
-          .defaults_to("rigid"),
-      mass_parameter("rigid plant: moving inertia (rotary) or mass (linear)")
-          .defaults_to(rotary.mass, note(linear.mass, "kg")),
-      damping_parameter("rigid plant: viscous damping to ground")
-          .defaults_to(rotary.damping, note(linear.damping, "N s/m")),
-      P::number(
-          "coulomb", "N m | N",
-          "Coulomb friction level with stiction (rigid: on the mass; two-mass: on the body); 0 disables")
-          .defaults_to(0.0)
-          .at_least(0.0)
-          .at_most(r::max_force),
-      P::number("motor_mass", "kg", "two-mass: motor-side mass m_m (Table I)")
-          .defaults_to(tm.motor_mass)
-          .at_least(r::min_mass)
-          .at_most(r::max_mass),
-      P::number("body_mass", "kg", "two-mass: body (handle) mass m_d (Table I)")
-          .defaults_to(tm.body_mass)
-          .at_least(r::min_mass)
-          .at_most(r::max_mass),
-      P::number("motor_damping", "N s/m", "two-mass: motor damping b_m (Table I)")
-          .defaults_to(tm.motor_damping)
-          .at_least(0.0)
-          .at_most(r::max_damping),
-      P::number("body_damping", "N s/m", "two-mass: body damping b_d (Table I)")
-          .defaults_to(tm.body_damping)
-          .at_least(0.0)
-          .at_most(r::max_damping),
-      P::number("cable_stiffness", "N/m", "two-mass: cable stiffness k_c (Table I)")
-          .defaults_to(tm.cable_stiffness)
-          .above(0.0)
-          .at_most(r::max_stiffness),
-      P::number("cable_damping", "N s/m", "two-mass: cable damping b_c (Table I)")
-          .defaults_to(tm.cable_damping)
-          .at_least(0.0)
-          .at_most(r::max_damping),
-      P::choice(
-          "sensor", {"motor", "body", "hand", "user"},
-          "two-mass: position read() returns: motor (collocated) or body (non-collocated; also hand, user)")
-          .defaults_to("motor"),
-      P::number("counts", "1/rev | 1/m", "encoder counts per revolution (rotary) or per metre (linear)")
-          .defaults_to(rotary.counts, note(linear.counts, "1/m"))
-          .at_least(1.0)
-          .at_most(simulation::max_counts),
-      P::number("max_force", "N m | N", "actuator saturation |force|")
-          .defaults_to(rotary.max_force, note(linear.max_force, "N"))
-          .above(0.0)
-          .at_most(r::max_force),
-      P::integer("delay", "periods",
-                 "extra output delay: a force written in period n is applied in period n+delay")
-          .defaults_to(0.0)
-          .at_least(0.0)
-          .at_most(static_cast<double>(max_delay_periods)),
-      P::table(
-          "hand",
-          "the scripted hand, e.g. [device.loopback.hand] mode = \"hold\", trajectory = \"step\", "
-          "amplitude = 0.785, at = 0.5 (or hand = \"mode=hold ...\"); hapticctl hand changes it at run time"),
-  };
-}
-
-}  // namespace
-
-const std::vector<ParameterSpec>& loopback_parameters() {
-  static const std::vector<ParameterSpec> parameters = make_parameters();
-  return parameters;
-}
 
 LoopbackConfig loopback_config_from(const DriverParameters& p) {
   const Motion motion = p.text("motion") == "linear" ? Motion::linear : Motion::rotary;
@@ -132,13 +47,6 @@ simulation::HandScript hand_script_from(const DriverParameters& p) {
     }
     throw ParameterError(blamed, std::string("device.loopback.") + e.what());
   }
-}
-
-DriverDescription loopback_driver() {
-  return {"loopback", "simulated plant (rigid or two-mass), scripted hand, fault injection: tests and demos",
-          true, loopback_parameters(), [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
-            return std::make_unique<LoopbackDevice>(loopback_config_from(p), hand_script_from(p));
-          }};
 }
 
 LoopbackConfig parse_loopback_config(std::string_view text) {

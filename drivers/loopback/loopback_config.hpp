@@ -25,9 +25,6 @@ using LoopbackConfig = simulation::PlantConfig;
 /// unit and help, in the order they are documented.
 const std::vector<ParameterSpec>& loopback_parameters();
 
-/// The registry entry: description and factory.
-DriverDescription loopback_driver();
-
 /// The plant configuration from checked parameters: "motion" selects the
 /// defaults (mass, counts, max_force differ), the keys written override
 /// them. Throws ParameterError naming the key.

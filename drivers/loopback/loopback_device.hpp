@@ -61,7 +61,9 @@ class LoopbackDevice final : public DeviceHooks {
   void clear_faults() noexcept { simulator_->clear_faults(); }
   PlantSnapshot snapshot() const noexcept { return simulator_->snapshot(); }
   /// Only while the RT thread is not stepping the plant (disabled).
-  void set_initial_state(double position, double velocity) { simulator_->set_initial_state(position, velocity); }
+  void set_initial_state(double position, double velocity) {
+    simulator_->set_initial_state(position, velocity);
+  }
 
  private:
   std::unique_ptr<simulation::PlantSimulator> simulator_;

@@ -1,4 +1,4 @@
-#include "drivers/modbus/modbus_driver.hpp"
+#include "drivers/driver_description.hpp"
 
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_device.hpp"

@@ -160,4 +160,58 @@ void set_parameter(UsbHidConfig& c, std::string_view key, std::string_view value
   throw ConfigError(k, "unknown usb-hid key \"" + k + "\"");
 }
 
+namespace {
+
+template <class Parse>
+auto parsed(const DriverParameters& p, const char* key, Parse parse) {
+  try {
+    return parse(p.text(key));
+  } catch (const std::invalid_argument& e) {
+    throw ParameterError(key, std::string("device.usb-hid.") + key + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+UsbHidConfig usb_hid_config_from(const DriverParameters& p) {
+  UsbHidConfig c;
+  c.selector.vendor_id = parsed(p, "vendor_id", parse_usb_id);
+  c.selector.product_id = parsed(p, "product_id", parse_usb_id);
+  c.selector.serial = p.text("serial");
+  c.selector.path = p.text("path");
+  c.selector.interface_number = static_cast<int>(p.integer("interface"));
+  // The endpoint, direction and layout texts go through the same checks as
+  // set_parameter(), which names the key.
+  for (const char* key : {"in_endpoint", "out_endpoint", "direction", "in_sequence", "in_ack", "in_position",
+                          "in_enabled_bit", "in_fault_bit", "in_watchdog_bit", "in_fault_code",
+                          "out_sequence", "out_command", "out_enable_bit", "out_reset_bit", "out_deadman"}) {
+    try {
+      set_parameter(c, key, p.text(key));
+    } catch (const ConfigError& e) {
+      throw ParameterError(e.key(), std::string("device.usb-hid.") + e.what());
+    }
+  }
+  c.motion = p.text("motion") == "linear" ? Motion::linear : Motion::rotary;
+  c.counts_per_unit = p.number("counts_per_unit");
+  c.command_full_scale = p.number("command_full_scale");
+  c.deadman_periods = static_cast<int>(p.integer("deadman_periods"));
+  c.timeout_periods = static_cast<int>(p.integer("timeout_periods"));
+  c.in_transfers = static_cast<int>(p.integer("in_transfers"));
+  c.out_transfers = static_cast<int>(p.integer("out_transfers"));
+  c.events = p.text("events") == "thread" ? EventHandling::thread : EventHandling::loop;
+  c.mass = p.number("mass");
+  c.damping = p.number("damping");
+  c.delay_periods = static_cast<int>(p.integer("delay_periods"));
+  c.layout.in.size = static_cast<std::size_t>(p.integer("in_report_size"));
+  c.layout.in.report_id = static_cast<int>(p.integer("in_report_id"));
+  c.layout.out.size = static_cast<std::size_t>(p.integer("out_report_size"));
+  c.layout.out.report_id = static_cast<int>(p.integer("out_report_id"));
+  try {
+    validate(c.layout);
+  } catch (const LayoutError& e) {
+    throw ParameterError(e.key(), std::string("device.usb-hid.") + e.what());
+  }
+  return c;
+}
+
 }  // namespace hapticd::drivers::usb_hid

@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "drivers/device_hooks.hpp"
+#include "drivers/parameter.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 #include "drivers/usb_hid/usb_transport.hpp"
 
@@ -61,5 +62,8 @@ void set_parameter(UsbHidConfig& config, std::string_view key, std::string_view 
 
 /// "0x1209" or "4617" -> 0x1209; throws std::invalid_argument.
 std::uint16_t parse_usb_id(std::string_view text);
+
+/// The typed values of [device.usb-hid] as a config. Throws ParameterError naming the key.
+UsbHidConfig usb_hid_config_from(const DriverParameters& parameters);
 
 }  // namespace hapticd::drivers::usb_hid

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "drivers/device_hooks.hpp"
-#include "drivers/parameter.hpp"
 #include "drivers/driver_description.hpp"
+#include "drivers/parameter.hpp"
 #include "drivers/usb_hid/board_link.hpp"
 #include "drivers/usb_hid/usb_hid_config.hpp"
 
@@ -37,11 +37,5 @@ class UsbHidDevice final : public DeviceHooks {
  private:
   BoardLink link_;
 };
-
-/// The typed values of [device.usb-hid] as a config. Throws ParameterError naming the key.
-UsbHidConfig usb_hid_config_from(const DriverParameters& parameters);
-
-/// The registry entry (drivers/registry.cpp).
-DriverDescription usb_hid_driver();
 
 }  // namespace hapticd::drivers::usb_hid

@@ -12,9 +12,9 @@
 #include <thread>
 
 #include "drivers/canopen/can_socket.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
-#include "drivers/simulation/plant_simulator.hpp"
 #include "world/units.hpp"
 
 namespace hapticd::drivers::canopen::sim {

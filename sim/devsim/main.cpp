@@ -5,8 +5,8 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
-#include "sim/devsim/peers.hpp"
 #include "drivers/registry.hpp"
+#include "sim/devsim/peers.hpp"
 
 int main(int argc, char** argv) {
   namespace devsim = hapticd::drivers::devsim;

@@ -1,8 +1,8 @@
 #include "sim/devsim/peers.hpp"
 
+#include "drivers/loopback/loopback_config.hpp"
 #include "sim/canopen/devsim_peer.hpp"
 #include "sim/gpio_pwm/devsim_peer.hpp"
-#include "drivers/loopback/loopback_config.hpp"
 #include "sim/modbus/devsim_peer.hpp"
 #include "sim/usb_hid/devsim_peer.hpp"
 

@@ -26,11 +26,11 @@
 #include <string>
 #include <vector>
 
+#include "drivers/simulation/plant_simulator.hpp"
 #include "sim/gpio_pwm/amplifier.hpp"
 #include "sim/gpio_pwm/quadrature_encoder.hpp"
 #include "sim/gpio_pwm/sysfs_peripherals.hpp"
 #include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
-#include "drivers/simulation/plant_simulator.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
 

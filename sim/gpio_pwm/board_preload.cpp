@@ -38,10 +38,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "sim/gpio_pwm/board.hpp"
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/simulation/hand_script.hpp"
 #include "drivers/simulation/key_value.hpp"
+#include "sim/gpio_pwm/board.hpp"
 
 namespace {
 

@@ -9,11 +9,11 @@
 #include <string>
 
 #include "drivers/modbus/modbus_config.hpp"
+#include "drivers/simulation/hand_script.hpp"
+#include "drivers/simulation/plant_simulator.hpp"
 #include "sim/modbus/amplifier_server.hpp"
 #include "sim/modbus/peer_commands.hpp"
 #include "sim/modbus/simulator_plant.hpp"
-#include "drivers/simulation/hand_script.hpp"
-#include "drivers/simulation/plant_simulator.hpp"
 
 namespace hapticd::drivers::modbus::sim {
 

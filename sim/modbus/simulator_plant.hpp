@@ -1,8 +1,8 @@
 #pragma once
 /// \file
 /// The shared plant simulator behind the simulated amplifier.
-#include "sim/modbus/amplifier.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
+#include "sim/modbus/amplifier.hpp"
 
 namespace hapticd::drivers::modbus::sim {
 

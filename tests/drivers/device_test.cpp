@@ -51,7 +51,9 @@ class RecordingHooks final : public DeviceHooks {
   IoResult read(Reading&) noexcept override { return IoResult::ok; }
   IoResult write(double) noexcept override { return IoResult::ok; }
   DeviceModel model() const override { return {}; }
-  DeviceHealth health() const override { return {faulted, faulted ? "over current" : "", "", {{"frames", 7}}}; }
+  DeviceHealth health() const override {
+    return {faulted, faulted ? "over current" : "", "", {{"frames", 7}}};
+  }
 
   std::vector<std::string> calls;
   std::string fail_step;  ///< the step that throws
@@ -128,8 +130,7 @@ TEST(Device, EachHookRunsOnlyInItsStateAndCloseOnce) {
   rig.device.enable();
   rig.device.close();
   rig.device.close();
-  EXPECT_EQ(rig.hooks.calls,
-            (std::vector<std::string>{"configure", "enable", "enable", "disable", "close"}));
+  EXPECT_EQ(rig.hooks.calls, (std::vector<std::string>{"configure", "enable", "enable", "disable", "close"}));
 }
 
 TEST(Device, ADeviceErrorPassesWithItsKeyAndIsKeptForStatus) {

@@ -180,8 +180,9 @@ std::vector<double> run_scenario() {
   config.plant = PlantKind::two_mass;
   config.coulomb = 0.5;
   config.delay = 2;
-  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=impedance stiffness=2000 damping=20 trajectory=sine "
-                                                  "amplitude=0.01 frequency=3 release_at=3")};
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=impedance stiffness=2000 damping=20 trajectory=sine "
+                                "amplitude=0.01 frequency=3 release_at=3")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);

@@ -32,7 +32,8 @@ TEST(LoopbackHand, IdealHoldTracksStepExactlyWhileTheMotorPushes) {
   // Freudenberg 2.1: the hand turns the wheel 45 degrees at t = 0.5 s and
   // holds it; the virtual spring torque the scene commands is what the hand feels.
   const LoopbackConfig config = wheel();
-  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold trajectory=step amplitude=0.785398 at=0.5")};
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=hold trajectory=step amplitude=0.785398 at=0.5")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
@@ -78,7 +79,8 @@ TEST(LoopbackHand, IdealHoldHandForceIsInertialReaction) {
   // from (r(t), r'(t)) is J r'' at t + T/3, to O((w T)^2). The first step
   // is the impulse that takes the wheel from rest to the sine's velocity.
   const LoopbackConfig config = wheel();
-  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold trajectory=sine amplitude=0.1 frequency=2")};
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=hold trajectory=sine amplitude=0.1 frequency=2")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
@@ -95,7 +97,8 @@ TEST(LoopbackHand, IdealHoldHandForceIsInertialReaction) {
 
 TEST(LoopbackHand, RampHoldFollowsRateThenStops) {
   const LoopbackConfig config = wheel();
-  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold trajectory=ramp rate=2 from=0.1 to=0.5 at=0.1")};
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=hold trajectory=ramp rate=2 from=0.1 to=0.5 at=0.1")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
@@ -110,7 +113,8 @@ TEST(LoopbackHand, RampHoldFollowsRateThenStops) {
 
 TEST(LoopbackHand, ReleaseAtLetsGoAtTheRightSample) {
   const LoopbackConfig config = wheel();
-  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=hold position=0.1 release_at=0.2")};
+  hapticd::testing::LoopbackRig device_rig{config,
+                                           parse_hand_script("mode=hold position=0.1 release_at=0.2")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
@@ -169,7 +173,8 @@ TEST(LoopbackHand, ImpedanceIsAnExactDampedSpring) {
 
 TEST(LoopbackHand, ImpedanceStaticBalanceWithMotorForce) {
   const LoopbackConfig config = wheel();
-  hapticd::testing::LoopbackRig device_rig{config, parse_hand_script("mode=impedance stiffness=50 damping=1 position=0.2")};
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=impedance stiffness=50 damping=1 position=0.2")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
@@ -181,8 +186,8 @@ TEST(LoopbackHand, ImpedanceStaticBalanceWithMotorForce) {
 
 TEST(LoopbackHand, StiffNonIdealHoldFollowsClosely) {
   const LoopbackConfig config = wheel();
-  hapticd::testing::LoopbackRig device_rig{config,
-                        parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1")};
+  hapticd::testing::LoopbackRig device_rig{
+      config, parse_hand_script("mode=hold ideal=false trajectory=step amplitude=0.5 at=0.1")};
   hapticd::drivers::Device& device = device_rig.device;
   hapticd::drivers::loopback::LoopbackDevice& plant = device_rig.plant;
   hapticd::testing::start(device);
@@ -225,7 +230,7 @@ TEST(LoopbackHand, SetHandFromAnotherThreadWhileRunning) {
       const auto s = plant.snapshot();  // consistent: time and period from the same period
       if (s.time_s != static_cast<double>(s.period) * config.period_s) torn.fetch_add(1);
       plant.set_hand(i++ % 2 == 0 ? std::string("mode=impedance stiffness=20 damping=0.5 position=0.1")
-                                   : std::string("mode=hold position=0.1"));
+                                  : std::string("mode=hold position=0.1"));
     }
   });
   for (int n = 0; n < 20000; ++n) {

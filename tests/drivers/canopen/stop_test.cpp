@@ -15,9 +15,9 @@
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/can_socket.hpp"
 #include "drivers/canopen/canopen_session.hpp"
+#include "drivers/stop_request.hpp"
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
-#include "drivers/stop_request.hpp"
 
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;

@@ -48,7 +48,8 @@ inline std::unique_ptr<drivers::Device> make_device(const char* driver, const Pa
   const auto* description = drivers::find_driver(driver);
   if (description == nullptr || !description->ready)
     throw std::logic_error("no ready driver " + std::string(driver));
-  return drivers::make_device(*description, drivers::DriverParameters(driver, description->parameters, table));
+  return drivers::make_device(*description,
+                              drivers::DriverParameters(driver, description->parameters, table));
 }
 
 /// The key a refused table names: building it (factory and configure) must throw.

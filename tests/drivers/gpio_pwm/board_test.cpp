@@ -11,8 +11,8 @@
 #include <thread>
 
 #include "drivers/gpio_pwm/gpio_lines.hpp"
-#include "sim/gpio_pwm/board.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
+#include "sim/gpio_pwm/board.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
 namespace {

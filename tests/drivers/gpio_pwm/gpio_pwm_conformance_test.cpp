@@ -5,8 +5,8 @@
 
 #include <memory>
 
-#include "sim/gpio_pwm/board.hpp"
 #include "drivers/loopback/loopback_config.hpp"
+#include "sim/gpio_pwm/board.hpp"
 #include "tests/drivers/conformance/device_conformance.hpp"
 
 namespace {

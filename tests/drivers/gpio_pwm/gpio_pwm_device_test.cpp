@@ -12,8 +12,8 @@
 
 #include "drivers/device.hpp"
 #include "drivers/gpio_pwm/gpio_pwm_device.hpp"
-#include "sim/gpio_pwm/board.hpp"
 #include "drivers/stop_request.hpp"
+#include "sim/gpio_pwm/board.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
@@ -120,7 +120,8 @@ TEST_F(GpioPwmDeviceTest, LifecycleAndTheDefinedStates) {
   EXPECT_THROW(device.enable(), std::logic_error);
   device.configure({period});
   EXPECT_THROW(device.configure({period}), std::logic_error);
-  EXPECT_NE(device.hooks_as<GpioPwmDevice>().description().find("charge pump on PUMP (offset 5)"), std::string::npos)
+  EXPECT_NE(device.hooks_as<GpioPwmDevice>().description().find("charge pump on PUMP (offset 5)"),
+            std::string::npos)
       << device.hooks_as<GpioPwmDevice>().description();
   EXPECT_FALSE(line(0));  // enable inactive
   EXPECT_TRUE(line(6));   // brake applied

@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "drivers/gpio_pwm/pwm_plan.hpp"
-#include "sim/gpio_pwm/pwm_channel_model.hpp"
 #include "drivers/gpio_pwm/sysfs_value.hpp"
+#include "sim/gpio_pwm/pwm_channel_model.hpp"
 
 namespace hapticd::drivers::gpio_pwm {
 namespace {

@@ -11,9 +11,9 @@
 #include <fstream>
 #include <random>
 
-#include "sim/gpio_pwm/sysfs_peripherals.hpp"
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
 #include "drivers/stop_request.hpp"
+#include "sim/gpio_pwm/sysfs_peripherals.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace hapticd::drivers::gpio_pwm {

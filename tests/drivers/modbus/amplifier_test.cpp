@@ -9,8 +9,8 @@
 
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_frame.hpp"
-#include "sim/modbus/amplifier.hpp"
 #include "loopback_plant.hpp"
+#include "sim/modbus/amplifier.hpp"
 
 namespace mb = hapticd::drivers::modbus;
 using mb::sim::Decision;

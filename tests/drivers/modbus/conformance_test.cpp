@@ -3,8 +3,8 @@
 #include <memory>
 
 #include "drivers/modbus/modbus_config.hpp"
-#include "sim/modbus/amplifier_server.hpp"
 #include "loopback_plant.hpp"
+#include "sim/modbus/amplifier_server.hpp"
 #include "tests/drivers/conformance/device_conformance.hpp"
 
 namespace {

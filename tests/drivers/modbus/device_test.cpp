@@ -15,11 +15,11 @@
 #include "c_alloc_counter.hpp"
 #include "drivers/device.hpp"
 #include "drivers/modbus/modbus_device.hpp"
-#include "sim/modbus/amplifier_server.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 #include "drivers/stop_request.hpp"
 #include "hostile_server.hpp"
 #include "loopback_plant.hpp"
+#include "sim/modbus/amplifier_server.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace mb = hapticd::drivers::modbus;
@@ -309,7 +309,8 @@ TEST_P(TcpDeviceTest, TheMeasuredRoundTripIsInTheBudget) {
 TEST_P(TcpDeviceTest, ALinkSlowerThanTheResponseTimeoutIsRefusedWithTheFigure) {
   start_amplifier(amplifier_settings(amplifier_config_));
   server_->inject(mb::sim::Injection::late, 1000, 0, 3);  // every reply 3 ms late
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"response_timeout", 1e-3}})));
+  hapticd::drivers::Device d("modbus",
+                             std::make_unique<mb::ModbusDevice>(device_config({{"response_timeout", 1e-3}})));
   try {
     d.configure(LoopContext{test_period_s});
     FAIL() << "a 3 ms round trip passed a 1 ms response timeout";
@@ -327,14 +328,16 @@ TEST_P(TcpDeviceTest, ARefusedStartLeavesTheWatchdogDisarmed) {
   start_amplifier(amplifier_settings(amplifier_config_));
   server_->inject(mb::sim::Injection::late, 30, 0, 3);  // the measurement's replies 3 ms late
   {
-    hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"response_timeout", 1e-3}, {"watchdog_value", 30.0}})));
+    hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config(
+                                             {{"response_timeout", 1e-3}, {"watchdog_value", 30.0}})));
     EXPECT_THROW(d.configure(LoopContext{test_period_s}), DeviceError);
   }
   EXPECT_FALSE(amplifier_->state().watchdog_armed);
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // 30 ms watchdog: it would have tripped
   EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
   EXPECT_EQ(amplifier_->state().fault, 0);
-  hapticd::drivers::Device next("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"watchdog_value", 30.0}})));
+  hapticd::drivers::Device next(
+      "modbus", std::make_unique<mb::ModbusDevice>(device_config({{"watchdog_value", 30.0}})));
   next.configure(LoopContext{test_period_s});
   EXPECT_TRUE(amplifier_->state().watchdog_armed);  // armed at the end of configure, fed by the keep-alive
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -347,7 +350,8 @@ INSTANTIATE_TEST_SUITE_P(ModbusDevice, TcpDeviceTest, ::testing::Values(mb::Tran
 class RtuDeviceTest : public DeviceTest {};
 TEST_P(RtuDeviceTest, AWrongSlaveIdTimesOutNamingTheKey) {
   start_amplifier(amplifier_settings(amplifier_config_));
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"slave_id", 7.0}, {"response_timeout", 20e-3}})));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(
+                                           device_config({{"slave_id", 7.0}, {"response_timeout", 20e-3}})));
   try {
     d.configure(LoopContext{test_period_s});
     FAIL();
@@ -371,7 +375,8 @@ TEST_P(DeviceTest, AnAmplifierWithoutFunction23IsRefusedUnlessConfiguredSo) {
     EXPECT_EQ(e.key(), "function_23");
     EXPECT_NE(text(e).find("set function_23 = false"), std::string::npos) << e.what();
   }
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"function_23", false}})));
+  hapticd::drivers::Device d("modbus",
+                             std::make_unique<mb::ModbusDevice>(device_config({{"function_23", false}})));
   d.configure(LoopContext{test_period_s});
   d.enable();
   const auto before = d.status().counters[0].value;
@@ -395,14 +400,16 @@ TEST_P(DeviceTest, AnAmplifierInFaultAtStartIsRefusedUnlessResetOnStart) {
     EXPECT_EQ(e.key(), "reset_on_start");
     EXPECT_NE(text(e).find("is in fault: watchdog (fault register 0x0004)"), std::string::npos) << e.what();
   }
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config({{"reset_on_start", true}})));
+  hapticd::drivers::Device d("modbus",
+                             std::make_unique<mb::ModbusDevice>(device_config({{"reset_on_start", true}})));
   d.configure(LoopContext{test_period_s});
   EXPECT_EQ(amplifier_->state().fault, 0);
 }
 
 TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(
-      mb::build_modbus_config({{"transport", std::string("rtu")}, {"device", std::string("/dev/null")}})));
+  hapticd::drivers::Device d("modbus",
+                             std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
+                                 {{"transport", std::string("rtu")}, {"device", std::string("/dev/null")}})));
   try {
     d.configure(LoopContext{1e-3});
     FAIL();
@@ -416,9 +423,11 @@ TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
         "least 13.5 ms, or TCP: no baud rate carries it with the spec's 1.75 ms silences above 19200 baud "
         "(silence = \"characters\" if the amplifier keeps 3.5 characters)");
   }
-  hapticd::drivers::Device fast("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"transport", std::string("rtu")},
-                                                 {"device", std::string("/dev/null")},
-                                                 {"silence", std::string("characters")}})));
+  hapticd::drivers::Device fast(
+      "modbus",
+      std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"transport", std::string("rtu")},
+                                                                  {"device", std::string("/dev/null")},
+                                                                  {"silence", std::string("characters")}})));
   try {
     fast.configure(LoopContext{1e-3});
     FAIL();
@@ -428,7 +437,8 @@ TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
 }
 
 TEST(ModbusDeviceBudget, AResponseTimeoutBeyondTheBudgetIsRefused) {
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"response_timeout", 0.8e-3}})));
+  hapticd::drivers::Device d(
+      "modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"response_timeout", 0.8e-3}})));
   try {
     d.configure(LoopContext{1e-3});
     FAIL();
@@ -506,7 +516,8 @@ TEST_P(DeviceTest, WatchdogRefreshCounterKeepsAnAliveCounterAmplifierEnabled) {
 TEST_P(DeviceTest, TheAliveCounterWrapsFrom0xFFFFTo0) {
   start_amplifier(alive_counter_amplifier(amplifier_config_));
   // watchdog_value is the counter's first value: 65530, ... 65535, 0, 1 ...
-  hapticd::drivers::Device& d = enabled({{"watchdog_refresh", std::string("counter")}, {"watchdog_value", 65530.0}});
+  hapticd::drivers::Device& d =
+      enabled({{"watchdog_refresh", std::string("counter")}, {"watchdog_value", 65530.0}});
   IoResult last = IoResult::ok;
   EXPECT_EQ(periods_ok(d, 20, 0.1, last), 20) << d.status().fault_reason;
   const mb::sim::AmplifierState s = amplifier_->state();
@@ -566,8 +577,10 @@ TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
   mb::testing::HostileServer server;
   server.silent = true;
   StopRequest stop;
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
-      {{"port", static_cast<double>(server.port())}, {"connect_timeout", 10.0}, {"link_budget", 0.9}})));
+  hapticd::drivers::Device d(
+      "modbus",
+      std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
+          {{"port", static_cast<double>(server.port())}, {"connect_timeout", 10.0}, {"link_budget", 0.9}})));
   std::thread stopper([&] {
     EXPECT_TRUE(eventually([&] { return server.requests.load() >= 1; }));
     stop.request("the test");
@@ -593,11 +606,12 @@ TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
 // naming the unit), the streak latches, and the device status counts them.
 TEST(ModbusDeviceHostile, RepliesFromAnotherUnitAreRefusedCountedAndLatch) {
   mb::testing::HostileServer server;
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"port", static_cast<double>(server.port())},
-                                              {"link_budget", 0.9},
-                                              {"rtt_samples", 20.0},
-                                              {"failure_streak", 3.0},
-                                              {"watchdog_value", 1000.0}})));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
+                                           {{"port", static_cast<double>(server.port())},
+                                            {"link_budget", 0.9},
+                                            {"rtt_samples", 20.0},
+                                            {"failure_streak", 3.0},
+                                            {"watchdog_value", 1000.0}})));
   d.configure(LoopContext{test_period_s});
   d.enable();
   Reading r;

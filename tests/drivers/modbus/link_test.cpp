@@ -25,8 +25,8 @@
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/modbus_frame.hpp"
 #include "drivers/modbus/modbus_link.hpp"
-#include "sim/modbus/amplifier_server.hpp"
 #include "loopback_plant.hpp"
+#include "sim/modbus/amplifier_server.hpp"
 #include "tests/support/alloc_counter.hpp"
 
 namespace mb = hapticd::drivers::modbus;

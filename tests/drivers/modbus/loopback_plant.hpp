@@ -1,8 +1,8 @@
 #pragma once
 // The shared plant simulator behind the simulated amplifier, owned together
 // (the tests' plant: the loopback device's plant).
-#include "sim/modbus/simulator_plant.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
+#include "sim/modbus/simulator_plant.hpp"
 
 namespace hapticd::drivers::modbus::testing {
 

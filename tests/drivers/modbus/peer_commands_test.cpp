@@ -2,8 +2,8 @@
 #include <gtest/gtest.h>
 
 #include "drivers/modbus/modbus_config.hpp"
-#include "sim/modbus/peer_commands.hpp"
 #include "loopback_plant.hpp"
+#include "sim/modbus/peer_commands.hpp"
 
 namespace mb = hapticd::drivers::modbus;
 

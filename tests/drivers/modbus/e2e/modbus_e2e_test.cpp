@@ -197,7 +197,8 @@ std::unique_ptr<Daemon> start_on_the_real_clock(const TempDir& dir, const Amplif
     auto d = std::make_unique<Daemon>(dir, config);
     const std::string log = d->running() ? std::string() : d->log();
     if (log.find("periodic exchanges at configure") == std::string::npos || attempt == 3) return d;
-    std::printf("modbus: hapticd refused the link on this host (start %d): %s; again\n", attempt, log.c_str());
+    std::printf("modbus: hapticd refused the link on this host (start %d): %s; again\n", attempt,
+                log.c_str());
   }
 }
 
@@ -542,8 +543,7 @@ TEST_P(ModbusEndToEnd, A2To31CountPositionJumpLatchesInItsPeriodWithTheFigures) 
 TEST(ModbusSigterm, ASigtermDuringAFaultClearOnASilentAmplifierEndsTheDaemon) {
   AmplifierProcess amplifier(Transport::tcp, swing_hand);
   TempDir dir;
-  const auto started =
-      start_on_the_real_clock(dir, amplifier, Transport::tcp, "connect_timeout = \"20s\"\n");
+  const auto started = start_on_the_real_clock(dir, amplifier, Transport::tcp, "connect_timeout = \"20s\"\n");
   Daemon& d = *started;
   ASSERT_TRUE(d.running()) << d.log();
   std::this_thread::sleep_for(300ms);

@@ -1,0 +1,121 @@
+// The usb-hid driver's description (drivers/driver_description.hpp): its
+// typed parameters and the factory of its hooks.
+#include "drivers/usb_hid/report_codec.hpp"
+#include "drivers/usb_hid/usb_hid_config.hpp"
+#include "drivers/usb_hid/usb_hid_device.hpp"
+
+namespace hapticd::drivers::usb_hid {
+
+namespace {
+
+using P = ParameterSpec;
+
+/// A layout key: its default in the field notation, checked by the codec.
+P layout_field(const char* name, const char* help, const std::string& default_text) {
+  return P::text(name, std::string(help) + " (OFFSET:TYPE, or none where optional)")
+      .defaults_to(default_text);
+}
+P layout_bit(const char* name, const char* help, const BitField& default_bit) {
+  return P::text(name, std::string(help) + " (OFFSET.BIT, or none)").defaults_to(to_string(default_bit));
+}
+
+std::vector<ParameterSpec> usb_hid_parameters() {
+  const ReportLayout d;
+  const UsbHidConfig c;
+  return {
+      P::text("vendor_id", "USB vendor ID of the board, \"0x1209\" (`lsusb` lists it)"),
+      P::text("product_id", "USB product ID, \"0x0001\""),
+      P::text("serial", "serial number string, to choose among several boards (empty: any)").defaults_to(""),
+      P::text("path", "bus and port chain, \"1-2.3\" as in sysfs and `lsusb -t` (empty: any)")
+          .defaults_to(""),
+      P::integer("interface", "", "interface number").defaults_to(0.0).at_least(0).at_most(255),
+      P::text("in_endpoint", "interrupt IN endpoint address, \"0x81\" (auto: the first)").defaults_to("auto"),
+      P::text("out_endpoint", "interrupt OUT endpoint address, \"0x01\" (auto: the first)")
+          .defaults_to("auto"),
+      P::choice("motion", {"rotary", "linear"}, "rotary (rad, N m) or linear (m, N)").defaults_to("rotary"),
+      P::number("counts_per_unit", "1/rev | 1/m", "encoder counts per revolution or per metre")
+          .defaults_to(c.counts_per_unit)
+          .above(0.0),
+      P::number("command_full_scale", "N m | N",
+                "force or torque at the largest command (+-32767 by default)")
+          .defaults_to(c.command_full_scale)
+          .above(0.0),
+      P::choice("direction", {"normal", "inverted"}, "inverted flips the count and the command")
+          .defaults_to("normal"),
+      P::integer("deadman_periods", "periods",
+                 "the board zeroes its output after this long without a new OUT report")
+          .defaults_to(static_cast<double>(c.deadman_periods))
+          .at_least(1)
+          .at_most(1000),
+      P::integer("timeout_periods", "periods",
+                 "no new IN report (or the ack lagging) this long latches a fault")
+          .defaults_to(static_cast<double>(c.timeout_periods))
+          .at_least(2)
+          .at_most(1000),
+      P::integer("in_transfers", "", "IN transfers kept queued")
+          .defaults_to(static_cast<double>(c.in_transfers))
+          .at_least(2)
+          .at_most(16),
+      P::integer("out_transfers", "", "OUT transfers in the pool")
+          .defaults_to(static_cast<double>(c.out_transfers))
+          .at_least(1)
+          .at_most(16),
+      P::choice("events", {"loop", "thread"}, "where libusb events are handled (README.md: loop)")
+          .defaults_to("loop"),
+      P::number("mass", "kg m^2 | kg", "moving inertia or mass, for the stability gate")
+          .defaults_to(c.mass)
+          .above(0.0),
+      P::number("damping", "N m s/rad | N s/m", "viscous damping to ground, for the stability gate")
+          .defaults_to(c.damping)
+          .at_least(0.0),
+      P::integer("delay_periods", "periods",
+                 "delay the link adds (-1: from the endpoints' polling intervals)")
+          .defaults_to(-1.0)
+          .at_least(-1)
+          .at_most(64),
+      P::integer("in_report_size", "bytes", "IN report size")
+          .defaults_to(static_cast<double>(d.in.size))
+          .at_least(1)
+          .at_most(64),
+      P::integer("in_report_id", "", "IN report ID in byte 0 (-1: none)")
+          .defaults_to(-1.0)
+          .at_least(-1)
+          .at_most(255),
+      layout_field("in_sequence", "the board's IN report counter", to_string(d.in.sequence)),
+      layout_field("in_ack", "last OUT sequence the board applied", to_string(d.in.ack)),
+      layout_field("in_position", "encoder count", to_string(d.in.position)),
+      layout_bit("in_enabled_bit", "power stage on", d.in.enabled),
+      layout_bit("in_fault_bit", "board fault latched", d.in.fault),
+      layout_bit("in_watchdog_bit", "dead-man tripped", d.in.watchdog),
+      layout_field("in_fault_code", "fault code", to_string(d.in.fault_code)),
+      P::integer("out_report_size", "bytes", "OUT report size")
+          .defaults_to(static_cast<double>(d.out.size))
+          .at_least(1)
+          .at_most(64),
+      P::integer("out_report_id", "", "OUT report ID in byte 0 (-1: none)")
+          .defaults_to(-1.0)
+          .at_least(-1)
+          .at_most(255),
+      layout_field("out_sequence", "OUT report counter", to_string(d.out.sequence)),
+      layout_field("out_command", "signed duty or torque", to_string(d.out.command)),
+      layout_bit("out_enable_bit", "power stage on", d.out.enable),
+      layout_bit("out_reset_bit", "fault reset request", d.out.reset),
+      layout_field("out_deadman", "dead-man timeout in microseconds", to_string(d.out.deadman)),
+  };
+}
+
+}  // namespace
+
+DriverDescription usb_hid_driver() {
+  DriverDescription d;
+  d.name = "usb-hid";
+  d.summary = "USB encoder/motor board over libusb-1.0 (interrupt IN and OUT reports)";
+  d.ready = true;
+  d.parameters = usb_hid_parameters();
+  d.make = [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
+    return std::make_unique<UsbHidDevice>(usb_hid_config_from(p));
+  };
+  return d;
+}
+
+}  // namespace hapticd::drivers::usb_hid
