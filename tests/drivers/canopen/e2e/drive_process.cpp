@@ -1,6 +1,7 @@
 #include "tests/drivers/canopen/e2e/drive_process.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -20,7 +21,7 @@ std::filesystem::path devsim_binary() {
 }
 
 SimulatedDrive::SimulatedDrive(const TempDir& dir, const std::string& hand, const std::string& plant,
-                               const std::vector<std::string>& extra)
+                               const std::vector<std::string>& extra, int fifo_priority)
     : bus_(dir.path / "bus.sock"), log_(dir.path / "devsim.log") {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw std::runtime_error("pipe failed");
@@ -34,6 +35,14 @@ SimulatedDrive::SimulatedDrive(const TempDir& dir, const std::string& hand, cons
     dup2(out, 1);
     dup2(out, 2);
     close(pipe_fds[1]);
+    if (fifo_priority > 0) {
+      sched_param p{};
+      p.sched_priority = fifo_priority;
+      if (sched_setscheduler(0, SCHED_FIFO, &p) != 0) {
+        static const char refused[] = "test: SCHED_FIFO refused, the drive runs as a normal process\n";
+        (void)!write(2, refused, sizeof refused - 1);
+      }
+    }
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);

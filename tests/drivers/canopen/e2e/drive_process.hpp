@@ -21,9 +21,11 @@ class SimulatedDrive {
  public:
   /// Starts the drive on dir/bus.sock and waits until it listens (throws
   /// after 10 s). plant: --plant, as the loopback's keys; extra: more options
-  /// (--rated-torque 20, ...).
+  /// (--rated-torque 20, ...); fifo_priority > 0: the drive's process runs
+  /// SCHED_FIFO at it, as a drive is its own hardware (below hapticd's loop,
+  /// 80; a host that refuses it runs the drive as before, said in its log).
   SimulatedDrive(const TempDir& dir, const std::string& hand, const std::string& plant = rigid_wheel_plant,
-                 const std::vector<std::string>& extra = {});
+                 const std::vector<std::string>& extra = {}, int fifo_priority = 0);
   ~SimulatedDrive();
   SimulatedDrive(const SimulatedDrive&) = delete;
   SimulatedDrive& operator=(const SimulatedDrive&) = delete;
