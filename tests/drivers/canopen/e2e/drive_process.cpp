@@ -25,8 +25,14 @@ SimulatedDrive::SimulatedDrive(const TempDir& dir, const std::string& hand, cons
     : bus_(dir.path / "bus.sock"), log_(dir.path / "devsim.log") {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw std::runtime_error("pipe failed");
-  std::vector<std::string> args = {devsim_binary().string(), "canopen", "--listen", "unix:" + bus_.string(),
-                                   "--plant", plant, "--hand", hand};
+  std::vector<std::string> args = {devsim_binary().string(),
+                                   "canopen",
+                                   "--listen",
+                                   "unix:" + bus_.string(),
+                                   "--plant",
+                                   plant,
+                                   "--hand",
+                                   hand};
   args.insert(args.end(), extra.begin(), extra.end());
   pid_ = fork();
   if (pid_ == 0) {
@@ -55,7 +61,8 @@ SimulatedDrive::SimulatedDrive(const TempDir& dir, const std::string& hand, cons
   // but its log (it runs in its own process).
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   while (log().find("listening on") == std::string::npos) {
-    if (std::chrono::steady_clock::now() > deadline) throw std::runtime_error("devsim did not start: " + log());
+    if (std::chrono::steady_clock::now() > deadline)
+      throw std::runtime_error("devsim did not start: " + log());
     std::this_thread::sleep_for(10ms);
   }
 }
@@ -79,7 +86,8 @@ std::string SimulatedDrive::log() const {
 std::string SimulatedDrive::command(const std::string& line) {
   const std::size_t before = replies().size();
   const std::string text = line + "\n";
-  if (write(commands_, text.data(), text.size()) != static_cast<ssize_t>(text.size())) return "<write failed>";
+  if (write(commands_, text.data(), text.size()) != static_cast<ssize_t>(text.size()))
+    return "<write failed>";
   const auto deadline = std::chrono::steady_clock::now() + 5s;
   while (std::chrono::steady_clock::now() < deadline) {
     const auto r = replies();

@@ -193,8 +193,9 @@ TEST(PassivityCanopen, TwiceTheLimitThroughTheDriveIsAcceptedWithTheControllerAn
   const Recording rec = run_through_the_drive("controller", false, {0, after.to});
   EXPECT_NE(rec.header.at("device").find("canopen"), std::string::npos);
   EXPECT_NE(rec.header.at("device").find("d = 1"), std::string::npos) << "the drive's period, in the gate";
-  EXPECT_TRUE(has_comment(rec, "1.95 x the fixed-gain limit 1.434e+04 N/m; accepted with the passivity "
-                               "controller (Hannaford & Ryu 2002), up to 2 x"));
+  EXPECT_TRUE(has_comment(rec,
+                          "1.95 x the fixed-gain limit 1.434e+04 N/m; accepted with the passivity "
+                          "controller (Hannaford & Ryu 2002), up to 2 x"));
   // The observer pairs each force with the SYNC it acted at (the daemon set it from the drive).
   EXPECT_TRUE(has_comment(rec, "# parameter passivity_device_delay: 1 periods"));
   EXPECT_TRUE(has_comment(rec, "# parameter passivity_velocity_deadband: 0.00471 m/s"));
@@ -240,10 +241,10 @@ TEST(PassivityCanopen, TwiceTheLimitThroughTheDriveIsAcceptedWithTheControllerAn
   std::cout << "controller through the drive: early " << um(e.lo) << ".." << um(e.hi) << " um, late "
             << um(l.lo) << ".." << um(l.hi) << " um (static " << um(static_penetration) << " um); peak "
             << l.peak_force << " N late, " << held.peak_force << " N in the push, " << r.peak_force
-            << " N at the release, " << all.peak_force << " N in the whole run; passivity_energy >= "
-            << all.min_energy * 1e3 << " mJ (" << l.min_energy * 1e3 << " mJ late); " << s.periods
-            << " stale positions, at most " << s.longest << " in a row (" << held.set_aside
-            << " periods of the push set aside)\n";
+            << " N at the release, " << all.peak_force
+            << " N in the whole run; passivity_energy >= " << all.min_energy * 1e3 << " mJ ("
+            << l.min_energy * 1e3 << " mJ late); " << s.periods << " stale positions, at most " << s.longest
+            << " in a row (" << held.set_aside << " periods of the push set aside)\n";
 }
 
 /// The largest |applied| of each contact (a run of periods with force) in turn.
@@ -277,9 +278,8 @@ TEST(PassivityCanopen, WithoutTheControllerTheSameWallThrowsTheDeviceOffAtTheTor
   EXPECT_GE(l.peak_force, torque_limit - 1e-9);
   EXPECT_GT(l.span(), 1e-3);  // millimetres, against tenths of a millimetre with the controller
   const auto flags = rec.values("flags");
-  EXPECT_TRUE(std::any_of(flags.begin(), flags.end(), [](double f) {
-    return (static_cast<unsigned>(f) & flag_torque_limited) != 0;
-  }));
+  EXPECT_TRUE(std::any_of(flags.begin(), flags.end(),
+                          [](double f) { return (static_cast<unsigned>(f) & flag_torque_limited) != 0; }));
   std::cout << "off (forced) through the drive: contacts at " << peaks[0] << ", " << peaks[1] << ", "
             << peaks[2] << ", " << peaks[3] << " N ...; early " << um(e.lo) << ".." << um(e.hi) << " um at "
             << e.peak_force << " N, late " << um(l.lo) << ".." << um(l.hi) << " um at " << l.peak_force
