@@ -6,6 +6,8 @@
 //   - an EMCY, missing TPDOs and a killed drive each zero the output in the
 //     period they are seen and show the drive's reason in `hapticctl status`;
 //     `fault clear` recovers without a torque step;
+//   - TPDOs missing below tpdo_timeout_periods leave the last position,
+//     rendered without a fault and flagged stale_position in the recording;
 //   - a drive that stops answering (its heartbeat lost) zeroes and latches
 //     with the drive's reason, and `fault clear` re-enables it through the
 //     CiA 402 state machine once it answers again;
@@ -322,6 +324,51 @@ TEST(Canopen, ASilentDriveLatchesOnItsLostHeartbeatAndFaultClearReenablesIt) {
   EXPECT_EQ(drive.command("status").find(" force=0 "), std::string::npos) << "torque flows again";
   EXPECT_EQ(d.stop(), 0) << d.log();
   EXPECT_EQ(check_latches_zero_and_clears_without_a_step(read_recording(dir.path / "run.csv")), 1);
+}
+
+// A TPDO that misses its period leaves the scene the last position (the
+// driver's documented rule, below tpdo_timeout_periods): rendered, no fault,
+// and flagged stale_position (64) in the recording, one row per missing TPDO,
+// so a run can tell it from a device at rest (issue 21: a burst of them was
+// the passivity run's "release transient").
+TEST(Canopen, MissingTpdosBelowTheTimeoutAreRenderedAsStalePositionsFlaggedInTheRecording) {
+  TempDir dir;
+  // SCHED_FIFO for the drive: late TPDOs of its own would blur the count.
+  SimulatedDrive drive(dir, turning_hand, rigid_wheel_plant, {}, 70);
+  Daemon d(dir, canopen_config(drive.interface(), "", 1000), {"--record", "run.csv"});
+  ASSERT_TRUE(d.running()) << d.log();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > 700; }));  // torque flows
+  EXPECT_EQ(drive.command("drop-tpdo 6"), "ok dropping 6 TPDOs");
+  const double cycle = status_of(d)["cycle"].get<double>();
+  ASSERT_TRUE(eventually([&] { return status_of(d)["cycle"].get<double>() > cycle + 300; }));
+  EXPECT_TRUE(status_of(d)["fault"].is_null()) << "six missing of 1000 allowed";
+  EXPECT_EQ(d.stop(), 0) << d.log();
+
+  const Recording rec = read_recording(dir.path / "run.csv");
+  const auto flags = rec.values("flags"), position = rec.values("position_rad"),
+             applied = rec.values("applied_n_m");
+  const auto stale = [&](std::size_t i) { return (static_cast<unsigned>(flags[i]) & 64u) != 0; };
+  // The longest run of stale rows: the six dropped (a late TPDO of the VM's may join them).
+  std::size_t best_start = 0, best = 0;
+  for (std::size_t i = 0; i < flags.size();) {
+    if (!stale(i)) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < flags.size() && stale(j)) ++j;
+    if (j - i > best) best_start = i, best = j - i;
+    i = j;
+  }
+  ASSERT_GE(best, 6U) << "the six dropped TPDOs, one stale row each";
+  ASSERT_GT(best_start, 0U);
+  ASSERT_LT(best_start + best, flags.size());
+  for (std::size_t i = best_start; i < best_start + best; ++i) {
+    EXPECT_EQ(position[i], position[best_start - 1]) << "row " << i << ": the last position stands";
+    EXPECT_EQ(static_cast<unsigned>(flags[i]) & 1u, 0U) << "row " << i << ": no fault";
+    EXPECT_NE(applied[i], 0.0) << "row " << i << ": rendered";
+  }
+  EXPECT_FALSE(stale(best_start + best));
 }
 
 TEST(Canopen, HapticctlDeviceSdoCommissionsTheRunningDrive) {
