@@ -3,11 +3,11 @@
 
 #include <algorithm>
 #include <iostream>
-#include <sstream>
 
 #include "daemon/methods/method_support.hpp"
 #include "daemon/service.hpp"
 #include "daemon/telemetry/datagram.hpp"
+#include "world/text.hpp"
 
 namespace hapticd::daemon {
 
@@ -24,16 +24,10 @@ namespace {
   throw RpcError(code::invalid_params, "telemetry.set: " + member + " " + message, json{{"member", member}});
 }
 
-std::string join(const std::vector<std::string>& names) {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out;
-}
+using world::text::join;
 
 std::string number_text(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
+  return world::text::format_significant(value, world::text::precision::message);
 }
 
 /// The member as the channel list it must be; names checked against the scene.
