@@ -95,7 +95,6 @@ pid_t start_amplifier(const mb::ModbusConfig& config, int& port) {
     mlockall(MCL_CURRENT | MCL_FUTURE);
     PlantPort plant;
     mb::sim::AmplifierSettings s;
-    s.map = config.map;
     s.position_per_count = config.position_per_count();
     s.torque_per_count = config.torque_per_count;
     mb::sim::Amplifier amplifier(s, plant);
@@ -154,7 +153,7 @@ void print_rtu_table(const mb::ModbusConfig& c, const mb::LayoutResult& layout, 
 int main(int argc, char** argv) {
   const int cycles = argc > 1 ? std::atoi(argv[1]) : 5000;
   const std::int64_t period_ns = (argc > 2 ? std::atoll(argv[2]) : 1000) * 1000;
-  const mb::ModbusConfig config = mb::build_modbus_config({});
+  const mb::ModbusConfig config = mb::modbus_config({});
   const mb::LayoutResult layout = mb::plan_blocks(config.map);
   print_rtu_table(config, layout, static_cast<double>(period_ns) * 1e-9);
 

@@ -252,9 +252,7 @@ std::vector<SetupItem> check_modbus_rtu(const DaemonConfig& config, const driver
   } else {
     items.push_back(item("device", Verdict::ok, p.text("device") + ", open to " + facts.user.name));
   }
-  std::map<std::string, drivers::ParameterValue> given;
-  for (const auto& q : config.device.parameters) given[q.key] = q.value;
-  const auto modbus = drivers::modbus::build_modbus_config(given);
+  const auto modbus = drivers::modbus::modbus_config_from(p);
   const auto layout = drivers::modbus::plan_blocks(modbus.map);
   const auto cycle =
       drivers::modbus::cycle_time(modbus.serial, modbus.silence, modbus.turnaround_s, modbus.function_23,

@@ -1,22 +1,17 @@
 #pragma once
 /// \file
-/// Typed parameters of the `modbus` driver ([device.modbus] in the config):
-/// the link (TCP or RTU), the timing budget, the register map and the
-/// scaling to SI. modbus_parameters() is the table (JACK2 style: name, type,
-/// default, range, unit, help) that the registry, the config parser's
-/// messages and the docs come from; build_modbus_config() turns typed values
-/// into a checked ModbusConfig, naming the key on any error.
+/// The `modbus` driver's typed config ([device.modbus] in the config): the
+/// link (TCP or RTU), the timing budget, the register map and the scaling
+/// to SI, converted once from the checked parameters.
 
 #include <map>
-#include <optional>
-#include <stdexcept>
 #include <string>
-#include <variant>
 #include <vector>
 
 #include "drivers/device_hooks.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/rtu_timing.hpp"
+#include "drivers/parameter.hpp"
 
 namespace hapticd::drivers::modbus {
 
@@ -58,42 +53,25 @@ struct ModbusConfig {
   int transactions() const noexcept { return function_23 ? 1 : 2; }
 };
 
-/// A parameter value as the config parser types it: the one ParameterValue (world/parameter.hpp).
-using world::ParameterValue;
+/// Every key of [device.modbus], in documentation order: the keys every
+/// device takes first (motion, mass, damping), then the link, the timing,
+/// the scaling and the register map. The one vocabulary of the registry,
+/// the config's messages and docs/driver-parameters.md (modbus_driver.cpp).
+const std::vector<ParameterSpec>& modbus_parameters();
 
-enum class ParameterType { number, integer, boolean, text, choice, duration };
+/// The typed config from a checked [device.modbus] table (DriverParameters:
+/// types, ranges and choices already checked against modbus_parameters()).
+/// Throws ParameterError naming the key for what the table alone cannot
+/// check: an empty host or device, a baud rate libmodbus cannot set, a unit
+/// address the transport does not take, fault_bits that do not parse, a
+/// register map that cannot work (overlaps, non-adjacent watchdog, fc 23
+/// with input registers ...).
+ModbusConfig modbus_config_from(const DriverParameters& parameters);
 
-struct ModbusParameter {
-  std::string name;
-  ParameterType type;
-  ParameterValue default_value;
-  std::string default_note;
-  std::optional<double> minimum, maximum;
-  std::vector<std::string> accepted;
-  std::string unit;
-  std::string help;
-};
-
-/// Every key of [device.modbus], in documentation order.
-const std::vector<ModbusParameter>& modbus_parameters();
-
-/// A bad parameter: one line, naming what is wrong and what is accepted;
-/// key() is the [device.modbus] key to blame.
-class ConfigError : public std::invalid_argument {
- public:
-  ConfigError(const std::string& key, const std::string& message)
-      : std::invalid_argument("device.modbus." + key + ": " + message), key_(key) {}
-  const std::string& key() const noexcept { return key_; }
-
- private:
-  std::string key_;
-};
-
-/// Typed values by key (missing keys take their defaults) into a checked
-/// config. Throws ConfigError on an unknown key, a wrong type, a value out
-/// of range, or a register map that cannot work (overlaps, non-adjacent
-/// watchdog, fc 23 with input registers ...).
-ModbusConfig build_modbus_config(const std::map<std::string, ParameterValue>& values);
+/// Shorthand for tests and tools: `given` checked against
+/// modbus_parameters() (defaults filled), then modbus_config_from().
+/// Throws ParameterError naming the key.
+ModbusConfig modbus_config(const std::map<std::string, ParameterValue, std::less<>>& given = {});
 
 /// Period-dependent checks happen at configure (modbus_device), not here.
 

@@ -64,11 +64,7 @@ ModbusDevice::ModbusDevice(ModbusConfig config) : config_(std::move(config)) {
   const LayoutResult layout = plan_blocks(config_.map);
   if (!layout.error_key.empty()) throw DeviceError("modbus: " + layout.error, layout.error_key);
   layout_ = layout.layout;
-  try {
-    link_ = std::make_unique<ModbusLink>(link_settings(config_));
-  } catch (const LinkError& e) {
-    throw DeviceError(std::string("modbus: ") + e.what(), e.key());
-  }
+  link_ = std::make_unique<ModbusLink>(link_settings(config_));
 }
 
 ModbusDevice::~ModbusDevice() { close(); }
@@ -145,14 +141,10 @@ void ModbusDevice::configure(const LoopContext& loop) {
   stop_ = loop.stop;
   link_->set_stop(loop.stop);
   check_period(loop.period_s);
-  try {
-    // The one-off exchanges of configure (and of the control thread) wait
-    // up to connect_timeout: only the periodic exchange has a period to fit.
-    link_->set_response_timeout(control_timeout_s());
-    link_->open();
-  } catch (const LinkError& e) {
-    throw DeviceError("modbus: " + std::string(e.what()), e.key());
-  }
+  // The one-off exchanges of configure (and of the control thread) wait
+  // up to connect_timeout: only the periodic exchange has a period to fit.
+  link_->set_response_timeout(control_timeout_s());
+  link_->open();
   link_down_ = false;
   streak_ = 0;
   bool armed = false;
@@ -452,7 +444,7 @@ double ModbusDevice::control_timeout_s() const noexcept {
 void ModbusDevice::set_timeout(double seconds) noexcept {
   try {
     link_->set_response_timeout(seconds);
-  } catch (const LinkError&) {
+  } catch (const DeviceError&) {
     // Both values were accepted at configure; nothing to do here.
   }
 }
@@ -548,7 +540,6 @@ void ModbusDevice::wait_enabled(const char* doing) {
 }
 
 void ModbusDevice::enable() {
-  if (expect_enabled_.load()) return;  // again after a clear: clear_fault() enabled it
   acquire_control("enabling");
   try {
     command_counts_.store(0);
@@ -575,11 +566,7 @@ std::string ModbusDevice::clear_fault() {
     const bool stalled_tcp = config_.transport == Transport::tcp && was_latched &&
                              fault_record().cause == FaultCause::failure_streak;
     if (link_down_ || stalled_tcp) {
-      try {
-        link_->reopen();
-      } catch (const LinkError& e) {
-        throw DeviceError("modbus: clearing the fault: " + std::string(e.what()), e.key());
-      }
+      link_->reopen();
       link_down_ = false;
       add("reconnected to " + link_->endpoint());
     }

@@ -15,9 +15,10 @@
 /// libmodbus does the RTU framing on the wire; over TCP the link frames the
 /// transactions with these (libmodbus 3.1.6 cannot pair a reply with its
 /// request by transaction id, modbus_link.hpp). They also let the tests
-/// check libmodbus's frames against the standard, let the simulated
-/// amplifier read a request's fields and inject a reply with a wrong CRC,
-/// and size the RTU budget.
+/// check libmodbus's frames against the standard and size the RTU budget.
+/// The simulated amplifier does not use them: it reads and writes the wire
+/// with its own decoder (sim/modbus/amplifier_wire.hpp), so a misreading
+/// of the standard here fails against it.
 
 #include <cstddef>
 #include <cstdint>
@@ -128,7 +129,8 @@ enum class PduStatus : std::uint8_t {
   unsupported,     ///< a function this driver does not use (exception 01 from a server)
 };
 
-/// A register request's fields, for a server (the simulated amplifier).
+/// A register request's fields as a server reads them (the codec's own
+/// round trip in its tests and fuzz target).
 struct RegisterRequest {
   std::uint8_t function = 0;
   std::uint16_t read_address = 0, read_count = 0;    ///< fc 3, 4, 23

@@ -165,22 +165,25 @@ ModbusLink::ModbusLink(LinkSettings settings) : settings_(std::move(settings)) {
     const std::string service = std::to_string(settings_.port);
     ctx_ = modbus_new_tcp_pi(settings_.host.c_str(), service.c_str());
     if (!ctx_)
-      throw LinkError("host",
-                      "cannot make a Modbus TCP context for " + settings_.host + ": " + system_error(errno));
+      throw DeviceError(
+          "modbus: cannot make a Modbus TCP context for " + settings_.host + ": " + system_error(errno),
+          "host");
   } else {
     ctx_ = modbus_new_rtu(settings_.device.c_str(), settings_.serial.baud,
                           parity_letter(settings_.serial.parity), settings_.serial.data_bits,
                           settings_.serial.stop_bits);
     if (!ctx_)
-      throw LinkError(
-          "device", "cannot make a Modbus RTU context for " + settings_.device + ": " + system_error(errno));
+      throw DeviceError(
+          "modbus: cannot make a Modbus RTU context for " + settings_.device + ": " + system_error(errno),
+          "device");
   }
   // Recovery would sleep a whole response timeout and reconnect inside a
   // transaction, on the RT thread; the device decides instead.
   modbus_set_error_recovery(ctx_, MODBUS_ERROR_RECOVERY_NONE);
   if (modbus_set_slave(ctx_, settings_.slave_id) != 0)
-    throw LinkError("slave_id", "libmodbus refuses slave id " + std::to_string(settings_.slave_id) + ": " +
-                                    system_error(errno));
+    throw DeviceError("modbus: libmodbus refuses slave id " + std::to_string(settings_.slave_id) + ": " +
+                          system_error(errno),
+                      "slave_id");
 }
 
 ModbusLink::~ModbusLink() {
@@ -201,14 +204,14 @@ std::string ModbusLink::endpoint() const {
 void ModbusLink::apply_timeouts() {
   const TimeoutParts response = split_seconds(settings_.response_timeout_s);
   if (modbus_set_response_timeout(ctx_, response.sec, response.usec) != 0)
-    throw LinkError("response_timeout", "libmodbus refuses a response timeout of " +
-                                            std::to_string(settings_.response_timeout_s) +
-                                            " s: " + system_error(errno));
+    throw DeviceError("modbus: libmodbus refuses a response timeout of " +
+                          std::to_string(settings_.response_timeout_s) + " s: " + system_error(errno),
+                      "response_timeout");
   const TimeoutParts byte = split_seconds(settings_.byte_timeout_s);
   if (modbus_set_byte_timeout(ctx_, byte.sec, byte.usec) != 0)
-    throw LinkError("byte_timeout", "libmodbus refuses a byte timeout of " +
-                                        std::to_string(settings_.byte_timeout_s) +
-                                        " s: " + system_error(errno));
+    throw DeviceError("modbus: libmodbus refuses a byte timeout of " +
+                          std::to_string(settings_.byte_timeout_s) + " s: " + system_error(errno),
+                      "byte_timeout");
 }
 
 void ModbusLink::set_response_timeout(double seconds) {
@@ -222,7 +225,8 @@ void ModbusLink::open() {
     connect_tcp();
   } else if (modbus_connect(ctx_) != 0) {  // RTU: open(2) and termios, no wait
     const int e = errno;
-    throw LinkError("device", "cannot open serial device " + settings_.device + ": " + system_error(e));
+    throw DeviceError("modbus: cannot open serial device " + settings_.device + ": " + system_error(e),
+                      "device");
   }
   open_ = true;
   if (settings_.transport == Transport::tcp) {
@@ -234,9 +238,10 @@ void ModbusLink::open() {
       modbus_rtu_set_serial_mode(ctx_, MODBUS_RTU_RS485) != 0) {
     const int e = errno;
     close();
-    throw LinkError("rs485", settings_.device + " refuses RS-485 mode (TIOCSRS485: " + system_error(e) +
-                                 "): its kernel driver cannot switch the transceiver; use an adapter that "
-                                 "switches direction by itself and set rs485 = false");
+    throw DeviceError("modbus: " + settings_.device + " refuses RS-485 mode (TIOCSRS485: " + system_error(e) +
+                          "): its kernel driver cannot switch the transceiver; use an adapter that "
+                          "switches direction by itself and set rs485 = false",
+                      "rs485");
   }
   try {
     apply_timeouts();
@@ -281,7 +286,8 @@ void ModbusLink::connect_tcp() {
   addrinfo* found = nullptr;
   const std::string service = std::to_string(settings_.port);
   if (const int e = getaddrinfo(settings_.host.c_str(), service.c_str(), &hints, &found); e != 0)
-    throw LinkError("host", "cannot resolve Modbus TCP host " + settings_.host + ": " + gai_strerror(e));
+    throw DeviceError("modbus: cannot resolve Modbus TCP host " + settings_.host + ": " + gai_strerror(e),
+                      "host");
   const auto timeout = std::chrono::duration_cast<SlicedWait::Clock::duration>(
       std::chrono::duration<double>(settings_.connect_timeout_s));
   const SlicedWait wait(stop_, timeout);
@@ -306,8 +312,9 @@ void ModbusLink::connect_tcp() {
   if (error == ECANCELED)
     throw StopRequested(abandoned("modbus: connecting to Modbus TCP " + settings_.host + ":" + service));
   if (fd < 0)
-    throw LinkError("host", "cannot connect to Modbus TCP " + settings_.host + ":" + service + " within " +
-                                timeout_text(settings_.connect_timeout_s) + ": " + system_error(error));
+    throw DeviceError("modbus: cannot connect to Modbus TCP " + settings_.host + ":" + service + " within " +
+                          timeout_text(settings_.connect_timeout_s) + ": " + system_error(error),
+                      "host");
   modbus_set_socket(ctx_, fd);
 }
 

@@ -47,9 +47,9 @@
 #include <atomic>
 #include <cstdint>
 #include <span>
-#include <stdexcept>
 #include <string>
 
+#include "drivers/device_hooks.hpp"
 #include "drivers/modbus/modbus_frame.hpp"
 #include "drivers/modbus/register_map.hpp"
 #include "drivers/modbus/rtu_timing.hpp"
@@ -134,16 +134,6 @@ struct LinkCounters {
   std::atomic<std::uint64_t> reconnects{0};
 };
 
-/// open() failures: one line; key() names the [device.modbus] key to blame.
-class LinkError : public std::runtime_error {
- public:
-  LinkError(const std::string& key, const std::string& message) : std::runtime_error(message), key_(key) {}
-  const std::string& key() const noexcept { return key_; }
-
- private:
-  std::string key_;
-};
-
 class ModbusLink {
  public:
   explicit ModbusLink(LinkSettings settings);
@@ -153,16 +143,17 @@ class ModbusLink {
 
   /// Connects (TCP within connect_timeout) or opens the serial device, then
   /// RS-485 mode if asked, error recovery none, the slave id and timeouts.
-  /// Throws LinkError, or StopRequested when a stop ends the connect.
+  /// Throws DeviceError naming the [device.modbus] key to blame, or
+  /// StopRequested when a stop ends the connect.
   void open();
   /// The stop request the long waits give way to (see the file comment).
   void set_stop(StopToken stop) noexcept { stop_ = std::move(stop); }
   /// Closes the socket or device; idempotent.
   void close() noexcept;
-  /// close() + open() (TCP reconnect, off the RT thread). Throws LinkError.
+  /// close() + open() (TCP reconnect, off the RT thread). Throws DeviceError.
   void reopen();
   bool is_open() const noexcept { return open_; }
-  /// Throws LinkError("response_timeout") on a value libmodbus refuses.
+  /// Throws DeviceError (key response_timeout) on a value libmodbus refuses.
   void set_response_timeout(double seconds);
   double response_timeout_s() const noexcept { return settings_.response_timeout_s; }
   const LinkSettings& settings() const noexcept { return settings_; }
@@ -198,7 +189,7 @@ class ModbusLink {
                   std::uint8_t exception_code = 0) noexcept;
   void apply_timeouts();
 
-  void connect_tcp();  ///< non-blocking connect() in slices; throws LinkError, StopRequested
+  void connect_tcp();  ///< non-blocking connect() in slices; throws DeviceError, StopRequested
   /// TCP always; RTU when the response timeout is longer than a slice.
   bool framed_here() const noexcept;
   /// One transaction framed by the codec (TCP or RTU); on ok, reply_pdu()

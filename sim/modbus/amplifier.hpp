@@ -1,20 +1,26 @@
 #pragma once
 /// \file
-/// The simulated amplifier's protocol logic: a register map in front of a
-/// plant. Pure: no system calls; the server (amplifier_server.hpp) receives
-/// each request with libmodbus, asks on_request() what to do, and lets
-/// libmodbus's modbus_reply() answer from the same register tables.
+/// The simulated amplifier's protocol logic: its own register map
+/// (amplifier_registers.hpp) in front of a plant. Pure: no system calls; the
+/// server (amplifier_server.hpp) receives each request with libmodbus, asks
+/// on_request() what to do, and answers with build_reply() or an exception
+/// reply, framed by amplifier_wire.hpp. It reads the request with its own
+/// decoder (amplifier_wire.hpp), written from the Modbus Application
+/// Protocol Specification V1.1b3, not with the driver's codec.
 ///
 /// What it does with a request addressed to it, in order:
 ///  1. an injected failure, if one is pending (an exception reply; silence,
 ///     as if the request were lost on the line; a reply with a wrong CRC,
 ///     after applying the request; a dropped connection; a late reply);
-///  2. fc 23 on an amplifier configured without it: exception 01;
-///  3. the writes (V1.1b3 6.17: fc 23 writes before it reads): the torque
+///  2. the request's own exceptions (AP 6.x state diagrams): 01 for a
+///     function it does not serve (fc 23 too, on an amplifier set without
+///     it), 03 for a quantity, byte count or coil value out of the spec, 02
+///     for an address outside its tables; such a request applies nothing;
+///  3. the writes (AP 6.17: fc 23 writes before it reads): the torque
 ///     command, the watchdog (a nonzero value arms it for that many ms of
-///     wall time, 0 disarms; with refresh = write every write restarts it),
-///     the reset register (reset_value clears the fault word), the enable
-///     coil or bit (ignored while in fault);
+///     its clock, 0 disarms; every write of it restarts it), the reset
+///     register (1 clears the fault word), the enable coil or control bit
+///     (ignored while in fault);
 ///  4. one plant step per request that writes the torque register, BEFORE
 ///     its writes take effect: the plant advances one period under the
 ///     torque applied since the previous command (time passes between
@@ -23,14 +29,15 @@
 ///     A run is therefore the loopback run of the same plant with delay = 1;
 ///  5. the state registers: position and velocity from the plant, status
 ///     (enabled and fault bits), fault word.
-/// The watchdog expires in wall time (tick()): power stage off, torque 0,
-/// the watchdog fault bit set, until a reset and a new enable.
+/// The watchdog expires on the amplifier's clock (tick(): the server's wall
+/// clock, or a test's simulated one): power stage off, torque 0, the
+/// watchdog fault bit set, until a reset and a new enable.
 ///
 /// With alive_counter_s > 0 the watchdog register is an alive counter
 /// instead (the amplifiers hapticd drives with watchdog_refresh =
 /// "counter"): watched while the power stage is on, a write that leaves its
 /// value unchanged trips the watchdog at once, and so does no new value for
-/// alive_counter_s of wall time. A value that changes by other than +1
+/// alive_counter_s of its clock. A value that changes by other than +1
 /// (mod 2^16) is counted (alive_jumps), not tripped on.
 ///
 /// Threads: on_request()/tick()/build_reply() from the server thread; the
@@ -41,8 +48,8 @@
 #include <span>
 
 #include "drivers/device_hooks.hpp"
-#include "drivers/modbus/modbus_frame.hpp"
-#include "drivers/modbus/register_map.hpp"
+#include "sim/modbus/amplifier_registers.hpp"
+#include "sim/modbus/amplifier_wire.hpp"
 
 namespace hapticd::drivers::modbus::sim {
 
@@ -58,16 +65,19 @@ class AmplifierPlant {
   virtual IoResult step(double force) noexcept = 0;
 };
 
+/// What the amplifier's owner sets (its configuration, not its wire).
 struct AmplifierSettings {
-  RegisterMap map;
   int slave_id = 1;
-  double position_per_count = 0.0;    ///< rad or m per position count
-  double torque_per_count = 0.001;    ///< N m or N per command count
-  bool function_23 = true;            ///< false: answers fc 23 with exception 01 (illegal function)
-  int watchdog_fault_bit = 2;         ///< fault-word bit set when the watchdog expires
+  double position_per_count = 0.0;  ///< rad or m per position count
+  double torque_per_count = 0.001;  ///< N m or N per command count
+  bool function_23 = true;          ///< false: answers fc 23 with exception 01 (illegal function)
+  WordOrder32 word_order = WordOrder32::high_word_first;
+  StateTable state_table = StateTable::holding;
+  EnableBy enable_by = EnableBy::control_word;
+  bool watchdog_any_frame = false;    ///< every valid request restarts the watchdog, not only its writes
+  double alive_counter_s = 0.0;       ///< > 0: the watchdog register is an alive counter (file comment), s
   std::uint16_t register_count = 64;  ///< holding and input tables, addresses 0..register_count-1
   std::uint16_t coil_count = 16;
-  double alive_counter_s = 0.0;  ///< > 0: the watchdog register is an alive counter (file comment), s
 };
 
 enum class Injection : std::uint8_t {
@@ -102,27 +112,30 @@ struct AmplifierState {
   double trip_silence_s = 0.0;
   std::uint16_t watchdog_register = 0;  ///< the value last written to it
   std::uint64_t alive_jumps = 0;        ///< alive counter: changes other than +1 while watched
+  double time_s = 0.0;                  ///< the amplifier's clock at its last tick or request
+  double refreshed_s = 0.0;             ///< when the watchdog was last restarted (its clock)
 };
 
 class Amplifier {
  public:
   Amplifier(AmplifierSettings settings, AmplifierPlant& plant);
 
-  /// The register tables libmodbus answers from (the server's mapping).
+  /// The register tables the amplifier serves (the server's, or a test's).
   void bind(std::span<std::uint16_t> holding, std::span<std::uint16_t> input, std::span<std::uint8_t> coils);
 
   /// See the file comment. `now_s` is the wall clock (any epoch).
   Decision on_request(std::span<const std::uint8_t> pdu, double now_s) noexcept;
   /// Between requests: the watchdog.
   void tick(double now_s) noexcept;
-  /// The normal reply PDU to `pdu` from the current tables (for a reply the
-  /// server must corrupt). 0 if the request is not one this amplifier answers.
+  /// The normal reply PDU to `pdu` from the current tables, after
+  /// on_request() applied it (AP 6.3-6.17). 0 if the request is not one
+  /// this amplifier answers.
   std::size_t build_reply(std::span<const std::uint8_t> pdu, std::span<std::uint8_t> out) const noexcept;
 
   // ---- switches, any thread ----
   /// `count` requests get `what`; `exception_code` for exception, `delay_ms` for late.
-  void inject(Injection what, int count = 1,
-              std::uint8_t exception_code = exception_code::server_device_failure, int delay_ms = 0) noexcept;
+  void inject(Injection what, int count = 1, std::uint8_t exception_code = exception::server_device_failure,
+              int delay_ms = 0) noexcept;
   /// Sets fault bits as the amplifier's own protection would (over-current ...): power stage off.
   void inject_fault(std::uint16_t bits) noexcept;
   /// The position registers jump by `counts` once, from the next reply on
@@ -135,9 +148,15 @@ class Amplifier {
 
  private:
   std::uint16_t* holding(std::uint16_t address) noexcept;
-  std::uint16_t* state_register(std::uint16_t address) noexcept;  ///< the read table
+  std::span<std::uint16_t> state_table() noexcept;  ///< where registers 0-5 are
+  /// An injected failure's decision, if one is pending and ends the request.
+  bool take_injection(Decision& decision) noexcept;
+  /// 02 when the request reaches past the tables it reads or writes, else 0 (AP 4.4, 7).
+  std::uint8_t address_exception(const Request& request) const noexcept;
+  void apply(const Request& request, double now_s) noexcept;
   void apply_write(std::uint16_t address, std::uint16_t value, double now_s) noexcept;
   void set_enable(bool on, double now_s) noexcept;
+  void restart_watchdog(double period_s, double now_s) noexcept;
   void on_alive_count(std::uint16_t value, double now_s) noexcept;
   void trip_watchdog(double now_s) noexcept;
   void refresh_state_registers() noexcept;
@@ -158,6 +177,7 @@ class Amplifier {
   double applied_ = 0.0;
   std::uint64_t steps_ = 0, requests_ = 0, trips_ = 0, resets_ = 0;
   double trip_silence_s_ = 0.0;
+  double now_s_ = 0.0, refreshed_s_ = 0.0;
   std::uint16_t watchdog_value_ = 0;
   std::uint64_t alive_jumps_ = 0;
 
@@ -173,7 +193,7 @@ class Amplifier {
   std::atomic<bool> pub_enabled_{false}, pub_armed_{false};
   std::atomic<std::uint16_t> pub_fault_{0}, pub_watchdog_value_{0};
   std::atomic<std::int16_t> pub_counts_{0};
-  std::atomic<double> pub_applied_{0.0}, pub_trip_silence_{0.0};
+  std::atomic<double> pub_applied_{0.0}, pub_trip_silence_{0.0}, pub_time_{0.0}, pub_refreshed_{0.0};
   std::atomic<std::uint64_t> pub_steps_{0}, pub_requests_{0}, pub_trips_{0}, pub_resets_{0},
       pub_alive_jumps_{0};
 };

@@ -8,6 +8,7 @@
 #include <pthread.h>
 #include <pty.h>
 #include <sched.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <termios.h>
 #include <unistd.h>
@@ -21,23 +22,24 @@ namespace hapticd::drivers::modbus::sim {
 
 namespace {
 
-double now_s() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
 // How often the loop wakes without traffic: the watchdog's resolution and
 // the stop latency.
 constexpr std::uint32_t idle_wake_us = 2000;
 
 }  // namespace
 
-AmplifierServer::AmplifierServer(Amplifier& amplifier, bool rtu) : amplifier_(amplifier), rtu_(rtu) {
-  const auto& s = amplifier_.settings();
-  mapping_ = modbus_mapping_new(s.coil_count, 0, s.register_count, s.register_count);
-  if (!mapping_) throw std::runtime_error(std::string("modbus_mapping_new: ") + modbus_strerror(errno));
-  amplifier_.bind({mapping_->tab_registers, static_cast<std::size_t>(mapping_->nb_registers)},
-                  {mapping_->tab_input_registers, static_cast<std::size_t>(mapping_->nb_input_registers)},
-                  {mapping_->tab_bits, static_cast<std::size_t>(mapping_->nb_bits)});
+AmplifierServer::AmplifierServer(Amplifier& amplifier, bool rtu)
+    : amplifier_(amplifier),
+      rtu_(rtu),
+      holding_(amplifier.settings().register_count),
+      input_(amplifier.settings().register_count),
+      coils_(amplifier.settings().coil_count) {
+  amplifier_.bind(holding_, input_, coils_);
+}
+
+double AmplifierServer::now_s() const noexcept {
+  if (clock_ != nullptr) return clock_->now_s();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 std::unique_ptr<AmplifierServer> AmplifierServer::tcp(Amplifier& amplifier, const std::string& host,
@@ -91,7 +93,6 @@ AmplifierServer::~AmplifierServer() {
   if (listen_fd_ >= 0) ::close(listen_fd_);
   if (master_fd_ >= 0) ::close(master_fd_);
   if (slave_fd_ >= 0) ::close(slave_fd_);
-  if (mapping_) modbus_mapping_free(mapping_);
 }
 
 void AmplifierServer::start() {
@@ -133,32 +134,50 @@ bool AmplifierServer::accept_client() noexcept {
   return true;
 }
 
-void AmplifierServer::serve_one(const std::uint8_t* query, int length) noexcept {
-  const int header = modbus_get_header_length(ctx_);
-  const int checksum = rtu_ ? 2 : 0;
-  const std::span<const std::uint8_t> pdu(query + header,
-                                          static_cast<std::size_t>(length - header - checksum));
+void AmplifierServer::send_reply(std::span<const std::uint8_t> adu, std::span<const std::uint8_t> pdu,
+                                 bool corrupt_crc) noexcept {
+  std::array<std::uint8_t, max_reply_bytes> frame{};
+  if (rtu_) {
+    if (adu[0] == 0) return;  // SL 2.1: no reply to a broadcast
+    const std::size_t n = frame_rtu_reply(adu[0], pdu, corrupt_crc, frame);
+    [[maybe_unused]] const ssize_t w = ::write(master_fd_, frame.data(), n);
+  } else {
+    const std::size_t n = frame_tcp_reply(adu, pdu, frame);
+    [[maybe_unused]] const ssize_t w = ::send(modbus_get_socket(ctx_), frame.data(), n, MSG_NOSIGNAL);
+  }
+  replies_.fetch_add(1, std::memory_order_release);
+}
+
+int AmplifierServer::line_bytes_waiting() const noexcept {
+  if (!rtu_) return -1;
+  int waiting = 0;
+  return ::ioctl(slave_fd_, TIOCINQ, &waiting) == 0 ? waiting : -1;
+}
+
+void AmplifierServer::serve_one(std::span<const std::uint8_t> adu) noexcept {
+  // modbus_receive framed one request: TCP the MBAP header (7 bytes), RTU
+  // the address and, at the end, the CRC it checked.
+  const auto header = static_cast<std::size_t>(modbus_get_header_length(ctx_));
+  const std::size_t checksum = rtu_ ? 2 : 0;
+  if (adu.size() <= header + checksum) return;
+  const std::span<const std::uint8_t> pdu = adu.subspan(header, adu.size() - header - checksum);
   const Decision d = amplifier_.on_request(pdu, now_s());
   if (d.delay_ms > 0) usleep(static_cast<useconds_t>(d.delay_ms) * 1000u);
+  std::array<std::uint8_t, max_pdu_bytes> reply{};
+  std::size_t n = 0;
   switch (d.kind) {
     case Decision::Kind::reply:
-      modbus_reply(ctx_, query, length, mapping_);
+    case Decision::Kind::corrupt_crc:
+      n = amplifier_.build_reply(pdu, reply);
+      if (n == 0) n = encode_exception_reply(pdu[0], exception::server_device_failure, reply);
+      send_reply(adu, std::span<const std::uint8_t>(reply.data(), n), d.kind == Decision::Kind::corrupt_crc);
       break;
     case Decision::Kind::exception:
-      modbus_reply_exception(ctx_, query, d.exception_code);
+      n = encode_exception_reply(pdu[0], d.exception_code, reply);
+      send_reply(adu, std::span<const std::uint8_t>(reply.data(), n), false);
       break;
     case Decision::Kind::silence:
       break;
-    case Decision::Kind::corrupt_crc: {
-      std::array<std::uint8_t, limits::max_pdu> reply{};
-      std::array<std::uint8_t, limits::max_rtu_adu> frame{};
-      const std::size_t n = amplifier_.build_reply(pdu, reply);
-      const std::size_t f = build_rtu_adu(frame, query[0], std::span<const std::uint8_t>(reply.data(), n));
-      if (f == 0) break;
-      frame[f - 1] ^= 0xFF;  // the CRC's high byte, inverted
-      [[maybe_unused]] const ssize_t w = ::write(master_fd_, frame.data(), f);
-      break;
-    }
     case Decision::Kind::drop:
       modbus_close(ctx_);  // TCP: shutdown + close of the client socket
       client_ = false;
@@ -176,7 +195,7 @@ void AmplifierServer::run() noexcept {
     }
     const int rc = modbus_receive(ctx_, query.data());
     if (rc > 0) {
-      serve_one(query.data(), rc);
+      serve_one(std::span<const std::uint8_t>(query.data(), static_cast<std::size_t>(rc)));
     } else if (rc < 0 && errno != ETIMEDOUT) {
       if (rtu_) {
         // A garbled frame or a device glitch: drop what is buffered, go on.

@@ -5,10 +5,9 @@
 #include <cerrno>
 #include <iostream>
 #include <memory>
-#include <sstream>
+#include <numbers>
 #include <string>
 
-#include "drivers/modbus/modbus_config.hpp"
 #include "drivers/simulation/hand_script.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
 #include "sim/modbus/amplifier_server.hpp"
@@ -26,53 +25,41 @@ struct Options {
   double period_s = 1e-3;
   std::string plant;
   std::string hand;
-  std::string map;
+  AmplifierSettings amplifier;
+  double counts = 16384.0;
+  std::string word_order = "high-first";
+  std::string state_table = "holding";
+  std::string enable_by = "control-word";
   bool no_function_23 = false;
-  double alive_counter_s = 0.0;
   int priority = 0;
 };
 
-// "key=value key=value" as [device.modbus] values: true/false, numbers, text.
-std::map<std::string, ParameterValue> map_values(const std::string& text) {
-  std::map<std::string, ParameterValue> values;
-  std::istringstream in(text);
-  for (std::string item; in >> item;) {
-    const auto eq = item.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw std::invalid_argument("--map item \"" + item + "\" is not key=value");
-    const std::string key = item.substr(0, eq), value = item.substr(eq + 1);
-    if (value == "true" || value == "false") {
-      values[key] = value == "true";
-      continue;
-    }
-    try {
-      std::size_t used = 0;
-      const double number = std::stod(value, &used);
-      if (used == value.size()) {
-        values[key] = number;
-        continue;
-      }
-    } catch (const std::exception&) {
-    }
-    values[key] = value;
-  }
-  return values;
+/// The amplifier's settings from the options; the position scale follows the plant's motion.
+AmplifierSettings amplifier_settings(const Options& o, Motion motion) {
+  AmplifierSettings s = o.amplifier;
+  s.position_per_count = (motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0) / o.counts;
+  s.function_23 = !o.no_function_23;
+  s.word_order = o.word_order == "low-first" ? WordOrder32::low_word_first : WordOrder32::high_word_first;
+  s.state_table = o.state_table == "input" ? StateTable::input : StateTable::holding;
+  s.enable_by = o.enable_by == "coil" ? EnableBy::coil : EnableBy::control_word;
+  return s;
+}
+
+void announce(const AmplifierServer& server, const Options& o, int slave_id) {
+  if (server.is_rtu())
+    std::cout << "modbus amplifier: rtu " << server.slave_path() << " slave " << slave_id << std::endl;
+  else
+    std::cout << "modbus amplifier: tcp " << o.host << ":" << server.port() << " unit " << slave_id
+              << std::endl;
 }
 
 int run(const Options& o) {
   try {
-    const ModbusConfig config = build_modbus_config(map_values(o.map));
+    const simulation::PlantConfig plant_config = devsim::plant_from(o.plant, o.period_s);
     simulation::PlantSimulator simulator(
-        devsim::plant_from(o.plant, o.period_s),
-        o.hand.empty() ? simulation::HandScript{} : simulation::parse_hand_script(o.hand));
+        plant_config, o.hand.empty() ? simulation::HandScript{} : simulation::parse_hand_script(o.hand));
     SimulatorPlant plant(simulator);
-    AmplifierSettings s;
-    s.map = config.map;
-    s.slave_id = config.slave_id;
-    s.position_per_count = config.position_per_count();
-    s.torque_per_count = config.torque_per_count;
-    s.function_23 = !o.no_function_23;
-    s.alive_counter_s = o.alive_counter_s;
+    const AmplifierSettings s = amplifier_settings(o, plant_config.motion);
     Amplifier amplifier(s, plant);
     auto server = o.transport == "rtu" ? AmplifierServer::rtu_pty(amplifier)
                                        : AmplifierServer::tcp(amplifier, o.host, o.port);
@@ -83,11 +70,7 @@ int run(const Options& o) {
                   << (e == EPERM ? "not permitted" : "errno " + std::to_string(e))
                   << "): answering at normal priority" << std::endl;
     }
-    if (server->is_rtu())
-      std::cout << "modbus amplifier: rtu " << server->slave_path() << " slave " << s.slave_id << std::endl;
-    else
-      std::cout << "modbus amplifier: tcp " << o.host << ":" << server->port() << " unit " << s.slave_id
-                << std::endl;
+    announce(*server, o, s.slave_id);
     for (std::string line; std::getline(std::cin, line);)
       std::cout << run_peer_command(line, *server, amplifier) << std::endl;
     pause();  // stdin closed: serve until a signal ends the process
@@ -96,6 +79,31 @@ int run(const Options& o) {
     std::cerr << "hapticd-devsim modbus: " << e.what() << "\n";
     return 2;
   }
+}
+
+/// The amplifier's own settings, as its configuration tool would set them.
+void add_amplifier_options(CLI::App& cmd, Options& o) {
+  cmd.add_option("--slave-id", o.amplifier.slave_id, "RTU: the slave address it answers (TCP: any unit id)")
+      ->check(CLI::Range(1, 247));
+  cmd.add_option("--counts", o.counts, "position counts per revolution (rotary) or metre (linear)")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--torque-per-count", o.amplifier.torque_per_count, "N m (N) of one torque-command count")
+      ->check(CLI::PositiveNumber);
+  cmd.add_option("--word-order", o.word_order, "which of registers 0-1 (2-3) holds the high word")
+      ->check(CLI::IsMember({"high-first", "low-first"}));
+  cmd.add_option("--state-table", o.state_table,
+                 "registers 0-5 are holding (fc 3, 23) or input registers (fc 4)")
+      ->check(CLI::IsMember({"holding", "input"}));
+  cmd.add_option("--enable-by", o.enable_by, "the power stage follows control word 12 bit 0, or coil 12")
+      ->check(CLI::IsMember({"control-word", "coil"}));
+  cmd.add_flag("--watchdog-any-frame", o.amplifier.watchdog_any_frame,
+               "every valid request restarts the watchdog, not only writes of register 11");
+  cmd.add_flag("--no-function-23", o.no_function_23, "answer fc 23 with exception 01");
+  cmd.add_option(
+         "--alive-counter", o.amplifier.alive_counter_s,
+         "the watchdog register is an alive counter watched while enabled: an unchanged value trips at "
+         "once, no new value for this many s trips (0: off; hapticd's watchdog_refresh = \"counter\")")
+      ->check(CLI::Range(0.0, 60.0));
 }
 
 }  // namespace
@@ -113,14 +121,7 @@ devsim::SimulatedPeer modbus_peer() {
                             "the plant's period, s (one step per command write)");
             devsim::add_plant_option(*cmd, options->plant);
             cmd->add_option("--hand", options->hand, "the scripted hand, as the loopback's hand keys");
-            cmd->add_option("--map", options->map,
-                            "register map, as [device.modbus] keys: \"torque_register=10 ...\"");
-            cmd->add_flag("--no-function-23", options->no_function_23, "answer fc 23 with exception 01");
-            cmd->add_option("--alive-counter", options->alive_counter_s,
-                            "the watchdog register is an alive counter watched while enabled: an unchanged "
-                            "value trips at once, no new value for this many s trips (0: off; hapticd's "
-                            "watchdog_refresh = \"counter\")")
-                ->check(CLI::Range(0.0, 60.0));
+            add_amplifier_options(*cmd, *options);
             cmd->add_option("--priority", options->priority,
                             "SCHED_FIFO priority of the server thread, as an amplifier is its own hardware "
                             "(0: none; without the privilege it says so and runs plain)")

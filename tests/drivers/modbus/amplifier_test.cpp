@@ -19,13 +19,12 @@ namespace {
 
 class AmplifierTest : public ::testing::Test {
  protected:
-  AmplifierTest() : config_(mb::build_modbus_config({})), amplifier_(settings(config_), plant_) {
+  AmplifierTest() : config_(mb::modbus_config({})), amplifier_(settings(config_), plant_) {
     amplifier_.bind(holding_, input_, coils_);
   }
 
   static mb::sim::AmplifierSettings settings(const mb::ModbusConfig& c) {
     mb::sim::AmplifierSettings s;
-    s.map = c.map;
     s.position_per_count = c.position_per_count();
     s.torque_per_count = c.torque_per_count;
     return s;

@@ -8,22 +8,22 @@
 #include "drivers/modbus/modbus_config.hpp"
 
 namespace mb = hapticd::drivers::modbus;
-using Values = std::map<std::string, mb::ParameterValue>;
+using Values = std::map<std::string, hapticd::drivers::ParameterValue, std::less<>>;
 
 namespace {
 // The key a refusal blames, and its message, or "" when accepted.
 std::pair<std::string, std::string> refusal(const Values& values) {
   try {
-    mb::build_modbus_config(values);
+    mb::modbus_config(values);
     return {"", ""};
-  } catch (const mb::ConfigError& e) {
+  } catch (const hapticd::drivers::ParameterError& e) {
     return {e.key(), e.what()};
   }
 }
 }  // namespace
 
 TEST(ModbusConfig, DefaultsDescribeTheSimulatedAmplifiersMap) {
-  const mb::ModbusConfig c = mb::build_modbus_config({});
+  const mb::ModbusConfig c = mb::modbus_config({});
   EXPECT_EQ(c.transport, mb::Transport::tcp);
   EXPECT_EQ(c.serial.parity, mb::Parity::even);  // Modbus over Serial Line 2.5.1: even is the default
   EXPECT_EQ(c.serial.data_bits, 8);
@@ -39,15 +39,15 @@ TEST(ModbusConfig, DefaultsDescribeTheSimulatedAmplifiersMap) {
 }
 
 TEST(ModbusConfig, TypedValuesAreApplied) {
-  const mb::ModbusConfig c = mb::build_modbus_config({{"transport", std::string("rtu")},
-                                                      {"device", std::string("/dev/ttyS1")},
-                                                      {"baud", 19200.0},
-                                                      {"parity", std::string("none")},
-                                                      {"stop_bits", 2.0},
-                                                      {"word_order", std::string("low-first")},
-                                                      {"velocity_register", -1.0},
-                                                      {"direction", std::string("reversed")},
-                                                      {"function_23", false}});
+  const mb::ModbusConfig c = mb::modbus_config({{"transport", std::string("rtu")},
+                                                {"device", std::string("/dev/ttyS1")},
+                                                {"baud", 19200.0},
+                                                {"parity", std::string("none")},
+                                                {"stop_bits", 2.0},
+                                                {"word_order", std::string("low-first")},
+                                                {"velocity_register", -1.0},
+                                                {"direction", std::string("reversed")},
+                                                {"function_23", false}});
   EXPECT_EQ(c.transport, mb::Transport::rtu);
   EXPECT_EQ(c.serial.baud, 19200);
   EXPECT_EQ(c.serial.parity, mb::Parity::none);
@@ -61,7 +61,10 @@ TEST(ModbusConfig, TypedValuesAreApplied) {
 TEST(ModbusConfig, UnknownKeyListsTheAcceptedOnes) {
   const auto [key, message] = refusal({{"baudrate", 9600.0}});
   EXPECT_EQ(key, "baudrate");
-  EXPECT_NE(message.find("unknown key; accepted: transport, host"), std::string::npos) << message;
+  EXPECT_NE(message.find(
+                "is not a parameter of the modbus driver; accepted: motion, mass, damping, transport, host"),
+            std::string::npos)
+      << message;
 }
 
 TEST(ModbusConfig, BaudRatesLibmodbusWouldTurnInto9600AreRefused) {
@@ -74,11 +77,12 @@ TEST(ModbusConfig, BaudRatesLibmodbusWouldTurnInto9600AreRefused) {
 
 TEST(ModbusConfig, RangesTypesAndChoicesAreChecked) {
   EXPECT_EQ(refusal({{"port", 70000.0}}).first, "port");
-  EXPECT_NE(refusal({{"port", 70000.0}}).second.find("accepted: 1 to 65535"), std::string::npos);
-  EXPECT_EQ(refusal({{"port", std::string("502")}}).first, "port");
+  EXPECT_NE(refusal({{"port", 70000.0}}).second.find("accepted: a whole number in [1, 65535]"),
+            std::string::npos);
+  EXPECT_EQ(refusal({{"port", std::string("five hundred")}}).first, "port");
   EXPECT_EQ(refusal({{"slave_id", 1.5}}).first, "slave_id");
   EXPECT_EQ(refusal({{"parity", std::string("mark")}}).first, "parity");
-  EXPECT_NE(refusal({{"parity", std::string("mark")}}).second.find("accepted: none, even, odd"),
+  EXPECT_NE(refusal({{"parity", std::string("mark")}}).second.find("accepted: one of none, even, odd"),
             std::string::npos);
   EXPECT_EQ(refusal({{"data_bits", 7.0}}).first, "data_bits");
   EXPECT_EQ(refusal({{"rs485", 1.0}}).first, "rs485");
@@ -112,7 +116,8 @@ TEST(ModbusConfig, MapConflictsNameTheKey) {
 TEST(ModbusConfig, EveryParameterHasHelpAndAUsableDefault) {
   for (const auto& p : mb::modbus_parameters()) {
     EXPECT_FALSE(p.help.empty()) << p.name;
-    EXPECT_EQ(refusal({{p.name, p.default_value}}).first, "") << p.name;
+    ASSERT_TRUE(p.default_value.has_value()) << p.name;
+    EXPECT_EQ(refusal({{p.name, *p.default_value}}).first, "") << p.name;
   }
 }
 

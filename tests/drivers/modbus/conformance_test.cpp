@@ -16,7 +16,7 @@ using hapticd::testing::ParameterTable;
 template <bool Rtu>
 struct ModbusConformance {
   static constexpr const char* driver = "modbus";
-  ModbusConformance() : config(mb::build_modbus_config({})), amplifier(settings(config), plant) {
+  ModbusConformance() : config(mb::modbus_config({})), amplifier(settings(config), plant) {
     server = Rtu ? mb::sim::AmplifierServer::rtu_pty(amplifier) : mb::sim::AmplifierServer::tcp(amplifier);
     server->start();
     (void)server->make_realtime(70);  // as an amplifier is its own hardware, when permitted
@@ -24,7 +24,6 @@ struct ModbusConformance {
   ~ModbusConformance() { server->stop(); }
   static mb::sim::AmplifierSettings settings(const mb::ModbusConfig& c) {
     mb::sim::AmplifierSettings s;
-    s.map = c.map;
     s.position_per_count = c.position_per_count();
     s.torque_per_count = c.torque_per_count;
     return s;

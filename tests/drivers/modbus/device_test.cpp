@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "c_alloc_counter.hpp"
 #include "drivers/device.hpp"
@@ -30,7 +31,7 @@ using hapticd::drivers::LoopContext;
 using hapticd::drivers::Reading;
 using hapticd::drivers::StopRequest;
 using hapticd::drivers::StopRequested;
-using Values = std::map<std::string, mb::ParameterValue>;
+using Values = std::map<std::string, hapticd::drivers::ParameterValue, std::less<>>;
 
 namespace {
 
@@ -41,7 +42,6 @@ constexpr double test_period_s = 50e-3;
 
 mb::sim::AmplifierSettings amplifier_settings(const mb::ModbusConfig& c) {
   mb::sim::AmplifierSettings s;
-  s.map = c.map;
   s.position_per_count = c.position_per_count();
   s.torque_per_count = c.torque_per_count;
   s.function_23 = true;
@@ -50,9 +50,19 @@ mb::sim::AmplifierSettings amplifier_settings(const mb::ModbusConfig& c) {
 
 std::string text(const std::exception& e) { return e.what(); }
 
+/// Waits, bounded, for what a test expects to happen: true as soon as it
+/// has, false after 10 s without it.
+template <class Condition>
+bool eventually(Condition condition) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!condition() && std::chrono::steady_clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  return condition();
+}
+
 class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
  protected:
-  DeviceTest() : amplifier_config_(mb::build_modbus_config({})) {}
+  DeviceTest() : amplifier_config_(mb::modbus_config({})) {}
   ~DeviceTest() override {
     device_.reset();
     if (server_) server_->stop();
@@ -62,11 +72,14 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
 
   /// before_start: runs on this thread before the server's thread exists
   /// (Amplifier::tick() is that thread's once it runs).
-  void start_amplifier(mb::sim::AmplifierSettings settings, const std::function<void()>& before_start = {}) {
+  /// on_clock: the amplifier's watchdog runs on clock_, which the test advances.
+  void start_amplifier(mb::sim::AmplifierSettings settings, const std::function<void()>& before_start = {},
+                       bool on_clock = false) {
     amplifier_ = std::make_unique<mb::sim::Amplifier>(settings, plant_);
     if (before_start) before_start();
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(*amplifier_) : mb::sim::AmplifierServer::tcp(*amplifier_);
+    if (on_clock) server_->use_clock(clock_);
     server_->start();
     (void)server_->make_realtime(70);  // as an amplifier is its own hardware, when permitted
   }
@@ -83,7 +96,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
     } else {
       values.emplace("port", static_cast<double>(server_->port()));
     }
-    return mb::build_modbus_config(values);
+    return mb::modbus_config(values);
   }
 
   hapticd::drivers::Device& configure(Values values = {}) {
@@ -100,6 +113,7 @@ class DeviceTest : public ::testing::TestWithParam<mb::Transport> {
   }
 
   hapticd::drivers::StopRequest stop_;  ///< the daemon's stop, as configure() gets it
+  mb::sim::ManualClock clock_;          ///< the amplifier's time, when the test runs it
   mb::ModbusConfig amplifier_config_;
   mb::testing::LoopbackPlant plant_;
   std::unique_ptr<mb::sim::Amplifier> amplifier_;
@@ -230,7 +244,10 @@ TEST_P(DeviceTest, TheWatchdogDisablesTheAmplifierWhenThePeriodsStop) {
   Reading r;
   ASSERT_EQ(d.write(0.3), IoResult::ok);
   ASSERT_EQ(d.read(r), IoResult::ok);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // watchdog 50 ms: hapticd "died"
+  // hapticd "died": no more periods. The watchdog (50 ms) must trip; were
+  // anything still feeding it (the keep-alive), it never would.
+  ASSERT_TRUE(eventually([&] { return amplifier_->state().watchdog_trips > 0; }))
+      << "the watchdog never tripped";
   EXPECT_FALSE(amplifier_->state().enabled);
   EXPECT_EQ(amplifier_->state().applied_torque, 0.0);
   EXPECT_EQ(amplifier_->state().watchdog_trips, 1u);
@@ -279,6 +296,58 @@ TEST_P(DeviceTest, ReadAndWriteAllocateNothing) {
   EXPECT_EQ(c, 0u);
 }
 
+// The amplifier keeps its own register map and settings; each one a real
+// amplifier's owner may choose, against the driver's keys that say the
+// same, and one that says otherwise: only the matching pair carries the
+// position and the torque (the two ends are written apart: a misreading on
+// one side shows here).
+TEST_P(DeviceTest, EachAmplifierSettingWorksWithTheDriversMatchingKeys) {
+  struct Variant {
+    const char* name;
+    std::function<void(mb::sim::AmplifierSettings&)> set;
+    Values keys;
+  };
+  const std::vector<Variant> variants{
+      {"low word first",
+       [](auto& s) { s.word_order = mb::sim::WordOrder32::low_word_first; },
+       {{"word_order", std::string("low-first")}}},
+      {"state in input registers",
+       [](auto& s) { s.state_table = mb::sim::StateTable::input; },
+       {{"read_table", std::string("input")}, {"function_23", false}}},
+      {"enable by coil 12",
+       [](auto& s) { s.enable_by = mb::sim::EnableBy::coil; },
+       {{"enable", std::string("coil")}, {"enable_address", 12.0}}},
+  };
+  auto run = [&](const Variant& v, const Values& keys) {
+    device_.reset();
+    if (server_) server_->stop();
+    server_.reset();
+    mb::sim::AmplifierSettings settings = amplifier_settings(amplifier_config_);
+    v.set(settings);
+    start_amplifier(settings);
+    hapticd::drivers::Device& d = enabled(keys);
+    Reading r;
+    for (int i = 0; i < 100; ++i) {
+      (void)d.write(0.5);
+      if (d.read(r) != IoResult::ok) break;
+    }
+    double plant = 0.0;
+    plant_.sense(plant);
+    return std::pair{std::abs(r.position - plant), amplifier_->state().applied_torque};
+  };
+  for (const Variant& v : variants) {
+    SCOPED_TRACE(v.name);
+    const auto [error, torque] = run(v, v.keys);
+    EXPECT_LT(error, 1e-9) << "the driver's position is not the plant's";
+    EXPECT_DOUBLE_EQ(torque, 0.5);
+  }
+  // The first variant against the driver's default (high-first) keys: the
+  // position words swapped, the reading far from the plant.
+  const auto [error, torque] = run(variants[0], {});
+  EXPECT_GT(error, 1.0);
+  (void)torque;
+}
+
 INSTANTIATE_TEST_SUITE_P(ModbusDevice, DeviceTest, ::testing::Values(mb::Transport::tcp, mb::Transport::rtu),
                          name);
 
@@ -324,8 +393,14 @@ TEST_P(TcpDeviceTest, ALinkSlowerThanTheResponseTimeoutIsRefusedWithTheFigure) {
 // only when everything else passed: a refused start leaves no armed
 // watchdog behind to trip 50 ms later and refuse the next start (with the
 // amplifier "in fault: watchdog").
+// The amplifier's watchdog runs on a clock the test advances: a wait for
+// the amplifier to have seen the time, not a sleep.
 TEST_P(TcpDeviceTest, ARefusedStartLeavesTheWatchdogDisarmed) {
-  start_amplifier(amplifier_settings(amplifier_config_));
+  start_amplifier(amplifier_settings(amplifier_config_), {}, true);
+  // The amplifier has looked at its clock since the test advanced it.
+  const auto amplifier_saw = [&](double t) {
+    return eventually([&] { return amplifier_->state().time_s >= t; });
+  };
   server_->inject(mb::sim::Injection::late, 30, 0, 3);  // the measurement's replies 3 ms late
   {
     hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(device_config(
@@ -333,14 +408,21 @@ TEST_P(TcpDeviceTest, ARefusedStartLeavesTheWatchdogDisarmed) {
     EXPECT_THROW(d.configure(LoopContext{test_period_s}), DeviceError);
   }
   EXPECT_FALSE(amplifier_->state().watchdog_armed);
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // 30 ms watchdog: it would have tripped
+  clock_.advance(0.1);  // 30 ms watchdog: it would have tripped
+  ASSERT_TRUE(amplifier_saw(clock_.now_s()));
   EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
   EXPECT_EQ(amplifier_->state().fault, 0);
   hapticd::drivers::Device next(
       "modbus", std::make_unique<mb::ModbusDevice>(device_config({{"watchdog_value", 30.0}})));
   next.configure(LoopContext{test_period_s});
   EXPECT_TRUE(amplifier_->state().watchdog_armed);  // armed at the end of configure, fed by the keep-alive
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  // 100 ms of the amplifier's time in 10 ms steps, each one fed: a refresh
+  // at or after the new time (a keep-alive that stopped never gives one).
+  for (int step = 0; step < 10; ++step) {
+    clock_.advance(0.01);
+    ASSERT_TRUE(eventually([&] { return amplifier_->state().refreshed_s >= clock_.now_s(); }))
+        << "the keep-alive did not feed the watchdog after " << 10 * (step + 1) << " ms";
+  }
   EXPECT_EQ(amplifier_->state().watchdog_trips, 0u);
   next.close();
   EXPECT_FALSE(amplifier_->state().watchdog_armed);  // a clean stop disarms it
@@ -408,7 +490,7 @@ TEST_P(DeviceTest, AnAmplifierInFaultAtStartIsRefusedUnlessResetOnStart) {
 
 TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
   hapticd::drivers::Device d("modbus",
-                             std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
+                             std::make_unique<mb::ModbusDevice>(mb::modbus_config(
                                  {{"transport", std::string("rtu")}, {"device", std::string("/dev/null")}})));
   try {
     d.configure(LoopContext{1e-3});
@@ -423,11 +505,10 @@ TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
         "least 13.5 ms, or TCP: no baud rate carries it with the spec's 1.75 ms silences above 19200 baud "
         "(silence = \"characters\" if the amplifier keeps 3.5 characters)");
   }
-  hapticd::drivers::Device fast(
-      "modbus",
-      std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"transport", std::string("rtu")},
-                                                                  {"device", std::string("/dev/null")},
-                                                                  {"silence", std::string("characters")}})));
+  hapticd::drivers::Device fast("modbus", std::make_unique<mb::ModbusDevice>(
+                                              mb::modbus_config({{"transport", std::string("rtu")},
+                                                                 {"device", std::string("/dev/null")},
+                                                                 {"silence", std::string("characters")}})));
   try {
     fast.configure(LoopContext{1e-3});
     FAIL();
@@ -438,7 +519,7 @@ TEST(ModbusDeviceBudget, AnRtuLinkTooSlowForThePeriodIsRefusedWithTheFigure) {
 
 TEST(ModbusDeviceBudget, AResponseTimeoutBeyondTheBudgetIsRefused) {
   hapticd::drivers::Device d(
-      "modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config({{"response_timeout", 0.8e-3}})));
+      "modbus", std::make_unique<mb::ModbusDevice>(mb::modbus_config({{"response_timeout", 0.8e-3}})));
   try {
     d.configure(LoopContext{1e-3});
     FAIL();
@@ -559,18 +640,6 @@ TEST_P(DeviceTest, FaultClearGivesWayToAStopOnASilentAmplifier) {
   d.close();
 }
 
-namespace {
-
-template <class Condition>
-bool eventually(Condition condition) {
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (!condition() && std::chrono::steady_clock::now() < give_up)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  return condition();
-}
-
-}  // namespace
-
 // The amplifier of the issue: it accepts the connection and never answers.
 // The stop comes while configure() waits for its first reply.
 TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
@@ -579,7 +648,7 @@ TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
   StopRequest stop;
   hapticd::drivers::Device d(
       "modbus",
-      std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
+      std::make_unique<mb::ModbusDevice>(mb::modbus_config(
           {{"port", static_cast<double>(server.port())}, {"connect_timeout", 10.0}, {"link_budget", 0.9}})));
   std::thread stopper([&] {
     EXPECT_TRUE(eventually([&] { return server.requests.load() >= 1; }));
@@ -606,12 +675,12 @@ TEST(ModbusDeviceStop, ConfigureGivesWayToAStopOnAServerThatNeverAnswers) {
 // naming the unit), the streak latches, and the device status counts them.
 TEST(ModbusDeviceHostile, RepliesFromAnotherUnitAreRefusedCountedAndLatch) {
   mb::testing::HostileServer server;
-  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(mb::build_modbus_config(
-                                           {{"port", static_cast<double>(server.port())},
-                                            {"link_budget", 0.9},
-                                            {"rtt_samples", 20.0},
-                                            {"failure_streak", 3.0},
-                                            {"watchdog_value", 1000.0}})));
+  hapticd::drivers::Device d("modbus", std::make_unique<mb::ModbusDevice>(
+                                           mb::modbus_config({{"port", static_cast<double>(server.port())},
+                                                              {"link_budget", 0.9},
+                                                              {"rtt_samples", 20.0},
+                                                              {"failure_streak", 3.0},
+                                                              {"watchdog_value", 1000.0}})));
   d.configure(LoopContext{test_period_s});
   d.enable();
   Reading r;

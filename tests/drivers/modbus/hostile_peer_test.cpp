@@ -229,7 +229,7 @@ TEST(ModbusLinkStop, AConnectNobodyAnswersGivesWayToAStop) {
   } catch (const StopRequested& e) {
     EXPECT_EQ(std::string(e.what()), "modbus: connecting to Modbus TCP 127.0.0.1:" + std::to_string(port) +
                                          ": abandoned, hapticd is stopping");
-  } catch (const mb::LinkError& e) {
+  } catch (const hapticd::drivers::DeviceError& e) {
     FAIL() << "waited the whole connect_timeout: " << e.what();
   }
   EXPECT_FALSE(link.is_open());

@@ -37,7 +37,6 @@ namespace {
 
 mb::sim::AmplifierSettings amplifier_settings(const mb::ModbusConfig& c) {
   mb::sim::AmplifierSettings s;
-  s.map = c.map;
   s.position_per_count = c.position_per_count();
   s.torque_per_count = c.torque_per_count;
   return s;
@@ -48,7 +47,7 @@ constexpr double test_response_timeout_s = 0.5;
 
 class LinkTest : public ::testing::TestWithParam<mb::Transport> {
  protected:
-  LinkTest() : config_(mb::build_modbus_config({})), amplifier_(amplifier_settings(config_), plant_) {
+  LinkTest() : config_(mb::modbus_config({})), amplifier_(amplifier_settings(config_), plant_) {
     server_ =
         rtu() ? mb::sim::AmplifierServer::rtu_pty(amplifier_) : mb::sim::AmplifierServer::tcp(amplifier_);
     server_->start();
@@ -65,6 +64,19 @@ class LinkTest : public ::testing::TestWithParam<mb::Transport> {
     s.device = server_->slave_path();
     s.response_timeout_s = response_timeout_s;
     return s;
+  }
+
+  /// Waits, bounded, until the amplifier has written `replies` replies and,
+  /// over RTU, bytes of them wait in the line's receive queue (over TCP a
+  /// reply written on loopback is in the client's socket when send() returns).
+  bool late_reply_waiting(std::uint64_t replies) const {
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    const auto arrived = [&] {
+      return server_->replies() >= replies && (!rtu() || server_->line_bytes_waiting() > 0);
+    };
+    while (!arrived() && std::chrono::steady_clock::now() < give_up)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    return arrived();
   }
 
   mb::LinkResult exchange(mb::ModbusLink& link, std::int16_t torque, std::array<std::uint16_t, 6>& state) {
@@ -163,7 +175,7 @@ INSTANTIATE_TEST_SUITE_P(ModbusLink, LinkTest, ::testing::Values(mb::Transport::
                          name);
 
 TEST(ModbusLinkRtu, ACrcErrorIsReportedAndTheNextTransactionSucceeds) {
-  const mb::ModbusConfig config = mb::build_modbus_config({});
+  const mb::ModbusConfig config = mb::modbus_config({});
   mb::testing::LoopbackPlant plant;
   mb::sim::Amplifier amplifier(amplifier_settings(config), plant);
   auto server = mb::sim::AmplifierServer::rtu_pty(amplifier);
@@ -186,7 +198,7 @@ TEST(ModbusLinkRtu, ACrcErrorIsReportedAndTheNextTransactionSucceeds) {
 }
 
 TEST(ModbusLinkRtu, Rs485ModeOnAPseudoTerminalIsRefusedNamingTheKey) {
-  const mb::ModbusConfig config = mb::build_modbus_config({});
+  const mb::ModbusConfig config = mb::modbus_config({});
   mb::testing::LoopbackPlant plant;
   mb::sim::Amplifier amplifier(amplifier_settings(config), plant);
   auto server = mb::sim::AmplifierServer::rtu_pty(amplifier);
@@ -198,7 +210,7 @@ TEST(ModbusLinkRtu, Rs485ModeOnAPseudoTerminalIsRefusedNamingTheKey) {
   try {
     link.open();
     FAIL() << "a pty accepted TIOCSRS485";
-  } catch (const mb::LinkError& e) {
+  } catch (const hapticd::drivers::DeviceError& e) {
     EXPECT_EQ(e.key(), "rs485");
     EXPECT_NE(std::string(e.what()).find("refuses RS-485 mode"), std::string::npos) << e.what();
   }
@@ -213,14 +225,14 @@ TEST(ModbusLinkRtu, AMissingDeviceNamesTheDeviceKey) {
   try {
     link.open();
     FAIL();
-  } catch (const mb::LinkError& e) {
+  } catch (const hapticd::drivers::DeviceError& e) {
     EXPECT_EQ(e.key(), "device");
     EXPECT_NE(std::string(e.what()).find("No such file or directory"), std::string::npos) << e.what();
   }
 }
 
 TEST(ModbusLinkTcp, ADroppedConnectionIsClosedAndReopenRecovers) {
-  const mb::ModbusConfig config = mb::build_modbus_config({});
+  const mb::ModbusConfig config = mb::modbus_config({});
   mb::testing::LoopbackPlant plant;
   mb::sim::Amplifier amplifier(amplifier_settings(config), plant);
   auto server = mb::sim::AmplifierServer::tcp(amplifier);
@@ -260,7 +272,7 @@ TEST(ModbusLinkTcp, ARefusedConnectionNamesTheHostKey) {
   try {
     link.open();
     FAIL();
-  } catch (const mb::LinkError& e) {
+  } catch (const hapticd::drivers::DeviceError& e) {
     EXPECT_EQ(e.key(), "host");
     EXPECT_NE(std::string(e.what()).find("Connection refused"), std::string::npos) << e.what();
   }
@@ -411,7 +423,7 @@ TEST_P(LinkTest, ALateReplyIsDroppedBeforeTheNextRequest) {
   server_->inject(mb::sim::Injection::late, 1, 0, 300);
   std::array<std::uint16_t, 6> state{};
   EXPECT_EQ(exchange(link, 100, state).outcome, LinkOutcome::timeout);
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));  // the late reply is in the buffer now
+  ASSERT_TRUE(late_reply_waiting(1)) << "the late reply never came";  // in the buffer now
   ASSERT_TRUE(amplifier_.state().steps == 1u);
   link.set_response_timeout(test_response_timeout_s);
   const mb::LinkResult next = exchange(link, 200, state);
@@ -448,9 +460,11 @@ TEST_P(LinkTest, AReplyLaterThanTheNextRequestIsNotTakenForTheNextReplies) {
   if (!rtu()) {
     EXPECT_EQ(static_cast<std::int16_t>(state[10]), 200) << "B took A's reply";
     EXPECT_EQ(link.counters().late_replies.load(), 1u);
+  } else {
+    // B took A's reply: B's own is on its way; the next request must not take it.
+    ASSERT_TRUE(late_reply_waiting(2)) << "B's reply never came";
   }
   for (std::int16_t torque = 300; torque < 310; ++torque) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));  // paced as a loop is
     const mb::LinkResult r = exchange_echo(torque);
     ASSERT_TRUE(r.ok()) << mb::describe(r);
     EXPECT_EQ(static_cast<std::int16_t>(state[10]), torque) << "a reply read one transaction late";

@@ -9,12 +9,11 @@ namespace mb = hapticd::drivers::modbus;
 
 namespace {
 struct Peer {
-  Peer() : config(mb::build_modbus_config({})), amplifier(settings(config), plant) {
+  Peer() : config(mb::modbus_config({})), amplifier(settings(config), plant) {
     tcp = mb::sim::AmplifierServer::tcp(amplifier);
   }
   static mb::sim::AmplifierSettings settings(const mb::ModbusConfig& c) {
     mb::sim::AmplifierSettings s;
-    s.map = c.map;
     s.position_per_count = c.position_per_count();
     return s;
   }

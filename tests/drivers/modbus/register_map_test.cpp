@@ -30,7 +30,7 @@ TEST(ModbusRegisterMap, WordOrderSplitsAndJoins) {
 }
 
 TEST(ModbusRegisterMap, DefaultMapBlocks) {
-  const mb::ModbusConfig c = mb::build_modbus_config({});
+  const mb::ModbusConfig c = mb::modbus_config({});
   const mb::LayoutResult r = mb::plan_blocks(c.map);
   ASSERT_EQ(r.error_key, "") << r.error;
   // torque 10, watchdog 11: one write block of 2; position 0-1, velocity 2-3, status 4, fault 5.

@@ -78,8 +78,8 @@ class AmplifierProcess {
         std::to_string(period_of(transport)),
         "--hand",
         hand,
-        "--map",
-        torque_scale,
+        "--torque-per-count",
+        "0.0001",  // torque_scale's, in the amplifier's own settings
         "--priority",
         "70"};
     std::vector<char*> argv;
