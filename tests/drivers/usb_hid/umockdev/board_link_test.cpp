@@ -198,7 +198,7 @@ TEST_F(EmulatedBoardTest, BoardFaultClearsOnlyWhenTheCauseIsGone) {
   link.enable();
   RtLoop rt(link, 0.1);
   ASSERT_TRUE(within(5.0, [&] { return rt.ok() > 5; }));
-  board->raise_fault(BoardFaultCode::over_current, true);
+  board->raise_fault(sim::FaultCode::over_current, true);
   ASSERT_TRUE(within(5.0, [&] { return link.status().fault.reason == LinkFault::board_fault; }));
   EXPECT_EQ(link.status().fault_text, "board fault: over-current (code 0x01)");
   try {
@@ -278,7 +278,7 @@ TEST_F(EmulatedBoardTest, TheResetHandshakeAtEnableGivesWayToAStop) {
 TEST_F(EmulatedBoardTest, HostThatGoesQuietIsStoppedByTheBoardsDeadMan) {
   // What SIGKILL of hapticd leaves: no disable(), no more OUT reports. The
   // board's own clock (wall time, frame ticks) trips the dead-man.
-  make_board(sim::EmulatedUsbIdentity{}, ReportLayout{}, sim::BoardClock::wall);
+  make_board(sim::EmulatedUsbIdentity{}, sim::BoardClock::wall);
   sim::FrameTicker frames(*board);
   UsbHidConfig config = sim_config();
   config.deadman_periods = 50;  // 50 ms: this loaded VM stalls a 1 ms loop by several ms

@@ -41,12 +41,12 @@ class EmulatedBoardTest : public ::testing::Test {
       GTEST_SKIP() << "libumockdev-preload is not active in this process";
     make_board(sim::EmulatedUsbIdentity{});
   }
-  void make_board(const sim::EmulatedUsbIdentity& identity, const ReportLayout& layout = {},
+  void make_board(const sim::EmulatedUsbIdentity& identity,
                   sim::BoardClock clock = sim::BoardClock::deterministic) {
     testbed.reset();
     board.reset();
     plant = std::make_unique<RampPlant>(scaling.position_per_count / scaling.command_full_scale * 1000.0);
-    board = std::make_unique<sim::SimulatedBoard>(layout, scaling, *plant, clock);
+    board = std::make_unique<sim::SimulatedBoard>(scaling, *plant, clock);
     testbed = std::make_unique<sim::UmockdevUsbBoard>(identity, *board);
   }
   void TearDown() override {
