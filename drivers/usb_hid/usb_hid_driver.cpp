@@ -1,5 +1,6 @@
 // The usb-hid driver's description (drivers/driver_description.hpp): its
 // typed parameters and the factory of its hooks.
+#include "drivers/driver_description.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 #include "drivers/usb_hid/usb_hid_config.hpp"
 #include "drivers/usb_hid/usb_hid_device.hpp"
