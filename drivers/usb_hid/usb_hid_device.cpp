@@ -43,11 +43,7 @@ UsbHidDevice::~UsbHidDevice() { close(); }
 void UsbHidDevice::configure(const LoopContext& loop) {
   stop_ = loop.stop;
   period_s_ = loop.period_s;
-  try {
-    config_.validate(period_s_);
-  } catch (const ConfigError& e) {
-    throw DeviceError(e.what(), e.key());
-  }
+  config_.validate(period_s_);
   deadman_us_ = config_.layout.out.deadman.present() ? config_.deadman_us(period_s_) : 0;
   session_ = HostSession(config_.layout, limits_for(config_, period_s_));
   open_board();
