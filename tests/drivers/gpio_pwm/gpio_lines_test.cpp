@@ -181,7 +181,7 @@ void drive_encoder(LineBackend& bed, sim::QuadratureEncoder& encoder, std::int64
   encoder.move_to(target, t, t + 1'000'000, edges);
   t += 1'000'000;
   for (const auto& e : edges) {
-    const bool a = e.line == QuadratureLine::a;
+    const bool a = e.line == sim::EncoderLine::a;
     bed.drive_input(a ? 3 : 4, a && invert_a ? !e.level : e.level, e.timestamp_ns);
   }
 }
@@ -282,10 +282,10 @@ TEST(QuadratureReaderOrder, EdgesFasterThanThePassesAreDecodedInOrder) {
     for (int k = 0; k < 2; ++k) {
       const std::size_t i = next.fetch_add(1);
       if (i >= edges.size()) return;
-      bed.drive_input(edges[i].line == QuadratureLine::a ? 3 : 4, edges[i].level, edges[i].timestamp_ns);
+      bed.drive_input(edges[i].line == sim::EncoderLine::a ? 3 : 4, edges[i].level, edges[i].timestamp_ns);
     }
   });
-  ASSERT_EQ(edges[0].line, QuadratureLine::a);  // A leads B counting up
+  ASSERT_EQ(edges[0].line, sim::EncoderLine::a);  // A leads B counting up
   bed.drive_input(3, edges[0].level, edges[0].timestamp_ns);
   bed.drive_input(4, edges[1].level, edges[1].timestamp_ns);
   reader.start();
