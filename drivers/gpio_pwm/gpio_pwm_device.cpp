@@ -43,84 +43,96 @@ void GpioPwmDevice::configure(const LoopContext& loop) {
   stop_ = loop.stop;
   try {
     chip_ = std::make_unique<GpioChip>(config_.chip);
-    // One request for every output: enable inactive, direction "positive",
-    // brake applied, pump low.
-    std::vector<unsigned> offsets;
-    std::vector<int> initial;
-    std::vector<std::string> keys;
-    const auto add_output = [&](Output role, const LineSpec& spec, const char* key, bool logical) {
-      if (!spec.configured()) return;
-      slot_[role] = static_cast<int>(offsets.size());
-      offsets.push_back(chip_->resolve(spec, key));
-      initial.push_back(logical != active_low_[role] ? 1 : 0);
-      keys.emplace_back(key);
-    };
-    add_output(enable_out, config_.enable_line, "enable_line", false);
-    add_output(direction_out, config_.direction_line, "direction_line", true);
-    add_output(brake_out, config_.brake_line, "brake_line", true);
-    add_output(pump_out, config_.charge_pump_line, "charge_pump_line", false);
-    used_outputs_ = offsets.size();
-    for (std::size_t i = 0; i < used_outputs_; ++i) levels_[i] = initial[i];
-    outputs_ = std::make_unique<OutputLines>(*chip_, offsets, initial, config_.consumer, keys);
-    direction_positive_ = true;
-    pump_ = false;
-
-    if (config_.reset_line.configured()) {
-      const unsigned offset[] = {chip_->resolve(config_.reset_line, "reset_line")};
-      const int inactive[] = {config_.reset_line.active_low ? 1 : 0};
-      const std::string key[] = {"reset_line"};
-      reset_ = std::make_unique<OutputLines>(*chip_, offset, inactive, config_.consumer, key);
-    }
-    if (config_.fault_line.configured()) {
-      const unsigned offset = chip_->resolve(config_.fault_line, "fault_line");
-      fault_ = std::make_unique<EdgeInput>(*chip_, offset, config_.consumer, "fault_line");
-      fault_reason_ = "fault line " + line_words(*chip_, offset) + " active";
-      if (fault_line_active() && reset_) pulse_reset();
-      if (fault_line_active()) {
-        throw TransportError("fault_line",
-                             "fault_line: " + fault_reason_ + (reset_ ? " after a reset pulse" : "") +
-                                 ": the amplifier reports a fault; clear its cause and start again");
-      }
-    }
+    request_outputs();
+    open_reset_and_fault();
     pwm_ = std::make_unique<PwmOutput>(PwmOutput::Settings{config_.pwm_chip, config_.pwm_channel,
                                                            config_.pwm_period_ns, config_.pwm_inversed,
                                                            config_.export_timeout_s, stop_});
-    std::string position_words;
-    if (config_.position_source() == PositionSource::counter) {
-      counter_ = std::make_unique<CounterInput>(config_.counter, config_.counter_count);
-      std::uint64_t raw = 0;
-      if (const int error = counter_->read(raw); error != 0) {
-        throw TransportError(
-            "counter", "counter: reading " + counter_->path() + " failed: " + system_reason(error), error);
-      }
-      unwrap_.emplace(counter_->ceiling(), raw);
-      position_words = "position from " + counter_->path() +
-                       (counter_->function().empty() ? "" : " (" + counter_->function() + ")");
-    } else {
-      const unsigned a = chip_->resolve(config_.encoder_a_line, "encoder_a_line");
-      const unsigned b = chip_->resolve(config_.encoder_b_line, "encoder_b_line");
-      encoder_a_ = std::make_unique<EdgeInput>(*chip_, a, config_.consumer, "encoder_a_line");
-      encoder_b_ = std::make_unique<EdgeInput>(*chip_, b, config_.consumer, "encoder_b_line");
-      quadrature_ =
-          std::make_unique<QuadratureReader>(*encoder_a_, *encoder_b_, config_.encoder_a_line.active_low,
-                                             config_.encoder_b_line.active_low, config_.reverse);
-      quadrature_->start();
-      position_words = "position decoded from lines " + std::to_string(a) + " and " + std::to_string(b) +
-                       " (at most " + std::to_string(static_cast<long long>(max_count_rate(1e-3))) +
-                       " counts/s if the decoding thread can be held up 1 ms)";
-    }
-    description_ =
-        "gpio-pwm on " + chip_->describe() + ", PWM " + pwm_->channel_dir() + " at " +
-        format_hz(config_.pwm_period_ns) + ", " + position_words + "; " +
-        (config_.charge_pump_line.configured()
-             ? "charge pump on " + line_words(*chip_, offsets[static_cast<std::size_t>(slot_[pump_out])])
-             : "NO charge pump: nothing stops the motor if hapticd is killed");
+    const std::string position_words = open_position();
+    description_ = "gpio-pwm on " + chip_->describe() + ", PWM " + pwm_->channel_dir() + " at " +
+                   format_hz(config_.pwm_period_ns) + ", " + position_words + "; " +
+                   (config_.charge_pump_line.configured()
+                        ? "charge pump on " + line_words(*chip_, output_offsets_[pump_out])
+                        : "NO charge pump: nothing stops the motor if hapticd is killed");
     fault_latched_.store(false);
     enabled_ = false;
   } catch (...) {
     release();
     throw;
   }
+}
+
+// One request for every output: enable inactive, direction "positive",
+// brake applied, pump low.
+void GpioPwmDevice::request_outputs() {
+  std::vector<unsigned> offsets;
+  std::vector<int> initial;
+  std::vector<std::string> keys;
+  const auto add_output = [&](Output role, const LineSpec& spec, const char* key, bool logical) {
+    if (!spec.configured()) return;
+    slot_[role] = static_cast<int>(offsets.size());
+    output_offsets_[role] = chip_->resolve(spec, key);
+    offsets.push_back(output_offsets_[role]);
+    initial.push_back(logical != active_low_[role] ? 1 : 0);
+    keys.emplace_back(key);
+  };
+  add_output(enable_out, config_.enable_line, "enable_line", false);
+  add_output(direction_out, config_.direction_line, "direction_line", true);
+  add_output(brake_out, config_.brake_line, "brake_line", true);
+  add_output(pump_out, config_.charge_pump_line, "charge_pump_line", false);
+  used_outputs_ = offsets.size();
+  for (std::size_t i = 0; i < used_outputs_; ++i) levels_[i] = initial[i];
+  outputs_ = std::make_unique<OutputLines>(*chip_, offsets, initial, config_.consumer, keys);
+  direction_positive_ = true;
+  pump_ = false;
+}
+
+// The reset line (inactive) and the fault line; an active fault gets one
+// reset pulse, then refuses the start.
+void GpioPwmDevice::open_reset_and_fault() {
+  if (config_.reset_line.configured()) {
+    const unsigned offset[] = {chip_->resolve(config_.reset_line, "reset_line")};
+    const int inactive[] = {config_.reset_line.active_low ? 1 : 0};
+    const std::string key[] = {"reset_line"};
+    reset_ = std::make_unique<OutputLines>(*chip_, offset, inactive, config_.consumer, key);
+  }
+  if (!config_.fault_line.configured()) return;
+  const unsigned offset = chip_->resolve(config_.fault_line, "fault_line");
+  fault_ = std::make_unique<EdgeInput>(*chip_, offset, config_.consumer, "fault_line");
+  fault_reason_ = "fault line " + line_words(*chip_, offset) + " active";
+  if (fault_line_active() && reset_) pulse_reset();
+  if (fault_line_active()) {
+    throw TransportError("fault_line",
+                         "fault_line: " + fault_reason_ + (reset_ ? " after a reset pulse" : "") +
+                             ": the amplifier reports a fault; clear its cause and start again");
+  }
+}
+
+// The kernel counter, or the quadrature thread on two lines; returns the
+// words for the description.
+std::string GpioPwmDevice::open_position() {
+  if (config_.position_source() == PositionSource::counter) {
+    counter_ = std::make_unique<CounterInput>(config_.counter, config_.counter_count);
+    std::uint64_t raw = 0;
+    if (const int error = counter_->read(raw); error != 0) {
+      throw TransportError(
+          "counter", "counter: reading " + counter_->path() + " failed: " + system_reason(error), error);
+    }
+    unwrap_.emplace(counter_->ceiling(), raw);
+    return "position from " + counter_->path() +
+           (counter_->function().empty() ? "" : " (" + counter_->function() + ")");
+  }
+  const unsigned a = chip_->resolve(config_.encoder_a_line, "encoder_a_line");
+  const unsigned b = chip_->resolve(config_.encoder_b_line, "encoder_b_line");
+  encoder_a_ = std::make_unique<EdgeInput>(*chip_, a, config_.consumer, "encoder_a_line");
+  encoder_b_ = std::make_unique<EdgeInput>(*chip_, b, config_.consumer, "encoder_b_line");
+  quadrature_ =
+      std::make_unique<QuadratureReader>(*encoder_a_, *encoder_b_, config_.encoder_a_line.active_low,
+                                         config_.encoder_b_line.active_low, config_.reverse);
+  quadrature_->start();
+  return "position decoded from lines " + std::to_string(a) + " and " + std::to_string(b) + " (at most " +
+         std::to_string(static_cast<long long>(max_count_rate(1e-3))) +
+         " counts/s if the decoding thread can be held up 1 ms)";
 }
 
 void GpioPwmDevice::enable() {
@@ -189,7 +201,7 @@ std::string GpioPwmDevice::clear_fault() {
                                  : ": cleared, the line reads inactive again");
 }
 
-void GpioPwmDevice::set_outputs(bool enable, bool brake) noexcept {
+bool GpioPwmDevice::set_outputs(bool enable, bool brake) noexcept {
   pump_ = !pump_;
   const auto put = [this](Output role, bool logical) {
     if (slot_[role] >= 0)
@@ -200,14 +212,19 @@ void GpioPwmDevice::set_outputs(bool enable, bool brake) noexcept {
   put(brake_out, brake);
   put(pump_out, pump_);
   if (const int error = outputs_->set(std::span<const int>(levels_.data(), used_outputs_)); error != 0) {
-    output_failed_ = true;
     last_errno_.store(error, std::memory_order_relaxed);
+    return false;
   }
+  return true;
 }
 
-void GpioPwmDevice::drive_off() noexcept {
-  if (const int error = pwm_->off(); error != 0) last_errno_.store(error, std::memory_order_relaxed);
-  set_outputs(false, true);
+bool GpioPwmDevice::drive_off() noexcept {
+  bool written = true;
+  if (const int error = pwm_->off(); error != 0) {
+    last_errno_.store(error, std::memory_order_relaxed);
+    written = false;
+  }
+  return set_outputs(false, true) && written;
 }
 
 IoResult GpioPwmDevice::read(Reading& out) noexcept {
@@ -245,36 +262,34 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
 
 IoResult GpioPwmDevice::write(double force) noexcept {
   if (fault_latched_.load(std::memory_order_acquire)) {
-    drive_off();
+    const bool off = drive_off();
     // drive_off() is a PWM write and an ioctl: a fault clear can land
     // meanwhile, and a stale "fault" would latch the engine again after it
     // cleared (seen in 2 of 5 end-to-end runs under load). The output is off
-    // in this period either way.
-    return fault_latched_.load(std::memory_order_acquire) ? IoResult::fault : IoResult::ok;
+    // in this period either way, unless a write failed: then error.
+    if (fault_latched_.load(std::memory_order_acquire)) return IoResult::fault;
+    return off ? IoResult::ok : IoResult::error;
   }
   const DriveResult drive = split_force(force, scaling_, direction_positive_);
   direction_positive_ = drive.command.positive;
-  IoResult result = drive.valid ? IoResult::ok : IoResult::error;
+  bool written = drive.valid;
   // The duty first, then the lines (direction, enable, pump) in one ioctl:
   // a sign change runs the new duty with the old direction for the few
   // microseconds between the two calls.
   if (const int error = pwm_->set_duty(drive.command.duty_ns); error != 0) {
     last_errno_.store(error, std::memory_order_relaxed);
-    result = IoResult::error;
+    written = false;
   }
-  output_failed_ = false;
-  set_outputs(true, false);
-  if (output_failed_) result = IoResult::error;
-  return result;
+  if (!set_outputs(true, false)) written = false;
+  return written ? IoResult::ok : IoResult::error;
 }
 
+// The framework calls it after enable() (or a failed one), never twice in
+// a row; it switches off whatever enable() and the writes reached.
 void GpioPwmDevice::disable() noexcept {
   std::lock_guard lock(lifecycle_);
-  disable_locked();
-}
-
-void GpioPwmDevice::disable_locked() noexcept {
-  if (!enabled_) return;
+  enabled_ = false;
+  if (!pwm_ || !outputs_) return;  // a failed configure released them
   if (const int error = pwm_->off(); error != 0) last_errno_.store(error, std::memory_order_relaxed);
   // Enable inactive and the brake on; the pump keeps its level and stops.
   const auto put = [this](Output role, bool logical) {
@@ -285,12 +300,11 @@ void GpioPwmDevice::disable_locked() noexcept {
   put(brake_out, true);
   if (const int error = outputs_->set(std::span<const int>(levels_.data(), used_outputs_)); error != 0)
     last_errno_.store(error, std::memory_order_relaxed);
-  enabled_ = false;
 }
 
+// The framework has called disable() first.
 void GpioPwmDevice::close() noexcept {
   std::lock_guard lock(lifecycle_);
-  disable_locked();
   release();
 }
 
@@ -307,6 +321,7 @@ void GpioPwmDevice::release() noexcept {
   outputs_.reset();
   chip_.reset();
   slot_ = {-1, -1, -1, -1};
+  output_offsets_ = {};
   used_outputs_ = 0;
 }
 
@@ -328,7 +343,7 @@ DeviceModel GpioPwmDevice::model() const {
 DeviceHealth GpioPwmDevice::health() const {
   std::lock_guard lock(lifecycle_);
   DeviceHealth s;
-  s.faulted = chip_ != nullptr && fault_latched_.load();
+  s.faulted = fault_latched_.load();
   if (s.faulted) s.fault_reason = fault_reason_;
   if (const int e = last_errno_.load(); e != 0) s.last_error = system_reason(e);
   s.counters.push_back({"counter_range_errors", counter_range_errors_.load()});

@@ -73,6 +73,7 @@ int SimulatedPwmChip::store(const char* path_text, std::string_view text) {
     refused_.push_back({channel, std::string(attribute), std::string(text), error});
     return error;
   };
+  if (store_error_ != 0) return store_error_;  // not a refusal by the rules: a dead chip
   if (relative == "export" || relative == "unexport") {
     // export_store()/unexport_store(): kstrtouint(buf, 0), then ENODEV past npwm.
     unsigned channel = 0;
@@ -113,6 +114,11 @@ PwmChannelState SimulatedPwmChip::state(unsigned channel) const {
 bool SimulatedPwmChip::exported(unsigned channel) const {
   std::lock_guard lock(mutex_);
   return channels_.count(channel) != 0;
+}
+
+void SimulatedPwmChip::fail_stores(int error) {
+  std::lock_guard lock(mutex_);
+  store_error_ = error;
 }
 
 std::vector<RefusedWrite> SimulatedPwmChip::refused() const {

@@ -4,6 +4,7 @@
 // the fault line, the reset pulse, disable, the charge pump, quadrature.
 #include <gtest/gtest.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -277,13 +278,41 @@ TEST_F(GpioPwmDeviceTest, ReadAndWriteDoNotAllocate) {
   device.configure({period});
   device.enable();
   Reading r;
+  int not_ok = 0;
   testing::AllocationGuard guard;
   for (int n = 0; n < 1000; ++n) {
-    device.read(r);
-    device.write(0.3 * std::sin(n * 0.01));
+    not_ok += device.read(r) != IoResult::ok;
+    not_ok += device.write(0.3 * std::sin(n * 0.01)) != IoResult::ok;
   }
   const auto allocations = guard.count();
   EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(not_ok, 0) << "read/write calls that were not ok";
+}
+
+// The framework counts the errors from the IoResult: a PWM write or a line
+// write that fails is an error in the period it fails, and the next period
+// that writes is ok again.
+TEST_F(GpioPwmDeviceTest, AFailedPwmOrLineWriteIsAnErrorInThatPeriod) {
+  make_board(true);
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
+  device.configure({period});
+  device.enable();
+  Reading r;
+  ASSERT_EQ(device.read(r), IoResult::ok);
+  ASSERT_EQ(device.write(0.2), IoResult::ok);
+  pwm_chip_.fail_stores(EIO);
+  EXPECT_EQ(device.write(0.3), IoResult::error) << "the duty changed and its store failed";
+  EXPECT_EQ(device.status().write_errors, 1u);
+  pwm_chip_.fail_stores(0);
+  EXPECT_EQ(device.write(0.4), IoResult::ok);
+  gpio_.with_chip([](sim::GpioChipModel& c) { c.fail_set_values(EIO); });
+  EXPECT_EQ(device.write(0.4), IoResult::error) << "the duty is unchanged, the lines' ioctl failed";
+  EXPECT_EQ(device.status().write_errors, 2u);
+  EXPECT_EQ(device.status().last_error, "Input/output error");
+  gpio_.with_chip([](sim::GpioChipModel& c) { c.fail_set_values(0); });
+  EXPECT_EQ(device.write(0.4), IoResult::ok);
+  EXPECT_EQ(device.status().write_errors, 2u);
+  EXPECT_EQ(device.status().faults, 0u);
 }
 
 TEST_F(GpioPwmDeviceTest, QuadratureLinesGiveThePosition) {
