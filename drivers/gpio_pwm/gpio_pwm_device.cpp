@@ -54,7 +54,7 @@ void GpioPwmDevice::configure(const LoopContext& loop) {
                    (config_.charge_pump_line.configured()
                         ? "charge pump on " + line_words(*chip_, output_offsets_[pump_out])
                         : "NO charge pump: nothing stops the motor if hapticd is killed");
-    fault_latched_.store(false);
+    fault_cause_.store(FaultCause::none);
     enabled_ = false;
   } catch (...) {
     release();
@@ -189,16 +189,40 @@ void GpioPwmDevice::pulse_reset() {
 
 std::string GpioPwmDevice::clear_fault() {
   std::lock_guard lock(lifecycle_);
-  if (!fault_latched_.load(std::memory_order_acquire)) return "";
+  const FaultCause cause = fault_cause_.load(std::memory_order_acquire);
+  if (cause == FaultCause::none) return "";
+  if (cause == FaultCause::counter_implausible) {
+    // Nothing on the board to reset: the next read() checks the count again
+    // (and latches again if it is still implausible).
+    const std::string words = counter_fault_words();
+    fault_cause_.store(FaultCause::none, std::memory_order_release);
+    return words + ": cleared, the next period reads the count again";
+  }
   if (reset_) pulse_reset();
   if (fault_ && fault_line_active()) {
     throw TransportError("fault_line", fault_reason_ + (reset_ ? " still, after a reset pulse" : " still") +
                                            ": the amplifier's fault persists");
   }
-  fault_latched_.store(false, std::memory_order_release);
+  fault_cause_.store(FaultCause::none, std::memory_order_release);
   const long long pulse_ms = std::llround(config_.reset_pulse_s * 1000.0);
   return fault_reason_ + (reset_ ? ": cleared by a " + std::to_string(pulse_ms) + " ms reset pulse"
                                  : ": cleared, the line reads inactive again");
+}
+
+void GpioPwmDevice::latch(FaultCause cause) noexcept {
+  FaultCause expected = FaultCause::none;
+  fault_cause_.compare_exchange_strong(expected, cause, std::memory_order_acq_rel);
+}
+
+std::string GpioPwmDevice::counter_fault_words() const {
+  const std::uint64_t raw = implausible_raw_.load(std::memory_order_relaxed);
+  const std::uint64_t last = last_good_raw_.load(std::memory_order_relaxed);
+  const std::string where = "counter " + (counter_ ? counter_->path() : config_.counter);
+  const std::uint64_t ceiling = counter_ ? counter_->ceiling() : 0;
+  if (counter_ && raw > ceiling)
+    return where + " read " + std::to_string(raw) + ", above its ceiling " + std::to_string(ceiling);
+  return where + " read " + std::to_string(raw) + " after " + std::to_string(last) +
+         ": a move that takes the position past 64 bits";
 }
 
 bool GpioPwmDevice::set_outputs(bool enable, bool brake) noexcept {
@@ -237,10 +261,10 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
     }
     for (int i = 0; i < n; ++i) {
       const bool active = events[static_cast<std::size_t>(i)].rising != config_.fault_line.active_low;
-      if (active) fault_latched_.store(true, std::memory_order_release);
+      if (active) latch(FaultCause::fault_line);
     }
   }
-  if (fault_latched_.load(std::memory_order_acquire)) return IoResult::fault;
+  if (latched()) return IoResult::fault;
   std::int64_t counts = 0;
   if (counter_) {
     std::uint64_t raw = 0;
@@ -249,8 +273,13 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
       return IoResult::error;
     }
     if (!unwrap_->update(raw)) {
+      // Above the ceiling, or a jump past 64 bits: not a count this counter
+      // can give. The figures for health(), the output zero from now on.
       counter_range_errors_.fetch_add(1, std::memory_order_relaxed);
-      return IoResult::error;
+      implausible_raw_.store(raw, std::memory_order_relaxed);
+      last_good_raw_.store(unwrap_->last_raw(), std::memory_order_relaxed);
+      latch(FaultCause::counter_implausible);
+      return IoResult::fault;
     }
     counts = config_.reverse ? -unwrap_->position() : unwrap_->position();
   } else {
@@ -261,13 +290,13 @@ IoResult GpioPwmDevice::read(Reading& out) noexcept {
 }
 
 IoResult GpioPwmDevice::write(double force) noexcept {
-  if (fault_latched_.load(std::memory_order_acquire)) {
+  if (latched()) {
     const bool off = drive_off();
     // drive_off() is a PWM write and an ioctl: a fault clear can land
     // meanwhile, and a stale "fault" would latch the engine again after it
     // cleared (seen in 2 of 5 end-to-end runs under load). The output is off
     // in this period either way, unless a write failed: then error.
-    if (fault_latched_.load(std::memory_order_acquire)) return IoResult::fault;
+    if (latched()) return IoResult::fault;
     return off ? IoResult::ok : IoResult::error;
   }
   const DriveResult drive = split_force(force, scaling_, direction_positive_);
@@ -343,8 +372,10 @@ DeviceModel GpioPwmDevice::model() const {
 DeviceHealth GpioPwmDevice::health() const {
   std::lock_guard lock(lifecycle_);
   DeviceHealth s;
-  s.faulted = fault_latched_.load();
-  if (s.faulted) s.fault_reason = fault_reason_;
+  const FaultCause cause = fault_cause_.load(std::memory_order_acquire);
+  s.faulted = cause != FaultCause::none;
+  if (cause == FaultCause::fault_line) s.fault_reason = fault_reason_;
+  if (cause == FaultCause::counter_implausible) s.fault_reason = counter_fault_words();
   if (const int e = last_errno_.load(); e != 0) s.last_error = system_reason(e);
   s.counters.push_back({"counter_range_errors", counter_range_errors_.load()});
   if (pwm_) s.counters.push_back({"pwm_writes", pwm_->writes()});

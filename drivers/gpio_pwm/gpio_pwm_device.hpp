@@ -116,7 +116,16 @@ class GpioPwmDevice final : public DeviceHooks {
   // Shared with non-RT threads.
   mutable std::mutex lifecycle_;  // non-RT calls only
   bool enabled_ = false;  // under lifecycle_: enable() again (after a clear) leaves the RT's PWM alone
-  std::atomic<bool> fault_latched_{false};
+  /// Why the device's own latch is set (RT-safe: a code; the words in health()).
+  enum class FaultCause : std::uint8_t { none, fault_line, counter_implausible };
+  /// Latches `cause` unless a fault is latched already (RT).
+  void latch(FaultCause cause) noexcept;
+  bool latched() const noexcept { return fault_cause_.load(std::memory_order_acquire) != FaultCause::none; }
+  std::string counter_fault_words() const;
+
+  std::atomic<FaultCause> fault_cause_{FaultCause::none};
+  /// The implausible count and the last good one before it (RT -> health()).
+  std::atomic<std::uint64_t> implausible_raw_{0}, last_good_raw_{0};
   std::atomic<std::uint64_t> counter_range_errors_{0};
   std::atomic<int> last_errno_{0};
 };

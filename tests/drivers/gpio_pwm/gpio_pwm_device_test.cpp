@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <numbers>
 #include <thread>
@@ -202,6 +203,40 @@ TEST_F(GpioPwmDeviceTest, FaultLineLatchesZeroesInThatPeriodAndClearsWithAResetP
   EXPECT_EQ(device.write(0.4), IoResult::ok);
   EXPECT_DOUBLE_EQ(board_->history().back().motor_force, 0.4);
   EXPECT_EQ(device.clear_fault(), "");  // nothing latched
+}
+
+// A count the counter cannot give (above its ceiling: a ceiling changed
+// behind hapticd's back, a bad read) is not a position: the output goes to
+// zero in that period and a fault latches with the figures, until cleared.
+TEST_F(GpioPwmDeviceTest, AnImplausibleCountLatchesAFaultWithTheFigures) {
+  make_board(true);
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
+  device.configure({period});
+  device.enable();
+  Reading r;
+  ASSERT_EQ(device.read(r), IoResult::ok);
+  ASSERT_EQ(device.write(0.4), IoResult::ok);
+  {
+    std::ofstream count(counter_.count_path(), std::ios::trunc);
+    count << "5000000000\n";  // the simulated counter's ceiling is 2^32 - 1
+  }
+  EXPECT_EQ(device.read(r), IoResult::fault);
+  EXPECT_EQ(device.write(0.4), IoResult::fault);
+  const auto last = board_->history().back();
+  EXPECT_FALSE(last.enable);
+  EXPECT_EQ(last.motor_force, 0.0);
+  const DeviceStatus status = device.status();
+  EXPECT_EQ(status.state, DeviceState::fault);
+  EXPECT_EQ(status.faults, 1u);
+  const std::string reason =
+      "counter /sys/bus/counter/devices/counter0/count0/count read 5000000000, above its ceiling 4294967295";
+  EXPECT_EQ(status.fault_reason, reason);
+  counter_.set_position(7);
+  EXPECT_EQ(device.clear_fault(), reason + ": cleared, the next period reads the count again");
+  EXPECT_EQ(device.read(r), IoResult::ok);
+  EXPECT_DOUBLE_EQ(r.position, 7.0 / counts_per_rad);
+  EXPECT_EQ(device.write(0.4), IoResult::ok);
+  EXPECT_EQ(device.status().state, DeviceState::enabled);
 }
 
 // Issue 17 item 9: a fault clear's reset pulse (up to 1 s, and as long again
