@@ -130,7 +130,8 @@ void BM_DecodeEdge(benchmark::State& state) {
   std::vector<gp::sim::EncoderEdge> edges;
   encoder.move_to(4096, 0, 4'096'000, edges);
   std::vector<gp::EdgeEvent> a, b;
-  for (const auto& e : edges) (e.line == gp::QuadratureLine::a ? a : b).push_back({e.timestamp_ns, e.level});
+  for (const auto& e : edges)
+    (e.line == gp::sim::EncoderLine::a ? a : b).push_back({e.timestamp_ns, e.level});
   for (auto _ : state) {
     gp::QuadratureDecoder decoder(0);
     decoder.edges(a, b);
@@ -234,7 +235,7 @@ void BM_QuadratureEdgeRate(benchmark::State& state) {
           start + std::chrono::nanoseconds(static_cast<std::int64_t>(static_cast<double>(i) * 1e9 / rate));
       std::this_thread::sleep_until(due);  // the edges come from hardware: this thread must not take a CPU
       const auto& e = edges[i];
-      bed.drive_input(e.line == gp::QuadratureLine::a ? 3 : 4, e.level, e.timestamp_ns);
+      bed.drive_input(e.line == gp::sim::EncoderLine::a ? 3 : 4, e.level, e.timestamp_ns);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     achieved = static_cast<double>(edges.size()) / seconds;

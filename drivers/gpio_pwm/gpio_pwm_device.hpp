@@ -3,11 +3,15 @@
 /// The gpio-pwm Device: an H-bridge on a PWM channel and GPIO lines, the
 /// position from a kernel counter or from two encoder lines. See README.md.
 ///
+/// The framework's Device holds the lifecycle: no hook checks the order or
+/// counts read/write errors (a failed line or PWM write is IoResult::error
+/// in that period, and the framework counts it).
+///
 /// Threads: read()/write() belong to the RT thread; clear_fault() runs on
 /// the control thread while the RT thread keeps calling them (the fault
 /// latch and its clearing are atomics; the reset line is its own request);
 /// configure/enable/disable/close only while the RT thread is not inside
-/// read()/write(); status() from any thread (the non-RT calls share a
+/// read()/write(); health() from any thread (the non-RT calls share a
 /// mutex, which read()/write() never take).
 
 #include <array>
@@ -51,8 +55,8 @@ class GpioPwmDevice final : public DeviceHooks {
   /// Duty 0, enable inactive, brake active; the charge pump stops (no more
   /// writes). Idempotent.
   void disable() noexcept override;
-  /// disable(), then releases every line and file; the PWM channel stays
-  /// exported and enabled at duty 0. Idempotent.
+  /// Releases every line and file (disable() has run); the PWM channel
+  /// stays exported and enabled at duty 0. Idempotent.
   void close() noexcept override;
 
   IoResult read(Reading& out) noexcept override;
@@ -69,9 +73,13 @@ class GpioPwmDevice final : public DeviceHooks {
 
  private:
   enum Output : std::size_t { enable_out, direction_out, brake_out, pump_out, output_count };
-  void set_outputs(bool enable, bool brake) noexcept;
-  void disable_locked() noexcept;
-  void drive_off() noexcept;
+  void request_outputs();
+  void open_reset_and_fault();
+  std::string open_position();
+  /// One commit of every output line (the pump toggles); false if it failed.
+  bool set_outputs(bool enable, bool brake) noexcept;
+  /// Duty 0, enable inactive, brake on; false if a write failed.
+  bool drive_off() noexcept;
   bool fault_line_active();
   void pulse_reset();
   void release() noexcept;
@@ -96,6 +104,7 @@ class GpioPwmDevice final : public DeviceHooks {
 
   // Output bulk: which slot holds which role (-1: not wired), active levels.
   std::array<int, output_count> slot_{-1, -1, -1, -1};
+  std::array<unsigned, output_count> output_offsets_{};  ///< the chip's offset per wired role
   std::array<bool, output_count> active_low_{};
   std::array<int, output_count> levels_{};
   std::size_t used_outputs_ = 0;
@@ -103,12 +112,20 @@ class GpioPwmDevice final : public DeviceHooks {
   // RT state.
   bool direction_positive_ = true;
   bool pump_ = false;
-  bool output_failed_ = false;  ///< the last set_outputs() failed
 
   // Shared with non-RT threads.
   mutable std::mutex lifecycle_;  // non-RT calls only
-  bool enabled_ = false;          // under lifecycle_: disable() has something to switch off
-  std::atomic<bool> fault_latched_{false};
+  bool enabled_ = false;  // under lifecycle_: enable() again (after a clear) leaves the RT's PWM alone
+  /// Why the device's own latch is set (RT-safe: a code; the words in health()).
+  enum class FaultCause : std::uint8_t { none, fault_line, counter_implausible };
+  /// Latches `cause` unless a fault is latched already (RT).
+  void latch(FaultCause cause) noexcept;
+  bool latched() const noexcept { return fault_cause_.load(std::memory_order_acquire) != FaultCause::none; }
+  std::string counter_fault_words() const;
+
+  std::atomic<FaultCause> fault_cause_{FaultCause::none};
+  /// The implausible count and the last good one before it (RT -> health()).
+  std::atomic<std::uint64_t> implausible_raw_{0}, last_good_raw_{0};
   std::atomic<std::uint64_t> counter_range_errors_{0};
   std::atomic<int> last_errno_{0};
 };

@@ -6,7 +6,6 @@
 /// stability gate uses. Non-RT.
 
 #include <cstdint>
-#include <stdexcept>
 #include <string>
 #include <string_view>
 
@@ -16,18 +15,6 @@
 #include "drivers/usb_hid/usb_transport.hpp"
 
 namespace hapticd::drivers::usb_hid {
-
-/// A bad parameter: `key` is the config key to blame (the daemon turns it
-/// into file:line:column).
-class ConfigError : public std::invalid_argument {
- public:
-  ConfigError(std::string key, const std::string& message)
-      : std::invalid_argument(message), key_(std::move(key)) {}
-  const std::string& key() const noexcept { return key_; }
-
- private:
-  std::string key_;
-};
 
 struct UsbHidConfig {
   UsbSelector selector;  ///< vendor_id, product_id (required), serial, path, interface, endpoints
@@ -52,18 +39,22 @@ struct UsbHidConfig {
   double position_per_count() const noexcept;
   /// The OUT report's dead-man field for this period, in microseconds.
   std::uint32_t deadman_us(double period_s) const noexcept;
-  /// Everything that can be checked without the board. Throws ConfigError.
+  /// Everything that can be checked without the board, at this period.
+  /// Throws DeviceError naming the key to blame.
   void validate(double period_s) const;
 };
-
-/// Sets one key from its text form (TOML strings and numbers as written).
-/// Throws ConfigError naming the key and what is accepted.
-void set_parameter(UsbHidConfig& config, std::string_view key, std::string_view value);
 
 /// "0x1209" or "4617" -> 0x1209; throws std::invalid_argument.
 std::uint16_t parse_usb_id(std::string_view text);
 
-/// The typed values of [device.usb-hid] as a config. Throws ParameterError naming the key.
+/// "auto" -> 0, "0x81" -> 0x81: an interrupt endpoint address of the given
+/// direction (IN: 0x81..0x8f, OUT: 0x01..0x0f); throws std::invalid_argument
+/// saying what is accepted.
+std::uint8_t parse_endpoint_address(std::string_view text, bool in);
+
+/// The typed values of [device.usb-hid] as a config, every key converted
+/// once (usb_hid_driver.cpp, beside the table that describes them). Throws
+/// ParameterError naming the key.
 UsbHidConfig usb_hid_config_from(const DriverParameters& parameters);
 
 }  // namespace hapticd::drivers::usb_hid

@@ -1,5 +1,9 @@
 // The usb-hid driver's description (drivers/driver_description.hpp): its
-// typed parameters and the factory of its hooks.
+// typed parameters, each key converted once into UsbHidConfig, and the
+// factory of its hooks.
+#include <stdexcept>
+
+#include "drivers/driver_description.hpp"
 #include "drivers/usb_hid/report_codec.hpp"
 #include "drivers/usb_hid/usb_hid_config.hpp"
 #include "drivers/usb_hid/usb_hid_device.hpp"
@@ -23,6 +27,9 @@ std::vector<ParameterSpec> usb_hid_parameters() {
   const ReportLayout d;
   const UsbHidConfig c;
   return {
+      motion_parameter("rotary (rad, N m) or linear (m, N)"),
+      mass_parameter("moving inertia or mass, for the stability gate").defaults_to(c.mass),
+      damping_parameter("viscous damping to ground, for the stability gate"),
       P::text("vendor_id", "USB vendor ID of the board, \"0x1209\" (`lsusb` lists it)"),
       P::text("product_id", "USB product ID, \"0x0001\""),
       P::text("serial", "serial number string, to choose among several boards (empty: any)").defaults_to(""),
@@ -32,7 +39,6 @@ std::vector<ParameterSpec> usb_hid_parameters() {
       P::text("in_endpoint", "interrupt IN endpoint address, \"0x81\" (auto: the first)").defaults_to("auto"),
       P::text("out_endpoint", "interrupt OUT endpoint address, \"0x01\" (auto: the first)")
           .defaults_to("auto"),
-      P::choice("motion", {"rotary", "linear"}, "rotary (rad, N m) or linear (m, N)").defaults_to("rotary"),
       P::number("counts_per_unit", "1/rev | 1/m", "encoder counts per revolution or per metre")
           .defaults_to(c.counts_per_unit)
           .above(0.0),
@@ -62,12 +68,6 @@ std::vector<ParameterSpec> usb_hid_parameters() {
           .at_most(16),
       P::choice("events", {"loop", "thread"}, "where libusb events are handled (README.md: loop)")
           .defaults_to("loop"),
-      P::number("mass", "kg m^2 | kg", "moving inertia or mass, for the stability gate")
-          .defaults_to(c.mass)
-          .above(0.0),
-      P::number("damping", "N m s/rad | N s/m", "viscous damping to ground, for the stability gate")
-          .defaults_to(c.damping)
-          .at_least(0.0),
       P::integer("delay_periods", "periods",
                  "delay the link adds (-1: from the endpoints' polling intervals)")
           .defaults_to(-1.0)
@@ -104,7 +104,72 @@ std::vector<ParameterSpec> usb_hid_parameters() {
   };
 }
 
+/// A text key parsed once: its notation's errors name the key.
+template <class Parse>
+auto parsed(const DriverParameters& p, const char* key, Parse parse) {
+  const std::string& text = p.text(key);
+  try {
+    return parse(text);
+  } catch (const std::invalid_argument& e) {
+    throw ParameterError(key, std::string("device.usb-hid.") + key + ": " + e.what());
+  }
+}
+
+std::uint8_t in_endpoint(std::string_view text) { return parse_endpoint_address(text, true); }
+std::uint8_t out_endpoint(std::string_view text) { return parse_endpoint_address(text, false); }
+
+ReportLayout layout_from(const DriverParameters& p) {
+  ReportLayout l;
+  l.in.size = static_cast<std::size_t>(p.integer("in_report_size"));
+  l.in.report_id = static_cast<int>(p.integer("in_report_id"));
+  l.in.sequence = parsed(p, "in_sequence", parse_integer_field);
+  l.in.ack = parsed(p, "in_ack", parse_integer_field);
+  l.in.position = parsed(p, "in_position", parse_integer_field);
+  l.in.enabled = parsed(p, "in_enabled_bit", parse_bit_field);
+  l.in.fault = parsed(p, "in_fault_bit", parse_bit_field);
+  l.in.watchdog = parsed(p, "in_watchdog_bit", parse_bit_field);
+  l.in.fault_code = parsed(p, "in_fault_code", parse_integer_field);
+  l.out.size = static_cast<std::size_t>(p.integer("out_report_size"));
+  l.out.report_id = static_cast<int>(p.integer("out_report_id"));
+  l.out.sequence = parsed(p, "out_sequence", parse_integer_field);
+  l.out.command = parsed(p, "out_command", parse_integer_field);
+  l.out.enable = parsed(p, "out_enable_bit", parse_bit_field);
+  l.out.reset = parsed(p, "out_reset_bit", parse_bit_field);
+  l.out.deadman = parsed(p, "out_deadman", parse_integer_field);
+  try {
+    validate(l);
+  } catch (const LayoutError& e) {
+    throw ParameterError(e.key(), std::string("device.usb-hid.") + e.what());
+  }
+  return l;
+}
+
 }  // namespace
+
+UsbHidConfig usb_hid_config_from(const DriverParameters& p) {
+  UsbHidConfig c;
+  c.motion = p.text("motion") == "linear" ? Motion::linear : Motion::rotary;
+  c.mass = p.number("mass");
+  c.damping = p.number("damping");
+  c.selector.vendor_id = parsed(p, "vendor_id", parse_usb_id);
+  c.selector.product_id = parsed(p, "product_id", parse_usb_id);
+  c.selector.serial = p.text("serial");
+  c.selector.path = p.text("path");
+  c.selector.interface_number = static_cast<int>(p.integer("interface"));
+  c.selector.in_endpoint = parsed(p, "in_endpoint", in_endpoint);
+  c.selector.out_endpoint = parsed(p, "out_endpoint", out_endpoint);
+  c.counts_per_unit = p.number("counts_per_unit");
+  c.command_full_scale = p.number("command_full_scale");
+  c.inverted = p.text("direction") == "inverted";
+  c.deadman_periods = static_cast<int>(p.integer("deadman_periods"));
+  c.timeout_periods = static_cast<int>(p.integer("timeout_periods"));
+  c.in_transfers = static_cast<int>(p.integer("in_transfers"));
+  c.out_transfers = static_cast<int>(p.integer("out_transfers"));
+  c.events = p.text("events") == "thread" ? EventHandling::thread : EventHandling::loop;
+  c.delay_periods = static_cast<int>(p.integer("delay_periods"));
+  c.layout = layout_from(p);
+  return c;
+}
 
 DriverDescription usb_hid_driver() {
   DriverDescription d;

@@ -48,8 +48,8 @@ SimulatedBoard::SimulatedBoard(UmockdevGpioTestbed& gpio, SimulatedPwmChip& pwm,
   if (counter_ != nullptr) counter_->set_position(counts_);
   if (w.encoder_a && w.encoder_b) {
     encoder_ = QuadratureEncoder(counts_);
-    gpio_.drive_input(*w.encoder_a, encoder_.level(QuadratureLine::a) != w.encoder_a_active_low, 0);
-    gpio_.drive_input(*w.encoder_b, encoder_.level(QuadratureLine::b) != w.encoder_b_active_low, 0);
+    gpio_.drive_input(*w.encoder_a, encoder_.level(EncoderLine::a) != w.encoder_a_active_low, 0);
+    gpio_.drive_input(*w.encoder_b, encoder_.level(EncoderLine::b) != w.encoder_b_active_low, 0);
   }
   if (w.fault) gpio_.drive_input(*w.fault, w.fault_active_low, 0);  // inactive
   gpio_.set_values_observer([this](RequestId request) { on_values(request); });
@@ -123,7 +123,7 @@ void SimulatedBoard::publish_position(std::int64_t counts, std::uint64_t from_ns
   std::vector<EncoderEdge> edges;
   encoder_.move_to(counts, from_ns, to_ns, edges);
   for (const EncoderEdge& e : edges) {
-    const bool a = e.line == QuadratureLine::a;
+    const bool a = e.line == EncoderLine::a;
     gpio_.drive_input(a ? *w.encoder_a : *w.encoder_b,
                       e.level != (a ? w.encoder_a_active_low : w.encoder_b_active_low), e.timestamp_ns);
   }

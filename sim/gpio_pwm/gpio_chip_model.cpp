@@ -141,6 +141,7 @@ int GpioChipModel::set_values(RequestId id, const gpiohandle_data& values) {
   const LineRequest* r = request(id);
   if (r == nullptr) return EBADF;
   if (r->kind != LineRequest::Kind::handle || !r->output()) return EPERM;
+  if (set_values_error_ != 0) return set_values_error_;
   for (std::size_t i = 0; i < r->offsets.size(); ++i) {
     lines_[r->offsets[i]].physical = (values.values[i] != 0) != r->active_low();
   }

@@ -63,6 +63,9 @@ class GpioChipModel {
   int set_values(RequestId id, const gpiohandle_data& values);
   /// The request's file was closed: its lines are free again.
   void release(RequestId id);
+  /// From now on every value write fails with `error` and changes no line
+  /// (a GPIO expander whose I2C bus died answers EIO); 0: works again.
+  void fail_set_values(int error) noexcept { set_values_error_ = error; }
 
   /// The outside world drives an input line to a physical level. Returns
   /// the event the kernel would queue, if the line is watched for that edge.
@@ -87,6 +90,7 @@ class GpioChipModel {
   std::string name_, label_;
   std::vector<Line> lines_;
   std::map<RequestId, LineRequest> requests_;
+  int set_values_error_ = 0;
 };
 
 }  // namespace hapticd::drivers::gpio_pwm::sim

@@ -2,33 +2,28 @@
 
 #include <cerrno>
 
-#include "drivers/gpio_pwm/sysfs_value.hpp"
+#include "sim/gpio_pwm/kernel_sysfs_text.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
-namespace {
 
-std::string_view first_line(std::string_view text) {
-  const std::size_t newline = text.find('\n');
-  return newline == std::string_view::npos ? text : text.substr(0, newline);
-}
-
-}  // namespace
-
+// drivers/pwm/sysfs.c: period_store() and duty_cycle_store() take
+// kstrtou64(buf, 0), enable_store() kstrtoint(buf, 0) and 0 or 1,
+// polarity_store() sysfs_streq() with "normal" or "inversed".
 int PwmChannelModel::write(std::string_view name, std::string_view text) {
   PwmChannelState next = state_;
   if (name == "period" || name == "duty_cycle") {
-    const auto value = parse_sysfs_u64(text);
-    if (!value) return EINVAL;
-    (name == "period" ? next.period_ns : next.duty_ns) = *value;
+    std::uint64_t value = 0;
+    if (const int error = kernel_kstrtoull(text, 0, value); error != 0) return error;
+    (name == "period" ? next.period_ns : next.duty_ns) = value;
   } else if (name == "enable") {
-    const auto value = parse_sysfs_u64(text);
-    if (!value || *value > 1) return EINVAL;
-    next.enabled = *value == 1;
+    int value = 0;
+    if (const int error = kernel_kstrtoint(text, 0, value); error != 0) return error;
+    if (value != 0 && value != 1) return EINVAL;
+    next.enabled = value == 1;
   } else if (name == "polarity") {
-    const std::string_view word = first_line(text);
-    if (word == "normal") {
+    if (kernel_sysfs_streq(text, "normal")) {
       next.inversed = false;
-    } else if (word == "inversed") {
+    } else if (kernel_sysfs_streq(text, "inversed")) {
       next.inversed = true;
     } else {
       return EINVAL;
@@ -50,7 +45,7 @@ std::string PwmChannelModel::read(std::string_view name) const {
 std::size_t PwmChannelModel::format(std::string_view name, char* out, std::size_t size) const noexcept {
   if (size < 24) return 0;
   if (name == "period" || name == "duty_cycle") {
-    return format_sysfs_u64(name == "period" ? state_.period_ns : state_.duty_ns, std::span<char>(out, size));
+    return kernel_print_llu(name == "period" ? state_.period_ns : state_.duty_ns, out, size);
   }
   std::string_view text;
   if (name == "enable") text = state_.enabled ? "1\n" : "0\n";

@@ -4,17 +4,26 @@
 /// the sequence of edges a real A/B encoder produces (A leads B for a
 /// positive change: 00 -> 10 -> 11 -> 01 -> 00), each edge with its own
 /// timestamp spread evenly over the interval in which the count moved.
-/// No system calls.
+/// Its own phase table, written from the encoder's published sequence, not
+/// the driver's decoder's: a misreading in either then fails instead of
+/// passing both ends. No system calls.
 
 #include <cstdint>
 #include <vector>
 
-#include "drivers/gpio_pwm/quadrature_decoder.hpp"
-
 namespace hapticd::drivers::gpio_pwm::sim {
 
+enum class EncoderLine : std::uint8_t { a, b };
+
+/// The levels of the two lines.
+struct EncoderPhase {
+  bool a = false;
+  bool b = false;
+  friend bool operator==(const EncoderPhase&, const EncoderPhase&) = default;
+};
+
 struct EncoderEdge {
-  QuadratureLine line = QuadratureLine::a;
+  EncoderLine line = EncoderLine::a;
   bool level = false;
   std::uint64_t timestamp_ns = 0;
   friend bool operator==(const EncoderEdge&, const EncoderEdge&) = default;
@@ -30,10 +39,10 @@ class QuadratureEncoder {
                std::vector<EncoderEdge>& out);
 
   std::int64_t count() const noexcept { return count_; }
-  QuadratureState state() const noexcept { return state_of(count_); }
-  bool level(QuadratureLine line) const noexcept;
-  /// The state of the lines at a count (count 0 = 00).
-  static QuadratureState state_of(std::int64_t count) noexcept;
+  EncoderPhase state() const noexcept { return state_of(count_); }
+  bool level(EncoderLine line) const noexcept;
+  /// The levels of the lines at a count (count 0: both low).
+  static EncoderPhase state_of(std::int64_t count) noexcept;
 
  private:
   std::int64_t count_;

@@ -11,7 +11,7 @@
 #include <map>
 #include <stdexcept>
 
-#include "drivers/gpio_pwm/sysfs_value.hpp"
+#include "sim/gpio_pwm/kernel_sysfs_text.hpp"
 
 namespace hapticd::drivers::gpio_pwm::sim {
 namespace {
@@ -73,10 +73,12 @@ int SimulatedPwmChip::store(const char* path_text, std::string_view text) {
     refused_.push_back({channel, std::string(attribute), std::string(text), error});
     return error;
   };
+  if (store_error_ != 0) return store_error_;  // not a refusal by the rules: a dead chip
   if (relative == "export" || relative == "unexport") {
-    const auto value = parse_sysfs_u64(text);
-    if (!value || *value >= npwm_) return refuse(0, relative, EINVAL);
-    const auto channel = static_cast<unsigned>(*value);
+    // export_store()/unexport_store(): kstrtouint(buf, 0), then ENODEV past npwm.
+    unsigned channel = 0;
+    if (const int error = kernel_kstrtouint(text, 0, channel); error != 0) return refuse(0, relative, error);
+    if (channel >= npwm_) return refuse(channel, relative, ENODEV);
     const bool is_exported = channels_.count(channel) != 0;
     if (relative == "export") {
       if (is_exported) return refuse(channel, relative, EBUSY);
@@ -91,9 +93,10 @@ int SimulatedPwmChip::store(const char* path_text, std::string_view text) {
   // pwmN/<attribute>
   const std::size_t slash = relative.find('/');
   if (relative.substr(0, 3) != "pwm" || slash == std::string_view::npos) return EACCES;  // npwm: read-only
-  const auto channel_number = parse_sysfs_u64(relative.substr(3, slash - 3));
+  unsigned channel_number = 0;  // the directory the kernel named "pwm%u"
+  const bool named = kernel_kstrtouint(relative.substr(3, slash - 3), 10, channel_number) == 0;
   const std::string_view attribute = relative.substr(slash + 1);
-  const auto it = channel_number ? channels_.find(static_cast<unsigned>(*channel_number)) : channels_.end();
+  const auto it = named ? channels_.find(channel_number) : channels_.end();
   if (it == channels_.end()) return ENODEV;
   const unsigned channel = it->first;
   if (const int error = it->second.write(attribute, text); error != 0)
@@ -111,6 +114,11 @@ PwmChannelState SimulatedPwmChip::state(unsigned channel) const {
 bool SimulatedPwmChip::exported(unsigned channel) const {
   std::lock_guard lock(mutex_);
   return channels_.count(channel) != 0;
+}
+
+void SimulatedPwmChip::fail_stores(int error) {
+  std::lock_guard lock(mutex_);
+  store_error_ = error;
 }
 
 std::vector<RefusedWrite> SimulatedPwmChip::refused() const {

@@ -52,6 +52,9 @@ class SimulatedPwmChip {
   std::vector<RefusedWrite> refused() const;
   /// Attribute writes stored or refused so far.
   std::uint64_t writes_seen() const;
+  /// From now on every store fails with `error` (a chip whose bus died:
+  /// EIO) and changes nothing; 0: works again.
+  void fail_stores(int error);
   std::string chip_dir() const { return chip_dir_; }
 
  private:
@@ -66,6 +69,7 @@ class SimulatedPwmChip {
   std::map<unsigned, PwmChannelModel> channels_;
   std::vector<RefusedWrite> refused_;
   std::uint64_t writes_seen_ = 0;
+  int store_error_ = 0;
   SysfsStoreHook hook_;  // last: installed once the rest exists
 };
 

@@ -2,6 +2,7 @@
 
 #include "drivers/gpio_pwm/transport_error.hpp"
 
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <linux/gpio.h>
 #include <poll.h>
@@ -12,6 +13,7 @@
 #include <atomic>
 #include <cerrno>
 #include <climits>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
@@ -31,22 +33,32 @@ std::string node_of_slot(unsigned slot) { return "/dev/umockdev-gpio/request" + 
 
 }  // namespace
 
-// getenv/setenv: called at program start, before any thread.
 bool umockdev_preload_active() {
-  const char* preload = std::getenv("LD_PRELOAD");  // NOLINT(concurrency-mt-unsafe)
-  return preload != nullptr &&
-         std::string_view(preload).find("libumockdev-preload") != std::string_view::npos;
+  // Whoever provides ioctl() to this process is the answer.
+  Dl_info info{};
+  void* ioctl_symbol = dlsym(RTLD_DEFAULT, "ioctl");
+  return ioctl_symbol != nullptr && dladdr(ioctl_symbol, &info) != 0 && info.dli_fname != nullptr &&
+         std::strstr(info.dli_fname, "umockdev-preload") != nullptr;
 }
 
+// getenv/setenv: called at program start, before any thread.
 bool ensure_umockdev_preload(int argc, char** argv) {
   if (umockdev_preload_active()) return true;
   const char* old = std::getenv("LD_PRELOAD");  // NOLINT(concurrency-mt-unsafe)
+  if (old != nullptr && std::string_view(old).find("libumockdev-preload") != std::string_view::npos) {
+    std::fprintf(stderr,
+                 "LD_PRELOAD names %s but it is not loaded in this process: a broken install (the build "
+                 "links umockdev; apt-get install libumockdev0)\n",
+                 preload_library);
+    return false;
+  }
   std::string value = preload_library;
   if (old != nullptr && old[0] != '\0') value += std::string(":") + old;
   ::setenv("LD_PRELOAD", value.c_str(), 1);  // NOLINT(concurrency-mt-unsafe)
   std::vector<char*> args(argv, argv + argc);
   args.push_back(nullptr);
   ::execv("/proc/self/exe", args.data());
+  std::perror("re-executing with libumockdev-preload.so.0");
   return false;
 }
 
@@ -362,9 +374,9 @@ UmockdevGpioTestbed::UmockdevGpioTestbed(const GpioChipSpec& spec)
       impl_(std::make_unique<Impl>()) {
   if (!umockdev_preload_active()) {
     throw std::runtime_error(
-        "UmockdevGpioTestbed: libumockdev-preload.so.0 is not in LD_PRELOAD (run under umockdev-wrapper, or "
-        "call "
-        "ensure_umockdev_preload() first)");
+        "UmockdevGpioTestbed: libumockdev-preload.so.0 is not loaded in this process (run under "
+        "umockdev-wrapper, or call ensure_umockdev_preload() first; if LD_PRELOAD names it, the install is "
+        "broken)");
   }
   Impl& impl = *impl_;
   impl.owner = this;

@@ -45,11 +45,15 @@
 
 namespace hapticd::drivers::gpio_pwm::sim {
 
-/// True when libumockdev-preload is in this process's LD_PRELOAD.
+/// True when libumockdev-preload is loaded in this process: it provides the
+/// ioctl() the process calls (LD_PRELOAD naming it is not enough: the
+/// loader skips a library it cannot find with a warning only).
 bool umockdev_preload_active();
 /// For a test program's main(): if the preload is missing, re-executes the
 /// program (/proc/self/exe, same arguments) with it added to LD_PRELOAD.
-/// Returns only when the preload is active (true) or the exec failed (false).
+/// Returns only when the preload is active (true), or false with the reason
+/// on stderr: the exec failed, or LD_PRELOAD names it and it did not load
+/// (the build links umockdev: a broken install, never a reason to skip).
 bool ensure_umockdev_preload(int argc, char** argv);
 
 struct GpioChipSpec {

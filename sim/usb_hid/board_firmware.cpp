@@ -3,8 +3,8 @@
 namespace hapticd::drivers::usb_hid::sim {
 
 bool BoardFirmware::on_out_report(std::span<const std::uint8_t> bytes, std::uint64_t now_us) noexcept {
-  OutReport report;
-  if (decode_out(bytes, layout_.out, report) != DecodeStatus::ok) {
+  BoardCommand report;
+  if (!read_out_report(bytes, report)) {
     ++counters_.bad_reports;
     return false;
   }
@@ -38,23 +38,23 @@ void BoardFirmware::on_tick(std::uint64_t now_us) noexcept {
 
 std::size_t BoardFirmware::make_in_report(std::int64_t encoder_counts,
                                           std::span<std::uint8_t> buffer) noexcept {
-  in_sequence_ = next_sequence(in_sequence_, layout_.in.sequence);
-  InReport report;
+  ++in_sequence_;  // u16: wraps as the protocol's sequence does
+  BoardStatus report;
   report.sequence = in_sequence_;
   report.ack = have_sequence_ ? last_sequence_ : 0;
-  report.position_counts = encoder_counts;
+  report.position = static_cast<std::int32_t>(static_cast<std::uint32_t>(encoder_counts));
   report.enabled = output_on();
   report.fault = fault_code_ != 0;
   report.watchdog = watchdog_;
   report.fault_code = fault_code_ != 0 ? fault_code_
-                      : watchdog_      ? static_cast<std::uint32_t>(BoardFaultCode::watchdog)
-                                       : 0;
+                      : watchdog_      ? static_cast<std::uint8_t>(FaultCode::watchdog)
+                                       : std::uint8_t{0};
   ++counters_.in_reports;
-  return encode_in(report, layout_.in, buffer);
+  return write_in_report(report, buffer);
 }
 
-void BoardFirmware::raise_fault(BoardFaultCode code, bool cause_present) noexcept {
-  fault_code_ = static_cast<std::uint32_t>(code);
+void BoardFirmware::raise_fault(FaultCode code, bool cause_present) noexcept {
+  fault_code_ = static_cast<std::uint8_t>(code);
   cause_present_ = cause_present;
 }
 

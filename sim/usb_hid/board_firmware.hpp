@@ -9,12 +9,14 @@
 ///
 /// Time is the board's own clock in microseconds (on a real board: the USB
 /// start-of-frame counter or a hardware timer), passed in by the caller.
+/// The reports are read and written with the board's own decoder
+/// (board_reports.hpp, the README's default layout), not the driver's codec.
 
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
-#include "drivers/usb_hid/report_codec.hpp"
+#include "sim/usb_hid/board_reports.hpp"
 
 namespace hapticd::drivers::usb_hid::sim {
 
@@ -33,7 +35,7 @@ struct FirmwareCounters {
 
 class BoardFirmware {
  public:
-  explicit BoardFirmware(const ReportLayout& layout) : layout_(layout) {}
+  BoardFirmware() = default;
 
   /// One OUT report arrived at `now_us`. Returns true if it was new (applied).
   bool on_out_report(std::span<const std::uint8_t> bytes, std::uint64_t now_us) noexcept;
@@ -41,33 +43,32 @@ class BoardFirmware {
   /// output is on and no new OUT report arrived within the timeout.
   void on_tick(std::uint64_t now_us) noexcept;
   /// Builds the next IN report (sequence + 1) with this encoder count.
+  /// The count is the board's 32-bit encoder counter (it wraps).
   std::size_t make_in_report(std::int64_t encoder_counts, std::span<std::uint8_t> buffer) noexcept;
 
   /// Hardware fault detected (over-current, ...): output off, latched.
   /// `cause_present` keeps a reset from clearing it until clear_cause().
-  void raise_fault(BoardFaultCode code, bool cause_present = true) noexcept;
+  void raise_fault(FaultCode code, bool cause_present = true) noexcept;
   void clear_cause() noexcept { cause_present_ = false; }
 
   /// The amplifier's command in counts of the OUT command field (0 when off).
-  std::int64_t output() const noexcept { return output_on() ? command_ : 0; }
+  std::int16_t output() const noexcept { return output_on() ? command_ : std::int16_t{0}; }
   bool output_on() const noexcept { return enable_ && fault_code_ == 0 && !watchdog_; }
   bool watchdog_tripped() const noexcept { return watchdog_; }
   std::uint32_t fault_code() const noexcept { return fault_code_; }
   std::uint32_t last_sequence() const noexcept { return last_sequence_; }
   const FirmwareCounters& counters() const noexcept { return counters_; }
-  const ReportLayout& layout() const noexcept { return layout_; }
 
  private:
-  ReportLayout layout_;
   FirmwareCounters counters_;
   bool have_sequence_ = false;
-  std::uint32_t last_sequence_ = 0;
-  std::uint32_t in_sequence_ = 0;
+  std::uint16_t last_sequence_ = 0;
+  std::uint16_t in_sequence_ = 0;
   std::uint64_t deadline_us_ = 0;
-  std::int64_t command_ = 0;
+  std::int16_t command_ = 0;
   bool enable_ = false;
   bool watchdog_ = false;
-  std::uint32_t fault_code_ = 0;
+  std::uint8_t fault_code_ = 0;
   bool cause_present_ = false;
 };
 

@@ -47,8 +47,7 @@ int serve(const Options& o) {
   scaling.position_per_count = plant_config.resolution();
   scaling.command_full_scale = o.full_scale;
   scaling.period_s = o.period_s;
-  SimulatedBoard board(ReportLayout{}, scaling, plant,
-                       o.wall_clock ? BoardClock::wall : BoardClock::deterministic);
+  SimulatedBoard board(scaling, plant, o.wall_clock ? BoardClock::wall : BoardClock::deterministic);
   UmockdevUsbBoard testbed(EmulatedUsbIdentity{}, board);
   std::unique_ptr<FrameTicker> frames;
   if (o.wall_clock) frames = std::make_unique<FrameTicker>(board);

@@ -5,10 +5,8 @@
 
 namespace hapticd::drivers::usb_hid::sim {
 
-SimulatedBoard::SimulatedBoard(const ReportLayout& layout, const BoardScaling& scaling, BoardPlant& plant,
-                               BoardClock clock)
-    : layout_(layout), scaling_(scaling), plant_(plant), clock_(clock), firmware_(layout) {
-  validate(layout_);
+SimulatedBoard::SimulatedBoard(const BoardScaling& scaling, BoardPlant& plant, BoardClock clock)
+    : scaling_(scaling), plant_(plant), clock_(clock) {
   power_on();
 }
 
@@ -32,7 +30,7 @@ void SimulatedBoard::on_out_report(std::span<const std::uint8_t> bytes) {
   const std::lock_guard lock(mutex_);
   firmware_.on_tick(now_us_locked());
   if (!firmware_.on_out_report(bytes, now_us_locked())) return;
-  applied_force_ = command_force(firmware_.output(), scaling_.command_full_scale, layout_.out.command);
+  applied_force_ = command_to_force(firmware_.output(), scaling_.command_full_scale);
   static_cast<void>(plant_.step(applied_force_));
   ++steps_;
   deterministic_us_ += static_cast<std::uint64_t>(std::llround(scaling_.period_s * 1e6));
@@ -55,7 +53,7 @@ void SimulatedBoard::refresh_report() {
 
 void SimulatedBoard::power_on() {
   const std::lock_guard lock(mutex_);
-  firmware_ = BoardFirmware(layout_);
+  firmware_ = BoardFirmware();
   powered_at_ = std::chrono::steady_clock::now();
   applied_force_ = 0.0;
   make_report_locked();
@@ -72,7 +70,7 @@ void SimulatedBoard::tick() {
   firmware_.on_tick(now_us_locked());
 }
 
-void SimulatedBoard::raise_fault(BoardFaultCode code, bool cause_present) {
+void SimulatedBoard::raise_fault(FaultCode code, bool cause_present) {
   const std::lock_guard lock(mutex_);
   firmware_.raise_fault(code, cause_present);
 }

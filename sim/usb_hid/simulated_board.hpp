@@ -1,7 +1,8 @@
 #pragma once
 /// \file
 /// The simulated encoder/motor board: the firmware logic (board_firmware.hpp)
-/// between the USB endpoints and a plant. A new OUT report applies its
+/// between the USB endpoints and a plant, speaking the protocol note's
+/// default reports with its own decoder (board_reports.hpp). A new OUT report applies its
 /// command and advances the plant by exactly one period (DRIVERS.md: a peer
 /// advances its plant one period per exchange), then the board has a new IN
 /// report with the encoder count. So a run is deterministic and comparable
@@ -20,7 +21,6 @@
 
 #include "drivers/device_hooks.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
-#include "drivers/usb_hid/report_codec.hpp"
 #include "sim/usb_hid/board_firmware.hpp"
 
 namespace hapticd::drivers::usb_hid::sim {
@@ -73,7 +73,7 @@ struct BoardSnapshot {
 
 class SimulatedBoard {
  public:
-  SimulatedBoard(const ReportLayout& layout, const BoardScaling& scaling, BoardPlant& plant,
+  SimulatedBoard(const BoardScaling& scaling, BoardPlant& plant,
                  BoardClock clock = BoardClock::deterministic);
 
   // ---- the USB side (the emulated endpoints) ----
@@ -96,16 +96,14 @@ class SimulatedBoard {
   void advance_time_us(std::uint64_t us);
   /// Runs the dead-man tick at the current time (the wall clock's frame tick).
   void tick();
-  void raise_fault(BoardFaultCode code, bool cause_present = true);
+  void raise_fault(FaultCode code, bool cause_present = true);
   void clear_cause();
   BoardSnapshot snapshot() const;
-  const ReportLayout& layout() const noexcept { return layout_; }
 
  private:
   std::uint64_t now_us_locked() const;
   void make_report_locked();
 
-  const ReportLayout layout_;
   const BoardScaling scaling_;
   BoardPlant& plant_;
   const BoardClock clock_;
@@ -116,7 +114,7 @@ class SimulatedBoard {
   std::uint64_t deterministic_us_ = 0;
   std::uint64_t steps_ = 0;
   double applied_force_ = 0.0;
-  std::uint8_t pending_[max_report_size]{};
+  std::uint8_t pending_[in_report_bytes]{};
   std::size_t pending_length_ = 0;  ///< 0: no report waiting
 };
 

@@ -115,13 +115,15 @@ TEST_P(GpioLines, SettingOutputsDoesNotAllocate) {
   const int initial[] = {0, 0};
   const std::string keys[] = {"enable_line", "direction_line"};
   OutputLines outputs(chip, offsets, initial, "hapticd", keys);
+  int failed = 0;
   testing::AllocationGuard guard;
   for (int i = 0; i < 200; ++i) {
     const int levels[] = {i & 1, (i >> 1) & 1};
-    outputs.set(levels);
+    failed += outputs.set(levels) != 0;
   }
   const auto allocations = guard.count();
   EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(failed, 0) << "set() calls that failed";
 }
 
 TEST_P(GpioLines, ALineInUseIsRefusedWithItsConsumer) {
@@ -168,10 +170,12 @@ TEST_P(GpioLines, EdgeInputReadsQueuedEdgesWithoutBlocking) {
   }
   EXPECT_EQ(fault.read(events), 0);
   EXPECT_EQ(fault.level(), 1);
+  int not_empty = 0;
   testing::AllocationGuard guard;
-  for (int i = 0; i < 100; ++i) fault.read(events);
+  for (int i = 0; i < 100; ++i) not_empty += fault.read(events) != 0;
   const auto allocations = guard.count();
   EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(not_empty, 0) << "reads that failed or found events nobody queued";
 }
 
 // Drives the simulated encoder's edges onto the two lines.
@@ -181,7 +185,7 @@ void drive_encoder(LineBackend& bed, sim::QuadratureEncoder& encoder, std::int64
   encoder.move_to(target, t, t + 1'000'000, edges);
   t += 1'000'000;
   for (const auto& e : edges) {
-    const bool a = e.line == QuadratureLine::a;
+    const bool a = e.line == sim::EncoderLine::a;
     bed.drive_input(a ? 3 : 4, a && invert_a ? !e.level : e.level, e.timestamp_ns);
   }
 }
@@ -282,10 +286,10 @@ TEST(QuadratureReaderOrder, EdgesFasterThanThePassesAreDecodedInOrder) {
     for (int k = 0; k < 2; ++k) {
       const std::size_t i = next.fetch_add(1);
       if (i >= edges.size()) return;
-      bed.drive_input(edges[i].line == QuadratureLine::a ? 3 : 4, edges[i].level, edges[i].timestamp_ns);
+      bed.drive_input(edges[i].line == sim::EncoderLine::a ? 3 : 4, edges[i].level, edges[i].timestamp_ns);
     }
   });
-  ASSERT_EQ(edges[0].line, QuadratureLine::a);  // A leads B counting up
+  ASSERT_EQ(edges[0].line, sim::EncoderLine::a);  // A leads B counting up
   bed.drive_input(3, edges[0].level, edges[0].timestamp_ns);
   bed.drive_input(4, edges[1].level, edges[1].timestamp_ns);
   reader.start();

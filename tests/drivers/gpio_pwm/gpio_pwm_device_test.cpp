@@ -4,8 +4,10 @@
 // the fault line, the reset pulse, disable, the charge pump, quadrature.
 #include <gtest/gtest.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <numbers>
 #include <thread>
@@ -203,6 +205,40 @@ TEST_F(GpioPwmDeviceTest, FaultLineLatchesZeroesInThatPeriodAndClearsWithAResetP
   EXPECT_EQ(device.clear_fault(), "");  // nothing latched
 }
 
+// A count the counter cannot give (above its ceiling: a ceiling changed
+// behind hapticd's back, a bad read) is not a position: the output goes to
+// zero in that period and a fault latches with the figures, until cleared.
+TEST_F(GpioPwmDeviceTest, AnImplausibleCountLatchesAFaultWithTheFigures) {
+  make_board(true);
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
+  device.configure({period});
+  device.enable();
+  Reading r;
+  ASSERT_EQ(device.read(r), IoResult::ok);
+  ASSERT_EQ(device.write(0.4), IoResult::ok);
+  {
+    std::ofstream count(counter_.count_path(), std::ios::trunc);
+    count << "5000000000\n";  // the simulated counter's ceiling is 2^32 - 1
+  }
+  EXPECT_EQ(device.read(r), IoResult::fault);
+  EXPECT_EQ(device.write(0.4), IoResult::fault);
+  const auto last = board_->history().back();
+  EXPECT_FALSE(last.enable);
+  EXPECT_EQ(last.motor_force, 0.0);
+  const DeviceStatus status = device.status();
+  EXPECT_EQ(status.state, DeviceState::fault);
+  EXPECT_EQ(status.faults, 1u);
+  const std::string reason =
+      "counter /sys/bus/counter/devices/counter0/count0/count read 5000000000, above its ceiling 4294967295";
+  EXPECT_EQ(status.fault_reason, reason);
+  counter_.set_position(7);
+  EXPECT_EQ(device.clear_fault(), reason + ": cleared, the next period reads the count again");
+  EXPECT_EQ(device.read(r), IoResult::ok);
+  EXPECT_DOUBLE_EQ(r.position, 7.0 / counts_per_rad);
+  EXPECT_EQ(device.write(0.4), IoResult::ok);
+  EXPECT_EQ(device.status().state, DeviceState::enabled);
+}
+
 // Issue 17 item 9: a fault clear's reset pulse (up to 1 s, and as long again
 // for the fault line to follow) gives way to the daemon's stop, the reset
 // line released all the same.
@@ -277,13 +313,41 @@ TEST_F(GpioPwmDeviceTest, ReadAndWriteDoNotAllocate) {
   device.configure({period});
   device.enable();
   Reading r;
+  int not_ok = 0;
   testing::AllocationGuard guard;
   for (int n = 0; n < 1000; ++n) {
-    device.read(r);
-    device.write(0.3 * std::sin(n * 0.01));
+    not_ok += device.read(r) != IoResult::ok;
+    not_ok += device.write(0.3 * std::sin(n * 0.01)) != IoResult::ok;
   }
   const auto allocations = guard.count();
   EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(not_ok, 0) << "read/write calls that were not ok";
+}
+
+// The framework counts the errors from the IoResult: a PWM write or a line
+// write that fails is an error in the period it fails, and the next period
+// that writes is ok again.
+TEST_F(GpioPwmDeviceTest, AFailedPwmOrLineWriteIsAnErrorInThatPeriod) {
+  make_board(true);
+  hapticd::drivers::Device device("gpio-pwm", std::make_unique<GpioPwmDevice>(device_config(true)));
+  device.configure({period});
+  device.enable();
+  Reading r;
+  ASSERT_EQ(device.read(r), IoResult::ok);
+  ASSERT_EQ(device.write(0.2), IoResult::ok);
+  pwm_chip_.fail_stores(EIO);
+  EXPECT_EQ(device.write(0.3), IoResult::error) << "the duty changed and its store failed";
+  EXPECT_EQ(device.status().write_errors, 1u);
+  pwm_chip_.fail_stores(0);
+  EXPECT_EQ(device.write(0.4), IoResult::ok);
+  gpio_.with_chip([](sim::GpioChipModel& c) { c.fail_set_values(EIO); });
+  EXPECT_EQ(device.write(0.4), IoResult::error) << "the duty is unchanged, the lines' ioctl failed";
+  EXPECT_EQ(device.status().write_errors, 2u);
+  EXPECT_EQ(device.status().last_error, "Input/output error");
+  gpio_.with_chip([](sim::GpioChipModel& c) { c.fail_set_values(0); });
+  EXPECT_EQ(device.write(0.4), IoResult::ok);
+  EXPECT_EQ(device.status().write_errors, 2u);
+  EXPECT_EQ(device.status().faults, 0u);
 }
 
 TEST_F(GpioPwmDeviceTest, QuadratureLinesGiveThePosition) {

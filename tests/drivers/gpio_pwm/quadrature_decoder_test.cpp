@@ -103,7 +103,7 @@ TEST(QuadratureDecoder, DecodesTheSimulatedEncoderWithoutError) {
   std::mt19937_64 rng(42);
   std::uniform_int_distribution<int> step(-40, 40);
   sim::QuadratureEncoder encoder(0);
-  QuadratureDecoder decoder(encoder.state());
+  QuadratureDecoder decoder(quadrature_state(encoder.state().a, encoder.state().b));
   std::int64_t target = 0;
   std::uint64_t t = 0;
   for (int period = 0; period < 2000; ++period) {
@@ -112,7 +112,7 @@ TEST(QuadratureDecoder, DecodesTheSimulatedEncoderWithoutError) {
     encoder.move_to(target, t, t + 1'000'000, edges);
     t += 1'000'000;
     std::vector<EdgeEvent> a, b;
-    for (const auto& e : edges) (e.line == QuadratureLine::a ? a : b).push_back({e.timestamp_ns, e.level});
+    for (const auto& e : edges) (e.line == sim::EncoderLine::a ? a : b).push_back({e.timestamp_ns, e.level});
     decoder.edges(a, b);
     ASSERT_EQ(decoder.count(), encoder.count()) << "period " << period;
   }
@@ -126,7 +126,7 @@ TEST(QuadratureDecoder, OneDroppedEdgeIsDetected) {
   encoder.move_to(10, 0, 10'000, edges);
   edges.erase(edges.begin() + 4);  // drop one edge, as an overflowing kernel queue would
   std::vector<EdgeEvent> a, b;
-  for (const auto& e : edges) (e.line == QuadratureLine::a ? a : b).push_back({e.timestamp_ns, e.level});
+  for (const auto& e : edges) (e.line == sim::EncoderLine::a ? a : b).push_back({e.timestamp_ns, e.level});
   QuadratureDecoder decoder(s00);
   decoder.edges(a, b);
   EXPECT_GT(decoder.lost_edges() + decoder.invalid_transitions(), 0u);

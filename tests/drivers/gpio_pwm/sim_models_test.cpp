@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
+#include <string>
 
 #include "sim/gpio_pwm/amplifier.hpp"
 #include "sim/gpio_pwm/gpio_chip_model.hpp"
+#include "sim/gpio_pwm/kernel_sysfs_text.hpp"
 #include "sim/gpio_pwm/pwm_channel_model.hpp"
 #include "sim/gpio_pwm/quadrature_encoder.hpp"
 
@@ -134,6 +137,48 @@ TEST(GpioChipModel, EventRequestsAndEdgeIds) {
   EXPECT_FALSE(c.drive_input(3, false, 30).has_value());  // falling not asked for
 }
 
+// lib/kstrtox.c as the PWM sysfs stores call it (base 0), and sysfs_streq.
+TEST(KernelSysfsText, KstrtoxRules) {
+  std::uint64_t v = 0;
+  EXPECT_EQ(kernel_kstrtoull("50000\n", 0, v), 0);
+  EXPECT_EQ(v, 50000U);
+  EXPECT_EQ(kernel_kstrtoull("0x1F4", 0, v), 0);  // base 0: hex after 0x
+  EXPECT_EQ(v, 500U);
+  EXPECT_EQ(kernel_kstrtoull("010", 0, v), 0);  // and octal after a 0
+  EXPECT_EQ(v, 8U);
+  EXPECT_EQ(kernel_kstrtoull("+7", 0, v), 0);
+  EXPECT_EQ(v, 7U);
+  EXPECT_EQ(kernel_kstrtoull("18446744073709551615", 10, v), 0);
+  EXPECT_EQ(v, UINT64_MAX);
+  EXPECT_EQ(kernel_kstrtoull("18446744073709551616", 10, v), ERANGE);
+  for (const char* refused : {"", "\n", "-1", " 5", "5 ", "5\n\n", "5\n0", "0x", "08", "abc", "1.5"})
+    EXPECT_EQ(kernel_kstrtoull(refused, 0, v), EINVAL) << '"' << refused << '"';
+  unsigned u = 0;
+  EXPECT_EQ(kernel_kstrtouint("4294967296", 0, u), ERANGE);
+  int i = 0;
+  EXPECT_EQ(kernel_kstrtoint("-2147483648", 0, i), 0);
+  EXPECT_EQ(i, INT32_MIN);
+  EXPECT_EQ(kernel_kstrtoint("2147483648", 0, i), ERANGE);
+  EXPECT_EQ(kernel_kstrtoint("-0x10\n", 0, i), 0);
+  EXPECT_EQ(i, -16);
+  EXPECT_TRUE(kernel_sysfs_streq("normal\n", "normal"));
+  EXPECT_TRUE(kernel_sysfs_streq("normal", "normal"));
+  EXPECT_FALSE(kernel_sysfs_streq("normal\n\n", "normal"));
+  EXPECT_FALSE(kernel_sysfs_streq("normal\nx", "normal"));
+  char text[21];
+  EXPECT_EQ(std::string(text, kernel_print_llu(UINT64_MAX, text, sizeof text)), "18446744073709551615\n");
+  EXPECT_EQ(std::string(text, kernel_print_llu(0, text, sizeof text)), "0\n");
+}
+
+TEST(PwmChannelModel, TakesWhatTheKernelsStoresTake) {
+  PwmChannelModel m;
+  EXPECT_EQ(m.write("period", "0xC350"), 0);  // 50000, no newline
+  EXPECT_EQ(m.write("duty_cycle", "99999999999999999999\n"), ERANGE);
+  EXPECT_EQ(m.write("enable", "-1\n"), EINVAL);
+  EXPECT_EQ(m.write("enable", "01\n"), 0);
+  EXPECT_EQ(m.state(), (PwmChannelState{50'000, 0, true, false}));
+}
+
 TEST(PwmChannelModel, KernelApplyRules) {
   PwmChannelModel m;                            // freshly exported: period 0
   EXPECT_EQ(m.write("enable", "0\n"), EINVAL);  // period 0 refused whatever field changes
@@ -162,17 +207,17 @@ TEST(QuadratureEncoderModel, EdgesFollowThePublishedSequence) {
   QuadratureEncoder e(0);
   std::vector<EncoderEdge> edges;
   e.move_to(4, 1000, 2000, edges);
-  const std::vector<EncoderEdge> expected{{QuadratureLine::a, true, 1250},
-                                          {QuadratureLine::b, true, 1500},
-                                          {QuadratureLine::a, false, 1750},
-                                          {QuadratureLine::b, false, 2000}};
+  const std::vector<EncoderEdge> expected{{EncoderLine::a, true, 1250},
+                                          {EncoderLine::b, true, 1500},
+                                          {EncoderLine::a, false, 1750},
+                                          {EncoderLine::b, false, 2000}};
   EXPECT_EQ(edges, expected);
   edges.clear();
   e.move_to(2, 2000, 2100, edges);  // backward: B rises first
-  const std::vector<EncoderEdge> back{{QuadratureLine::b, true, 2050}, {QuadratureLine::a, true, 2100}};
+  const std::vector<EncoderEdge> back{{EncoderLine::b, true, 2050}, {EncoderLine::a, true, 2100}};
   EXPECT_EQ(edges, back);
-  EXPECT_EQ(e.state(), quadrature_state(true, true));
-  EXPECT_EQ(QuadratureEncoder::state_of(-1), quadrature_state(false, true));
+  EXPECT_EQ(e.state(), (EncoderPhase{true, true}));
+  EXPECT_EQ(QuadratureEncoder::state_of(-1), (EncoderPhase{false, true}));
 }
 
 TEST(Amplifier, DrivesOnlyWhenEnabledNotBrakingNotFaulted) {

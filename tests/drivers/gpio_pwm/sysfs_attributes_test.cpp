@@ -120,10 +120,12 @@ TEST(PwmOutput, SetDutyDoesNotAllocate) {
   for (const char* a : {"period", "duty_cycle", "enable"}) std::ofstream(channel + "/" + a) << "0\n";
   std::ofstream(channel + "/polarity") << "normal\n";
   PwmOutput pwm(settings(root));
+  int failed = 0;
   testing::AllocationGuard guard;
-  for (std::uint64_t i = 0; i < 1000; ++i) pwm.set_duty((i * 37) % 50'000);
+  for (std::uint64_t i = 0; i < 1000; ++i) failed += pwm.set_duty((i * 37) % 50'000) != 0;
   const auto allocations = guard.count();
   EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(failed, 0) << "set_duty() calls that failed";
 }
 
 // The simulated store runs on the writer's thread (the RT thread in the

@@ -11,10 +11,9 @@
 #include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 
 int main(int argc, char** argv) {
-  if (!hapticd::drivers::gpio_pwm::sim::ensure_umockdev_preload(argc, argv)) {
-    std::perror("re-executing with libumockdev-preload.so.0");
-    return 1;
-  }
+  // Not loaded is a failure, never a skip: the build links umockdev, so its
+  // absence at run time is a broken install (the reason is on stderr).
+  if (!hapticd::drivers::gpio_pwm::sim::ensure_umockdev_preload(argc, argv)) return 1;
   // The testbed's files on tmpfs: the simulated attributes are rewritten on
   // every store, which costs milliseconds each on a journaling disk.
   if (std::getenv("TMPDIR") == nullptr && std::filesystem::is_directory("/dev/shm"))

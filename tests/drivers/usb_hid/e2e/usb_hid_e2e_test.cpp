@@ -64,7 +64,7 @@ struct EmulatedBoard {
       : config(wheel()),
         simulator(config, simulation::parse_hand_script(hand)),
         plant(simulator),
-        board(hapticd::drivers::usb_hid::ReportLayout{}, scaling(), plant),
+        board(scaling(), plant),
         testbed(sim::EmulatedUsbIdentity{}, board) {}
   sim::BoardScaling scaling() const {
     sim::BoardScaling s;

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "drivers/usb_hid/report_codec.hpp"
 #include "emulated_board_fixture.hpp"
 
 extern char** environ;

@@ -12,7 +12,7 @@
 #include <cstddef>
 #include <cstring>
 
-#include "drivers/usb_hid/board_link.hpp"
+#include "drivers/usb_hid/usb_hid_device.hpp"
 #include "emulated_board_fixture.hpp"
 
 extern "C" void* __libc_calloc(std::size_t, std::size_t);
@@ -56,19 +56,22 @@ TEST_F(EmulatedBoardTest, LibusbCallocsOneUrbPerSubmission) {
   UsbHidConfig config;
   config.selector.vendor_id = 0x1209;
   config.selector.product_id = 0x0001;
-  BoardLink link(config);
-  link.configure(1e-3);
+  UsbHidDevice link(config);
+  link.configure({1e-3});
   link.enable();
   Reading r;
-  link.read(r);
-  link.write(0.0);
+  ASSERT_EQ(link.read(r), IoResult::ok);
+  ASSERT_EQ(link.write(0.0), IoResult::ok);
   constexpr int periods = 100;
+  int not_ok = 0;
+  libusb_allocations = 0;  // this run's only (--gtest_repeat)
   counting = true;
   for (int p = 0; p < periods; ++p) {
-    link.read(r);
-    link.write(0.1);
+    not_ok += link.read(r) != IoResult::ok;
+    not_ok += link.write(0.1) != IoResult::ok;
   }
   counting = false;
+  EXPECT_EQ(not_ok, 0) << "read/write calls that were not ok";
   // Per period: the IN transfer resubmitted in its callback and the OUT
   // transfer: two submissions, two URB callocs, nothing else from libusb.
   EXPECT_EQ(libusb_allocations, 2U * periods);

@@ -24,7 +24,7 @@ struct UsbHidConformance {
       : config(simulation::PlantConfig::defaults(Motion::rotary)),
         simulator(config),
         plant(simulator),
-        board(hapticd::drivers::usb_hid::ReportLayout{}, scaling(), plant),
+        board(scaling(), plant),
         testbed(sim::EmulatedUsbIdentity{}, board) {}
 
   sim::BoardScaling scaling() const {
@@ -41,7 +41,7 @@ struct UsbHidConformance {
   }
   double period_s() { return 1e-3; }
   void inject_device_fault(hapticd::drivers::Device&) {
-    board.raise_fault(hapticd::drivers::usb_hid::BoardFaultCode::over_temperature, false);
+    board.raise_fault(sim::FaultCode::over_temperature, false);
   }
   double observed_output(hapticd::drivers::Device&) { return board.snapshot().applied_force; }
   std::vector<BadParameters> bad_parameters() {
