@@ -39,6 +39,7 @@ void add_analyze_command(CLI::App& app) {
   add_analyze_wall(*analyze);
   add_analyze_critical_stiffness(*analyze);
   add_analyze_passivity(*analyze);
+  add_analyze_plane_wall(*analyze);
 }
 
 }  // namespace hapticd::cli

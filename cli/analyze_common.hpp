@@ -35,5 +35,6 @@ void add_analyze_wall(CLI::App& analyze);
 void add_analyze_integrator(CLI::App& analyze);
 void add_analyze_critical_stiffness(CLI::App& analyze);
 void add_analyze_passivity(CLI::App& analyze);
+void add_analyze_plane_wall(CLI::App& analyze);
 
 }  // namespace hapticd::cli

@@ -23,6 +23,7 @@ enum TelemetryFlag : std::uint32_t {
   flag_overrun = 1u << 3,          ///< this cycle woke past its deadline by more than a period
   flag_unstable_forced = 1u << 4,  ///< scene loaded with force=true although unstable
   flag_position_jump = 1u << 5,    ///< the reading stepped beyond max_velocity: not rendered, output zero
+  flag_stale_position = 1u << 6,   ///< the device had no new sample: its last position was rendered
 };
 
 struct TelemetrySample {

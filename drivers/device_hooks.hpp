@@ -50,6 +50,10 @@ enum class IoResult : std::uint8_t {
 /// One sample read from the device.
 struct Reading {
   double position = 0.0;  ///< m or rad, after encoder quantization
+  /// No new sample came this period and position is the last one (a CiA 402
+  /// TPDO not yet arrived: CiA 301 lets the master keep the last value). The
+  /// loop renders it and flags the period (stale_position in the recording).
+  bool stale = false;
 };
 
 /// What the loop tells a driver at configure().

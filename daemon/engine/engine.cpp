@@ -135,6 +135,7 @@ bool Engine::read_position(const rt::WakeUp& wake, TelemetrySample& sample, doub
     return false;
   }
   read_error_streak_.record(false);
+  if (reading.stale) sample.flags |= flag_stale_position;
   if (!std::isfinite(reading.position)) {
     latch(FaultReason::non_finite_position);
     return false;

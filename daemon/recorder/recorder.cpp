@@ -262,7 +262,7 @@ struct Recorder::Recording {
     b += "; " + names[k] + " " + std::string(force_unit) + " (scene output before the limit); " +
          names[k + 1] + " " + std::string(force_unit) + " (sent to the device); latency_s s; compute_s s\n";
     b += "# flags: bits 1 fault_latched, 2 torque_limited, 4 read_error, 8 overrun, 16 unstable_forced, 32 "
-         "position_jump\n";
+         "position_jump, 64 stale_position\n";
     for (std::size_t i = 0; i < names.size(); ++i) {
       if (i > 0) b += ',';
       b += names[i];

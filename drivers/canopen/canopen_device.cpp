@@ -337,6 +337,7 @@ IoResult CanopenDevice::read(Reading& out) noexcept {
   if (exchange_->faulted()) return IoResult::fault;
   if (!r.valid) return IoResult::error;
   out.position = r.position;
+  out.stale = !r.fresh;
   return IoResult::ok;
 }
 

@@ -23,6 +23,7 @@ namespace {
 using hapticd::daemon::flag_fault_latched;
 using hapticd::daemon::flag_position_jump;
 using hapticd::daemon::flag_read_error;
+using hapticd::daemon::flag_stale_position;
 using hapticd::daemon::TelemetrySample;
 using hapticd::daemon::engine::default_max_velocity;
 using hapticd::daemon::engine::Engine;
@@ -57,6 +58,7 @@ class ScriptedDevice final : public drivers::DeviceHooks {
       return drivers::IoResult::error;
     }
     out.position = position;
+    out.stale = stale;
     return drivers::IoResult::ok;
   }
   drivers::IoResult write(double force) noexcept override {
@@ -67,6 +69,7 @@ class ScriptedDevice final : public drivers::DeviceHooks {
 
   double position = 0.0;
   bool error_next = false;
+  bool stale = false;  ///< read() says its position is the last one (a late TPDO)
   std::vector<double> written;
 };
 
@@ -182,6 +185,25 @@ TEST_F(EnginePlausibility, AJumpOf2To31CountsZeroesThatPeriodAndLatchesWithTheFi
   for (const auto& s : after) EXPECT_LT(std::abs(s.applied), torque_limit) << "cycle " << s.cycle;
   EXPECT_FALSE(engine->position_jump().has_value()) << "no figures once cleared";
   EXPECT_EQ(engine->fault_description(), "");
+}
+
+// A late CiA 402 TPDO: the driver keeps the last position and says so. The
+// period is rendered (no fault, torque flows) and the recording flags it, so
+// a run can tell a stale position from a device at rest.
+TEST_F(EnginePlausibility, AStalePositionIsRenderedAndFlagged) {
+  build();
+  for (const auto& s : turn(2.0, 200)) EXPECT_FALSE(has(s, flag_stale_position)) << "cycle " << s.cycle;
+  device.stale = true;
+  const TelemetrySample stale = cycle();  // the position has not moved
+  EXPECT_TRUE(has(stale, flag_stale_position));
+  EXPECT_FALSE(has(stale, flag_fault_latched));
+  EXPECT_FALSE(has(stale, flag_read_error));
+  EXPECT_GT(std::abs(stale.applied), 0.01) << "rendered: the wheel still holds the hand";
+  EXPECT_EQ(stale.position, device.position);
+  device.stale = false;
+  const auto after = turn(2.0, 2);
+  EXPECT_FALSE(has(after[0], flag_stale_position));
+  EXPECT_EQ(engine->fault(), FaultReason::none);
 }
 
 TEST_F(EnginePlausibility, AStepAtTheLimitIsMotionAndOneCountMoreIsNot) {

@@ -1,6 +1,8 @@
 // `hapticctl report` end to end: the real binary writes the figures; the
 // tests read the data behind them back and check the numbers against the
 // analytic curves, and check what happens without gnuplot and on Ctrl-C.
+#include <poll.h>
+#include <pty.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -172,22 +174,47 @@ TEST(ReportAccuracyCli, WithoutGnuplotWritesDataAndScripts) {
     EXPECT_EQ(name.find(".part-"), std::string::npos) << name;
 }
 
+/// Reads what the child wrote to the pty until `done(text)` holds, the child
+/// closed it, or `limit` passed; returns everything read.
+template <class Done>
+std::string read_pty_until(int master, std::chrono::milliseconds limit, Done done) {
+  std::string text;
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!done(text)) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    pollfd p{master, POLLIN, 0};
+    if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
+    char chunk[512];
+    const ssize_t n = ::read(master, chunk, sizeof chunk);
+    if (n <= 0) break;  // EIO: the child closed its side
+    text.append(chunk, static_cast<std::size_t>(n));
+  }
+  return text;
+}
+
+// The report runs on a pseudo-terminal, so it draws its progress line; the
+// Ctrl-C comes once the first line says the study is under way (a
+// handshake, not a guessed sleep), well inside the full study.
 TEST(ReportAccuracyCli, CtrlCLeavesNothingBehind) {
   TempDir dir;
   const fs::path out = dir.path / "out";
-  const pid_t pid = fork();
+  int master = -1;
+  const pid_t pid = ::forkpty(&master, nullptr, nullptr, nullptr);
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     const std::string program = hapticctl_binary().string();
     const std::string out_text = out.string();
-    if (freopen("/dev/null", "w", stdout) == nullptr ||
-        freopen((dir.path / "err").c_str(), "w", stderr) == nullptr)
-      _exit(126);
     execl(program.c_str(), program.c_str(), "report", "accuracy", "--out", out_text.c_str(), nullptr);
     _exit(127);
   }
-  std::this_thread::sleep_for(1500ms);  // well inside the full study (tens of seconds)
+  const std::string started = read_pty_until(master, 60s, [](const std::string& text) {
+    return text.find("%] report accuracy: ") != std::string::npos;
+  });
   ::kill(pid, SIGINT);
+  const std::string rest = read_pty_until(master, 30s, [](const std::string& text) {
+    return text.find("stopped by Ctrl-C") != std::string::npos;
+  });
   int status = 0;
   const auto deadline = std::chrono::steady_clock::now() + 30s;
   while (::waitpid(pid, &status, WNOHANG) != pid) {
@@ -196,13 +223,13 @@ TEST(ReportAccuracyCli, CtrlCLeavesNothingBehind) {
       ::waitpid(pid, &status, 0);
       FAIL() << "hapticctl did not stop on SIGINT";
     }
-    std::this_thread::sleep_for(10ms);
+    (void)read_pty_until(master, 10ms, [](const std::string&) { return false; });  // keep the pty drained
   }
+  ::close(master);
+  ASSERT_NE(started.find("%] report accuracy: "), std::string::npos) << "no progress line: " << started;
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 130);
-  std::ifstream err(dir.path / "err");
-  const std::string message((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
-  EXPECT_NE(message.find("stopped by Ctrl-C"), std::string::npos) << message;
+  EXPECT_NE(rest.find("stopped by Ctrl-C"), std::string::npos) << rest;
   EXPECT_TRUE(names_in(out).empty());
 }
 
