@@ -7,8 +7,9 @@
 //                            stuffing plus one blocking frame (bus_budget.hpp),
 //                            at 1 Mbit/s: bits, bus time and its ratio to the
 //                            period, per period (args: period us, TPDO2)
-//   BM_CanopenPeriod         the RT side as the loop runs it: read() + write() on
-//                            the socket, every period, in real time
+//   BM_CanopenPeriod         the RT side as the loop runs it: the framework's
+//                            Device read() + write() over the driver's hooks
+//                            on the socket, every period, in real time
 //   BM_CanopenRoundTrip      RPDO + SYNC out until the drive's TPDO is back,
 //                            which must happen well inside the period
 // Percentiles (us and as a fraction of the period) are counters.
@@ -25,11 +26,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <thread>
 #include <vector>
 
-#include "drivers/canopen/canopen_session.hpp"
+#include "drivers/canopen/canopen_device.hpp"
 #include "drivers/canopen/cyclic_exchange.hpp"
+#include "drivers/device.hpp"
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 
@@ -182,9 +185,10 @@ void BM_CanopenPeriod(benchmark::State& state) {
   const double period_us = static_cast<double>(env_long("HAPTICD_CANOPEN_PERIOD_US", 1000));
   for (auto _ : state) {
     SimulatedBus bus(period_us * 1e-6);
-    canopen::CanopenSession session(bench_config(bus.path));
-    session.configure(period_us * 1e-6);
-    session.enable();
+    hapticd::drivers::Device device("canopen",
+                                    std::make_unique<canopen::CanopenDevice>(bench_config(bus.path)));
+    device.configure({period_us * 1e-6});
+    device.enable();
     std::vector<double> us(cycles);
     const auto period =
         std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::micro>(period_us));
@@ -193,17 +197,17 @@ void BM_CanopenPeriod(benchmark::State& state) {
     for (std::size_t i = 0; i < cycles; ++i) {
       const auto t0 = Clock::now();
       hapticd::drivers::Reading r;
-      session.read(r);
-      session.write(0.05 * std::sin(static_cast<double>(i) * 1e-2));
+      device.read(r);
+      device.write(0.05 * std::sin(static_cast<double>(i) * 1e-2));
       us[i] = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
       next += period;
       std::this_thread::sleep_until(next);
     }
     state.SetIterationTime(std::chrono::duration<double>(Clock::now() - start).count());
-    const auto st = session.status();
-    state.counters["late_tpdos"] = static_cast<double>(st.counters.late_tpdos);
-    state.counters["faults"] = static_cast<double>(st.counters.faults);
-    session.close();
+    state.counters["late_tpdos"] =
+        static_cast<double>(device.hooks_as<canopen::CanopenDevice>().exchange_status().counters.late_tpdos);
+    state.counters["faults"] = static_cast<double>(device.status().faults);
+    device.close();
     report(state, us, period_us);
   }
 }
@@ -214,19 +218,20 @@ void BM_CanopenRoundTrip(benchmark::State& state) {
   const double period_us = static_cast<double>(env_long("HAPTICD_CANOPEN_PERIOD_US", 1000));
   for (auto _ : state) {
     SimulatedBus bus(period_us * 1e-6);
-    // The session configures the drive; then this loop drives the exchange by
-    // hand on its own socket to time each SYNC's TPDO.
-    canopen::CanopenSession session(bench_config(bus.path));
-    session.configure(period_us * 1e-6);
-    const canopen::CyclicMapping mapping = session.setup().mapping;
-    session.close();  // leaves the drive configured, pre-operational
+    // The driver's hooks configure the drive; then this loop drives the
+    // exchange by hand on its own socket to time each SYNC's TPDO.
+    canopen::CanopenDevice hooks(bench_config(bus.path));
+    hooks.configure({period_us * 1e-6});
+    const canopen::CyclicMapping mapping = hooks.setup().mapping;
+    const canopen::Scaling scaling = hooks.scaling();
+    hooks.close();  // leaves the drive configured, pre-operational
     const canopen::CanFilter filters[] = {canopen::exact_standard_filter(mapping.tpdo_position_id)};
     canopen::CanSocket socket = canopen::CanSocket::open("unix:" + bus.path, filters, 0);
     socket.send(co::encode_nmt(co::NmtCommand::start, 5));
     canopen::CyclicSettings s;
     s.node = 5;
     s.mapping = mapping;
-    s.scaling = session.scaling();
+    s.scaling = scaling;
     s.tpdo_timeout_periods = 1000;
     canopen::CyclicExchange x(s);
     std::vector<double> us;

@@ -4,7 +4,7 @@
 #
 #   hapticd_driver(canopen
 #     SOURCES canopen_driver.cpp canopen_device.cpp   # -> hapticd_driver_canopen
-#     LINK hapticd_canopen_session                    # its public dependencies
+#     LINK hapticd_canopen_master                     # its public dependencies
 #     PRIVATE_LINK PkgConfig::LIBMODBUS               # and private ones
 #     PEER ${PROJECT_SOURCE_DIR}/sim/canopen          # the simulated peer's folder
 #     TESTS ${PROJECT_SOURCE_DIR}/tests/drivers/canopen)  # the tests' folder

@@ -134,11 +134,12 @@ tsan_tests() {
     echo "--- tsan $bin"
     "${no_aslr[@]}" "$t/$bin" || rc=1
   done
-  # The canopen driver's session: its RT loop thread against clear_fault(),
-  # commissioning SDO through the ring and status() on other threads, the
-  # simulated drive's bus thread; and the conformance suite over the socket.
+  # The canopen driver's hooks: their RT loop thread against clear_fault(),
+  # commissioning SDO through the ring and the published status on other
+  # threads, the simulated drive's bus thread; a stop during a fault clear
+  # the loop runs; and the conformance suite over the socket.
   echo "--- tsan canopen_tests"
-  "${no_aslr[@]}" "$t/drivers/canopen/canopen_tests" --gtest_filter='SessionTest.*:Canopen/*' || rc=1
+  "${no_aslr[@]}" "$t/drivers/canopen/canopen_tests" --gtest_filter='CanopenDeviceTest.*:DriveStop.*:Canopen/*' || rc=1
   # The usb-hid driver through libusb under umockdev: the RT-like thread
   # against clear_fault's hand-over, libusb's event and hotplug threads, the
   # umockdev handler thread. The preload must come before libtsan (the test

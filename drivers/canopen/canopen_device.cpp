@@ -1,115 +1,388 @@
 #include "drivers/canopen/canopen_device.hpp"
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <optional>
+#include <thread>
 
-#include "drivers/canopen/commissioning.hpp"
-#include "rpc/jsonrpc.hpp"
+#include "drivers/canopen/301/cob_id.hpp"
+#include "drivers/canopen/301/nmt.hpp"
+#include "drivers/canopen/frame_links.hpp"
 #include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
 
-using nlohmann::json;
-using rpc::RpcError;
-namespace code = rpc::code;
+using cia301::Frame;
+using Clock = std::chrono::steady_clock;
 
 namespace {
 
-/// An index, sub-index or value given as a number or as text ("0x6041").
-std::int64_t integer_param(const json& params, const char* name, bool hex_text_only_unsigned = true) {
-  (void)hex_text_only_unsigned;
-  if (!params.contains(name)) throw RpcError(code::invalid_params, std::string("missing '") + name + "'");
-  const json& v = params[name];
-  if (v.is_number_integer()) return v.get<std::int64_t>();
-  if (v.is_number_float()) {
-    const double d = v.get<double>();
-    if (d == std::floor(d) && std::abs(d) < 9e15) return static_cast<std::int64_t>(d);
-  }
-  if (v.is_string()) {
-    const std::string s = v.get<std::string>();
-    try {
-      std::size_t used = 0;
-      const long long parsed = std::stoll(s, &used, 0);
-      if (used == s.size()) return parsed;
-    } catch (const std::exception&) {
-    }
-  }
-  throw RpcError(code::invalid_params, std::string("'") + name + "' = " + v.dump() +
-                                           " is not an integer (decimal, or hex with 0x)");
+constexpr std::size_t sdo_ring_capacity = 64;
+constexpr std::size_t unit_ring_capacity = 8;
+constexpr double enable_timeout_s = 1.0;
+constexpr double reset_timeout_s = 1.0;
+constexpr int prime_attempts = 3;
+constexpr double clear_loop_wait_s = 0.1;
+
+std::uint64_t periods_in(double seconds, double period_s) {
+  return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(seconds / period_s - 1e-9)));
 }
 
-cia301::ObjectAddress address_param(const json& params) {
-  const std::int64_t index = integer_param(params, "index");
-  const std::int64_t sub = params.contains("sub") ? integer_param(params, "sub") : 0;
-  if (index < 0 || index > 0xFFFF) throw RpcError(code::invalid_params, "index must be 0x0000..0xFFFF");
-  if (sub < 0 || sub > 0xFF) throw RpcError(code::invalid_params, "sub must be 0..255");
-  return {static_cast<std::uint16_t>(index), static_cast<std::uint8_t>(sub)};
+std::vector<CanFilter> receive_filters(const CanopenConfig& c, const CyclicMapping& m) {
+  std::vector<CanFilter> filters = {exact_standard_filter(m.tpdo_position_id),
+                                    exact_standard_filter(cia301::emcy_id(c.node_id)),
+                                    exact_standard_filter(cia301::sdo_response_id(c.node_id)),
+                                    exact_standard_filter(cia301::heartbeat_id(c.node_id))};
+  if (m.tpdo_velocity) filters.push_back(exact_standard_filter(m.tpdo_velocity_id));
+  return filters;
 }
 
-std::optional<cia301::DataType> type_param(const json& params) {
-  if (!params.contains("type")) return std::nullopt;
-  const json& t = params["type"];
-  const auto type = t.is_string() ? cia301::parse_data_type(t.get<std::string>()) : std::nullopt;
-  if (!type)
-    throw RpcError(code::invalid_params,
-                   "type " + t.dump() + " is not one of " + std::string(cia301::accepted_data_type_names()));
-  return type;
+SetupOptions setup_options(const CanopenConfig& c, double period_s) {
+  SetupOptions o;
+  o.node = c.node_id;
+  o.master_node = c.master_node_id;
+  o.period_s = period_s;
+  o.heartbeat_period_ms = static_cast<std::uint16_t>(std::llround(c.heartbeat_period * 1e3));
+  o.heartbeat_timeout_ms = static_cast<std::uint16_t>(std::llround(c.heartbeat_timeout * 1e3));
+  o.rated_torque_mnm = static_cast<std::uint32_t>(std::llround(c.rated_torque * 1e3));
+  o.velocity = c.velocity_pdo;
+  return o;
 }
 
-void only_members(const json& params, std::initializer_list<const char*> accepted, const char* method) {
-  if (!params.is_object())
-    throw RpcError(code::invalid_params, std::string(method) + ": params must be an object");
-  for (const auto& [key, value] : params.items()) {
-    bool ok = false;
-    std::string list;
-    for (const char* a : accepted) {
-      ok = ok || key == a;
-      list += (list.empty() ? "" : ", ") + std::string(a);
-    }
-    if (!ok)
-      throw RpcError(code::invalid_params,
-                     std::string(method) + ": unknown member '" + key + "'; accepted: " + list);
-  }
-}
-
-json to_json(const SdoAccess& a) {
-  json j = {{"index", world::text::format_hex(a.address.index, 4)},
-            {"sub", a.address.sub},
-            {"raw", world::text::format_hex(a.raw, 8)},
-            {"value", a.value}};
-  j["type"] = a.type ? json(std::string(cia301::short_name(*a.type))) : json(nullptr);
-  j["name"] = a.name;
-  if (!a.note.empty()) j["note"] = a.note;
-  return j;
+CyclicSettings cyclic_settings(const CanopenConfig& c, const SetupResult& setup, const Scaling& scaling,
+                               double period_s) {
+  CyclicSettings s;
+  s.node = c.node_id;
+  s.master_node = c.master_node_id;
+  s.mapping = setup.mapping;
+  s.scaling = scaling;
+  s.tpdo_timeout_periods = c.tpdo_timeout_periods;
+  // The heartbeat goes out at least as often as configured (never later).
+  s.heartbeat_every_periods = static_cast<std::uint32_t>(std::max<std::uint64_t>(
+      1, static_cast<std::uint64_t>(std::floor(c.heartbeat_period / period_s + 1e-9))));
+  s.drive_heartbeat_timeout_periods = static_cast<std::uint32_t>(periods_in(c.heartbeat_timeout, period_s));
+  s.reset_timeout_periods = static_cast<std::uint32_t>(periods_in(reset_timeout_s, period_s));
+  return s;
 }
 
 }  // namespace
 
 CanopenDevice::CanopenDevice(CanopenConfig config) : config_(std::move(config)) { validate(config_); }
 
-CanopenDevice::~CanopenDevice() { close(); }
+CanopenDevice::~CanopenDevice() = default;
+
+std::chrono::microseconds CanopenDevice::sdo_timeout() const {
+  return std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+}
+
+// ---- non-RT lifecycle ------------------------------------------------------
 
 void CanopenDevice::configure(const LoopContext& loop) {
-  auto session = std::make_unique<CanopenSession>(config_);
-  session->set_stop(loop.stop);
-  session->configure(loop.period_s);
-  session_ = std::move(session);
+  stop_ = loop.stop;
+  clear_requested_.store(false, std::memory_order_relaxed);
+  disable_requested_.store(false, std::memory_order_relaxed);
+  if (!(loop.period_s > 0.0)) throw SetupError("canopen: the loop period must be > 0 s", "period");
+  period_s_ = loop.period_s;
+  // The budget first: a period the bus cannot carry is refused before touching it.
+  const CyclicMapping mapping = standard_mapping(config_.node_id, config_.velocity_pdo);
+  budget_ = cia301::check_bus_budget(cyclic_frames(mapping), period_s_, config_.bitrate);
+  if (!budget_.fits) throw SetupError(budget_.summary, "bitrate");
+  try {
+    socket_ =
+        CanSocket::open(config_.interface, receive_filters(config_, mapping), subscribed_error_classes());
+  } catch (const std::runtime_error& e) {
+    throw SetupError(e.what(), "interface");
+  }
+  try {
+    SocketLink link(socket_);
+    SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
+    setup_ = setup_drive(sdo, link, setup_options(config_, period_s_));
+    rated_torque_mnm_.store(setup_.rated_torque_mnm, std::memory_order_release);
+    sdo_answers_ = std::make_unique<rt::SpscRing<Frame>>(sdo_ring_capacity);
+    unit_changes_ = std::make_unique<rt::SpscRing<TorqueUnitChange>>(unit_ring_capacity);
+    exchange_.emplace(
+        cyclic_settings(config_, setup_, canopen::scaling(config_, setup_.rated_torque_mnm), period_s_));
+    published_.publish(*exchange_);  // no figure of an earlier configure() stays
+    if (!link.send(cia301::encode_nmt(cia301::NmtCommand::start, config_.node_id)))
+      throw SetupError(
+          "cannot send NMT start to node " + std::to_string(config_.node_id) + ": " + link.link_error(),
+          "interface");
+    prime();
+  } catch (...) {
+    // A drive this did not finish setting up is not released by close(),
+    // which the framework calls next: it only closes the socket.
+    exchange_.reset();
+    throw;
+  }
 }
 
-void CanopenDevice::enable() { session_->enable(); }
+void CanopenDevice::prime() {
+  // One SYNC (with Disable Voltage in RPDO1) so the first TPDO brings the
+  // position: read() is valid after configure(). No heartbeat yet: the
+  // drive's consumer starts with hapticd's first heartbeat, in enable().
+  const auto wait = sdo_timeout();
+  for (int attempt = 0; attempt < prime_attempts && !exchange_->has_position(); ++attempt) {
+    std::array<Frame, 4> frames;
+    const std::size_t n = exchange_->end_period(0.0, frames);
+    for (std::size_t i = 0; i < n; ++i)
+      if (frames[i].id != cia301::heartbeat_id(config_.master_node_id)) socket_.send(frames[i]);
+    const SlicedWait deadline(stop_, wait);
+    Frame f;
+    while (!exchange_->has_position() && !deadline.expired()) {
+      const IoStatus s = socket_.receive(f);
+      if (s == IoStatus::ok) {
+        exchange_->on_frame(f);
+      } else if (s == IoStatus::malformed) {
+        exchange_->on_malformed_message(socket_.last_malformed());
+        throw SetupError("node " + std::to_string(config_.node_id) +
+                             " after NMT start and SYNC: " + describe(socket_.last_malformed()),
+                         "interface");
+      } else if (s == IoStatus::would_block) {
+        throw_if_stopped(stop_,
+                         "canopen: waiting for node " + std::to_string(config_.node_id) + "'s first TPDO");
+        socket_.wait_readable(std::chrono::duration_cast<std::chrono::microseconds>(deadline.next_slice()));
+      } else {
+        break;
+      }
+    }
+  }
+  if (!exchange_->has_position()) {
+    char id[8];
+    std::snprintf(id, sizeof id, "0x%03X", static_cast<unsigned>(setup_.mapping.tpdo_position_id));
+    throw SetupError("node " + std::to_string(config_.node_id) + " sent no TPDO1 (" + id +
+                         ") after NMT start and SYNC within " +
+                         std::to_string(std::llround(config_.sdo_timeout * 1e3)) + " ms",
+                     "node_id");
+  }
+  published_.publish(*exchange_);
+}
 
-std::string CanopenDevice::clear_fault() { return session_->clear_fault(); }
+template <class Done>
+bool CanopenDevice::run_periods(Done&& done, std::uint64_t max_periods) {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_s_));
+  auto next = Clock::now();
+  for (std::uint64_t i = 0; i < max_periods; ++i) {
+    Reading r;
+    (void)read(r);
+    (void)write(0.0);
+    if (done()) return true;
+    next += period;
+    std::this_thread::sleep_until(next);
+  }
+  return done();
+}
 
-void CanopenDevice::disable() noexcept { session_->disable(); }
+bool CanopenDevice::loop_running(double at_least_s) const {
+  const std::uint64_t before = reads_.load(std::memory_order_acquire);
+  const auto wait = std::chrono::duration<double>(std::max(5 * period_s_, at_least_s));
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(wait);
+  while (Clock::now() < deadline) {
+    if (reads_.load(std::memory_order_acquire) != before) return true;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  return false;
+}
+
+void CanopenDevice::with_sdo_link(bool loop_owns_socket, const std::function<void(FrameLink&)>& use) {
+  if (loop_owns_socket) {
+    RingLink link(socket_, *sdo_answers_);
+    use(link);
+  } else {
+    SocketLink link(socket_, &*exchange_);
+    use(link);
+  }
+}
+
+void CanopenDevice::enable() {
+  const std::string step = "canopen: enabling node " + std::to_string(config_.node_id);
+  {
+    std::lock_guard lock(sdo_mutex_);
+    try {
+      // Applied by the first read() below.
+      with_sdo_link(false, [this](FrameLink& link) { recheck_torque_unit(link, false); });
+    } catch (const StopRequested&) {
+      throw StopRequested(abandoned(step));
+    }
+  }
+  exchange_->set_enabled(true);
+  const bool ok = run_periods(
+      [this] { return stop_.stop_requested() || exchange_->operational() || exchange_->faulted(); },
+      periods_in(enable_timeout_s, period_s_));
+  const bool stopped = stop_.stop_requested();
+  if (stopped || !ok || exchange_->faulted()) {
+    const std::string why = exchange_->faulted()
+                                ? describe(exchange_->fault(), exchange_->settings())
+                                : "it is in " + exchange_status().drive_state + " after " +
+                                      std::to_string(std::llround(enable_timeout_s * 1e3)) + " ms";
+    exchange_->set_enabled(false);
+    run_periods([] { return false; }, 2);  // Disable Voltage goes out
+    if (stopped) throw StopRequested(abandoned(step));
+    throw SetupError("node " + std::to_string(config_.node_id) + " could not be enabled: " + why, "");
+  }
+  enabled_.store(true, std::memory_order_release);
+}
+
+std::string CanopenDevice::clear_fault() {
+  const std::string step = "canopen: clearing the fault of node " + std::to_string(config_.node_id);
+  const ExchangeStatus before = exchange_status();
+  if (!before.faulted) return "";
+  if (before.fault_kind == FaultKind::drive_restarted)
+    throw SetupError("not cleared: " + before.fault_reason, "");
+  // Which thread owns the socket decides the link: a loop this VM stalls for
+  // more than 5 ms must not be taken for none (its answers would go to the
+  // ring while this thread read the socket), so it gets 100 ms to show up.
+  const bool loop = loop_running(clear_loop_wait_s);
+  // The unit the reset resumes with: a changed 0x6076 is taken now, the
+  // torque still zero. A lost link has nothing to read (the reset fails below).
+  if (before.fault_kind != FaultKind::link_lost) {
+    std::lock_guard lock(sdo_mutex_);
+    try {
+      with_sdo_link(loop, [this](FrameLink& link) { recheck_torque_unit(link, false); });
+    } catch (const SetupError& e) {
+      throw SetupError("the drive stays in fault: " + before.fault_reason + "; " + e.what(), e.key());
+    } catch (const StopRequested&) {
+      throw StopRequested(abandoned(step));
+    }
+  }
+  clear_requested_.store(true, std::memory_order_release);
+  if (loop) {
+    await_reset_by_loop();
+  } else {
+    run_periods(
+        [this] {
+          return stop_.stop_requested() ||
+                 (!clear_requested_.load() && (exchange_->operational() || exchange_->faulted()));
+        },
+        periods_in(reset_timeout_s + 0.5, period_s_));
+  }
+  const ExchangeStatus after = exchange_status();
+  if (!after.operational && stop_.stop_requested()) {
+    clear_requested_.store(false, std::memory_order_release);
+    throw StopRequested(abandoned(step));
+  }
+  if (!after.operational)
+    throw SetupError(
+        "the drive stays in fault: " + (after.faulted ? after.fault_reason : "it is in " + after.drive_state),
+        "");
+  return before.fault_reason;
+}
+
+void CanopenDevice::await_reset_by_loop() const {
+  // The loop takes the request at its next read() but publishes its status
+  // only at write(): until a publication after the take, the status still
+  // shows the old fault, not yet resetting.
+  const auto limit = std::chrono::duration<double>(reset_timeout_s + 0.5);
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(limit);
+  std::optional<std::uint64_t> taken_before;  // publications when the take was seen
+  for (;;) {
+    if (!taken_before && !clear_requested_.load(std::memory_order_acquire))
+      taken_before = published_.publications();
+    if (taken_before && published_.publications() > *taken_before) {
+      const ExchangeStatus now = exchange_status();
+      if (!now.resetting && (now.operational || now.faulted)) return;
+    }
+    if (Clock::now() >= deadline || stop_.stop_requested()) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+void CanopenDevice::disable() noexcept {
+  try {
+    disable_requested_.store(true, std::memory_order_release);
+    if (loop_running()) {
+      // The loop takes the request at its next read(); give the Disable Voltage a few periods to go out.
+      const std::uint64_t seen = reads_.load(std::memory_order_acquire);
+      const auto deadline = Clock::now() + std::chrono::milliseconds(200);
+      while (Clock::now() < deadline && (disable_requested_.load(std::memory_order_acquire) ||
+                                         reads_.load(std::memory_order_acquire) < seen + 3))
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+    } else {
+      exchange_->set_enabled(false);
+      disable_requested_.store(false);
+      run_periods([] { return false; }, 3);  // Disable Voltage goes out with the next SYNCs
+    }
+  } catch (...) {
+  }
+  enabled_.store(false, std::memory_order_release);
+}
 
 void CanopenDevice::close() noexcept {
-  if (session_) session_->close();
-  session_.reset();
+  if (exchange_) {
+    try {
+      SocketLink link(socket_);
+      SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
+      release_drive(sdo, link, config_.node_id);
+    } catch (...) {
+    }
+  }
+  socket_.close();
+  exchange_.reset();
 }
 
-IoResult CanopenDevice::read(Reading& out) noexcept { return session_->read(out); }
+// ---- RT ----------------------------------------------------------------------
 
-IoResult CanopenDevice::write(double force) noexcept { return session_->write(force); }
+IoResult CanopenDevice::read(Reading& out) noexcept {
+  reads_.fetch_add(1, std::memory_order_release);
+  if (clear_requested_.exchange(false, std::memory_order_acq_rel)) {
+    exchange_->set_enabled(true);
+    exchange_->request_fault_reset();
+  }
+  if (disable_requested_.exchange(false, std::memory_order_acq_rel)) exchange_->set_enabled(false);
+  apply_torque_unit();
+  drain_socket();
+  const CycleReading r = exchange_->begin_period();
+  if (exchange_->faulted()) return IoResult::fault;
+  if (!r.valid) return IoResult::error;
+  out.position = r.position;
+  out.stale = !r.fresh;
+  return IoResult::ok;
+}
+
+void CanopenDevice::drain_socket() noexcept {
+  Frame f;
+  for (int i = 0; i < max_frames_per_period; ++i) {
+    const IoStatus s = socket_.receive(f);
+    if (s == IoStatus::would_block) return;
+    if (s == IoStatus::malformed) {
+      exchange_->on_malformed_message(socket_.last_malformed());  // latched: zero output this period
+      continue;
+    }
+    if (s != IoStatus::ok) {
+      exchange_->on_link_lost(socket_.last_errno(), s == IoStatus::closed);
+      return;
+    }
+    if (exchange_->on_frame(f) == FrameUse::sdo_response) sdo_answers_->try_push(f);
+  }
+}
+
+void CanopenDevice::apply_torque_unit() noexcept {
+  TorqueUnitChange change;
+  while (unit_changes_->try_pop(change)) {
+    if (change.fault) exchange_->on_torque_unit_changed(change.before_mnm, change.after_mnm);
+    if (change.after_mnm != 0) exchange_->set_force_per_permille(change.force_per_permille);
+  }
+}
+
+IoResult CanopenDevice::write(double force) noexcept {
+  std::array<Frame, 4> frames;
+  const std::size_t n = exchange_->end_period(force, frames);
+  for (std::size_t i = 0; i < n; ++i) {
+    const IoStatus s = socket_.send(frames[i]);
+    if (s == IoStatus::would_block) {
+      exchange_->on_frame_dropped();  // TX queue full: dropped, never waited for
+    } else if (s != IoStatus::ok) {
+      exchange_->on_link_lost(socket_.last_errno(), s == IoStatus::closed);
+      break;
+    }
+  }
+  published_.publish(*exchange_);
+  return exchange_->faulted() ? IoResult::fault : IoResult::ok;
+}
+
+// ---- any non-RT thread -------------------------------------------------------
 
 DeviceModel CanopenDevice::model() const {
   DeviceModel m;
@@ -120,22 +393,27 @@ DeviceModel CanopenDevice::model() const {
   m.position_resolution = unit / config_.counts_per_unit;
   m.delay_periods = 1;  // the RPDO sent before SYNC n acts at SYNC n; the position is from SYNC n-1
   m.source = "config";
-  const DriveIdentity& id = session_->setup().identity;
+  const DriveIdentity& id = setup_.identity;
   m.description = "CiA 402 drive, node " + std::to_string(config_.node_id) + " (vendor " +
                   world::text::format_hex(id.vendor_id, 8) + ", product " +
                   world::text::format_hex(id.product_code, 8) + "), cyclic synchronous torque";
-  for (const std::string& note : session_->setup().notes) m.description += "; " + note;
+  for (const std::string& note : setup_.notes) m.description += "; " + note;
   return m;
 }
 
+ExchangeStatus CanopenDevice::exchange_status() const {
+  if (!exchange_) return {};
+  return published_.load(exchange_->settings());
+}
+
 DeviceHealth CanopenDevice::health() const {
-  DeviceHealth s;
-  if (!session_) return s;
-  const SessionStatus st = session_->status();
-  s.faulted = st.faulted;
-  s.fault_reason = st.fault_reason;
+  DeviceHealth h;
+  if (!exchange_) return h;
+  const ExchangeStatus st = exchange_status();
+  h.faulted = st.faulted;
+  h.fault_reason = st.fault_reason;
   const CyclicCounters& c = st.counters;
-  s.counters = {{"periods", c.periods},
+  h.counters = {{"periods", c.periods},
                 {"tpdos", c.tpdos},
                 {"late_tpdos", c.late_tpdos},
                 {"short_tpdos", c.short_tpdos},
@@ -145,55 +423,11 @@ DeviceHealth CanopenDevice::health() const {
                 {"tx_dropped", c.tx_dropped},
                 {"malformed_frames", c.malformed_frames},
                 {"malformed_messages", c.malformed_messages},
-                {"sdo_answers_dropped", st.sdo_answers_dropped},
-                {"rated_torque_mnm", st.rated_torque_mnm},
+                {"sdo_answers_dropped", sdo_answers_->dropped()},
+                {"rated_torque_mnm", rated_torque_mnm()},
                 {"statusword", st.statusword},
                 {"controlword", st.controlword}};
-  return s;
-}
-
-std::vector<DeviceMethod> CanopenDevice::methods() {
-  DeviceMethod read{"device.sdo.read", false,
-                    "read an object of the drive by SDO: index, sub [, type] (commissioning)",
-                    [this](const json& params) {
-                      only_members(params, {"index", "sub", "type"}, "device.sdo.read");
-                      const cia301::ObjectAddress a = address_param(params);
-                      const auto type = type_param(params);
-                      if (!session_) throw RpcError(code::refused, "the drive is not configured");
-                      try {
-                        return to_json(session_->sdo_read(a, type));
-                      } catch (const SdoError& e) {
-                        throw RpcError(code::refused, e.what());
-                      }
-                    }};
-  DeviceMethod write{
-      "device.sdo.write", true,
-      "write an object of the drive by SDO: index, sub, value [, type]; what scales or bounds the torque "
-      "only while disabled",
-      [this](const json& params) {
-        only_members(params, {"index", "sub", "value", "type"}, "device.sdo.write");
-        const cia301::ObjectAddress a = address_param(params);
-        const std::int64_t value = integer_param(params, "value");
-        const auto type = type_param(params);
-        if (!session_) throw RpcError(code::refused, "the drive is not configured");
-        try {
-          return to_json(session_->sdo_write(a, value, type));
-        } catch (const std::invalid_argument& e) {
-          throw RpcError(code::refused, e.what());
-        } catch (const SdoError& e) {
-          throw RpcError(code::refused, e.what());
-        } catch (const SetupError& e) {  // 0x6076 read back: unreadable, or against rated_torque
-          throw RpcError(code::refused, e.what());
-        }
-      }};
-  // Numbers or text ("0x6041"), read by integer_param(); the daemon checks
-  // the members and their types before the handler runs.
-  const rpc::ParamMember index{"index", rpc::ParamType::integer_or_string};
-  const rpc::ParamMember sub{"sub", rpc::ParamType::integer_or_string};
-  const rpc::ParamMember type{"type", rpc::ParamType::string};
-  read.members = {index, sub, type};
-  write.members = {index, sub, {"value", rpc::ParamType::integer_or_string}, type};
-  return {read, write};
+  return h;
 }
 
 }  // namespace hapticd::drivers::canopen

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "drivers/canopen/canopen_device.hpp"
+#include "drivers/driver_description.hpp"
 
 namespace hapticd::drivers::canopen {
 

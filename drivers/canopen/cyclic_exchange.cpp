@@ -251,7 +251,6 @@ void CyclicExchange::latch(FaultRecord record) noexcept {
   }
   fault_ = record;
   resetting_ = false;
-  ++counters_.faults;
 }
 
 CycleReading CyclicExchange::begin_period() noexcept {

@@ -107,7 +107,6 @@ struct CyclicCounters {
   std::uint64_t tx_dropped = 0;          ///< frames the socket refused (TX queue full)
   std::uint64_t malformed_frames = 0;    ///< EMCYs and heartbeats that break CiA 301 (each a fault)
   std::uint64_t malformed_messages = 0;  ///< socket messages that are no can_frame (each a fault)
-  std::uint64_t faults = 0;
 };
 
 /// What the drive reported for this period.

@@ -16,14 +16,13 @@
 #include <string>
 #include <vector>
 
-#include "drivers/canopen/301/frame.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 
 namespace hapticd::drivers::canopen::sim {
 
 /// Applies one command to the drive; frames it sends go to `out`.
 std::string apply_command(SimulatedDrive& drive, const std::string& line, Micros now,
-                          std::vector<cia301::Frame>& out);
+                          std::vector<Frame>& out);
 
 /// The status line (also the reply of "status").
 std::string status_line(const SimulatedDrive& drive);

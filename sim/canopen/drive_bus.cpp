@@ -10,7 +10,7 @@ namespace hapticd::drivers::canopen::sim {
 
 DriveBus::DriveBus(const std::string& path, SimulatedDrive& drive)
     : drive_(drive), listener_(CanListener::listen(path)) {
-  std::vector<cia301::Frame> out;
+  std::vector<Frame> out;
   drive_.power_on(now(), out);  // the boot-up goes nowhere: no driver yet
 }
 
@@ -30,8 +30,8 @@ double DriveBus::applied_force() const {
   return drive_.applied_force();
 }
 
-void DriveBus::send_all(const std::vector<cia301::Frame>& frames) {
-  for (const cia301::Frame& f : frames) {
+void DriveBus::send_all(const std::vector<Frame>& frames) {
+  for (const Frame& f : frames) {
     if (!connection_.is_open()) return;
     if (connection_.send(f) == IoStatus::closed) connection_.close();
   }
@@ -54,12 +54,12 @@ void DriveBus::poll_once(std::chrono::microseconds wait) {
   (void)::poll(&p, 1, static_cast<int>(ms));
 
   std::lock_guard lock(mutex_);
-  std::vector<cia301::Frame> out;
+  std::vector<Frame> out;
   if (!connection_.is_open()) {
     connection_ = listener_.accept(std::chrono::microseconds(0));
     if (connection_.is_open()) ++connections_;
   } else {
-    cia301::Frame f;
+    Frame f;
     for (;;) {
       const IoStatus s = connection_.receive(f);
       if (s == IoStatus::ok) {
@@ -83,7 +83,7 @@ void DriveBus::run(const std::atomic<bool>& stop, std::chrono::microseconds tick
 
 std::string DriveBus::command(const std::string& line) {
   std::lock_guard lock(mutex_);
-  std::vector<cia301::Frame> out;
+  std::vector<Frame> out;
   std::string reply = apply_command(drive_, line, now(), out);
   send_all(out);
   return reply;

@@ -44,7 +44,7 @@ class DriveBus {
 
  private:
   Micros now() const;
-  void send_all(const std::vector<cia301::Frame>& frames);
+  void send_all(const std::vector<Frame>& frames);
 
   SimulatedDrive& drive_;
   CanListener listener_;

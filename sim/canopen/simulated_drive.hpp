@@ -4,6 +4,13 @@
 /// frames in, frames out, time given by the caller (so tests are exact and
 /// the bus loop, sim/drive_bus.hpp, is the only part that waits).
 ///
+/// It reads and writes the wire with its own decoders, written from the
+/// standards and not taken from the driver (drivers/canopen/301, 402): a
+/// misreading of CiA 301 or 402 in either end shows as a failure instead of
+/// passing both. wire.hpp (NMT, heartbeat, SYNC, EMCY, PDO parameters),
+/// sdo_server.hpp (expedited SDO), drive_state_machine.hpp (CiA 402),
+/// object_dictionary.hpp (its entries' types, access and mapping).
+///
 /// What it implements (CiA 301): NMT slave (boot-up, pre-operational,
 /// operational, stopped, resets), SDO server (expedited), RPDO/TPDO 1-4 with
 /// the standard mapping rules, SYNC consumer, heartbeat producer (0x1017)
@@ -25,13 +32,9 @@
 #include <string>
 #include <vector>
 
-#include "drivers/canopen/301/emcy.hpp"
-#include "drivers/canopen/301/frame.hpp"
-#include "drivers/canopen/301/nmt.hpp"
-#include "drivers/canopen/301/pdo.hpp"
-#include "drivers/canopen/402/objects.hpp"
-#include "drivers/canopen/402/state_machine.hpp"
+#include "sim/canopen/drive_state_machine.hpp"
 #include "sim/canopen/object_dictionary.hpp"
+#include "sim/canopen/wire.hpp"
 
 namespace hapticd::drivers::canopen::sim {
 
@@ -88,29 +91,29 @@ class SimulatedDrive {
 
   /// Power on (transitions 0 and 1, NMT initialisation): boot-up message,
   /// pre-operational, Switch On Disabled.
-  void power_on(Micros now, std::vector<cia301::Frame>& out);
+  void power_on(Micros now, std::vector<Frame>& out);
   /// One frame from the bus.
-  void on_frame(const cia301::Frame& frame, Micros now, std::vector<cia301::Frame>& out);
+  void on_frame(const Frame& frame, Micros now, std::vector<Frame>& out);
   /// Timers: heartbeat producer and consumers. Call often (every ms or so).
-  void tick(Micros now, std::vector<cia301::Frame>& out);
+  void tick(Micros now, std::vector<Frame>& out);
   /// When the next timer is due (for the bus loop's poll timeout).
   Micros next_deadline() const noexcept;
 
   // ---- fault switches ----
   /// Goes to fault with this EMCY (transition 13, then 14 at the next SYNC or tick).
-  void inject_fault(const EmergencyFault& fault, Micros now, std::vector<cia301::Frame>& out);
+  void inject_fault(const EmergencyFault& fault, Micros now, std::vector<Frame>& out);
   /// Stops answering: no frame is processed or sent, the plant stands still,
   /// until set_mute(false).
   void set_mute(bool mute) noexcept { mute_ = mute; }
   /// Skips the next `count` TPDO transmissions (-1: all until cleared with 0).
   void drop_tpdos(std::int64_t count) noexcept { drop_tpdos_ = count; }
   /// The next SDO request (for `address`, or any if nullopt) is answered with this abort.
-  void abort_next_sdo(std::optional<cia301::ObjectAddress> address, std::uint32_t code) noexcept;
+  void abort_next_sdo(std::optional<Address> address, std::uint32_t code) noexcept;
   /// A write of 0x6060 is acknowledged but 0x6061 keeps the old mode.
   void refuse_mode(bool refuse) noexcept { refuse_mode_ = refuse; }
   /// The controller goes bus-off: one error frame (CAN_ERR_BUSOFF) to the
   /// bus, the 0x6007 reaction, then silence (as set_mute(true)).
-  void go_bus_off(Micros now, std::vector<cia301::Frame>& out);
+  void go_bus_off(Micros now, std::vector<Frame>& out);
   /// Ends every switch (mute, drops, pending abort, mode refusal). The drive's
   /// own fault stays until a fault reset, as on a real drive; so does a
   /// position jump (an encoder that lost counts keeps its offset).
@@ -120,8 +123,8 @@ class SimulatedDrive {
   void jump_position(std::int64_t counts) noexcept { position_offset_counts_ += counts; }
 
   // ---- observation ----
-  cia402::DriveState state() const noexcept { return state_; }
-  cia301::NmtState nmt_state() const noexcept { return nmt_; }
+  DriveState state() const noexcept { return state_; }
+  NmtState nmt_state() const noexcept { return nmt_; }
   std::uint16_t statusword() const noexcept;
   std::uint16_t controlword() const noexcept { return controlword_; }
   std::int8_t mode_display() const noexcept;
@@ -135,9 +138,18 @@ class SimulatedDrive {
   const std::string& fault_reason() const noexcept { return fault_reason_; }
 
  private:
+  enum class Direction : std::uint8_t { receive, transmit };  ///< RPDO, TPDO
+  /// A PDO's mapping as the dictionary holds it: entries and their byte offsets.
+  struct PdoLayout {
+    int count = 0;
+    Address objects[8];
+    std::uint8_t bytes[8] = {};
+    std::uint8_t offsets[8] = {};
+    std::uint8_t length = 0;  ///< bytes in all
+  };
   struct RxPdoBuffer {
     bool pending = false;
-    cia301::Frame frame;
+    Frame frame;
   };
   struct Consumer {
     bool active = false;  ///< set by the first heartbeat (not the boot-up)
@@ -145,34 +157,42 @@ class SimulatedDrive {
   };
 
   void build_dictionary();
-  void enter_nmt(cia301::NmtState state, Micros now);
-  void reset_communication(Micros now, std::vector<cia301::Frame>& out);
-  void on_nmt(const cia301::NmtMessage& message, Micros now, std::vector<cia301::Frame>& out);
-  void on_sdo(const cia301::Frame& frame, std::vector<cia301::Frame>& out);
-  std::uint32_t sdo_download(cia301::ObjectAddress address, std::uint32_t value, std::uint8_t size);
-  std::uint32_t check_pdo_write(cia301::ObjectAddress address, std::uint32_t value) const;
-  std::uint32_t check_drive_write(cia301::ObjectAddress address, std::uint32_t value) const;
-  void after_write(cia301::ObjectAddress address, std::uint32_t old_value);
-  void on_sync(Micros now, std::vector<cia301::Frame>& out);
-  void on_rpdo(int number, const cia301::Frame& frame, std::vector<cia301::Frame>& out);
-  void apply_rpdo(int number, const cia301::Frame& frame, std::vector<cia301::Frame>& out);
-  void send_tpdos(std::vector<cia301::Frame>& out);
-  void on_heartbeat(const cia301::Heartbeat& hb, Micros now);
-  void on_controlword(std::uint16_t controlword, std::vector<cia301::Frame>& out);
+  void add_pdo_parameters(int number);
+  void enter_nmt(NmtState state, Micros now);
+  void reset_communication(Micros now, std::vector<Frame>& out);
+  void on_nmt(NmtCommand command, Micros now, std::vector<Frame>& out);
+  void on_sdo(const Frame& frame, std::vector<Frame>& out);
+  std::uint32_t sdo_download(Address address, std::uint32_t value, std::uint8_t size);
+  std::uint32_t check_pdo_write(Address address, std::uint32_t value) const;
+  std::uint32_t check_mapping_write(Direction direction, int number, Address address,
+                                    std::uint32_t value) const;
+  std::uint32_t check_drive_write(Address address, std::uint32_t value) const;
+  void after_write(Address address);
+  void on_sync(std::vector<Frame>& out);
+  void on_rpdo(int number, const Frame& frame, std::vector<Frame>& out);
+  void apply_rpdo(int number, const Frame& frame, std::vector<Frame>& out);
+  void send_tpdos(std::vector<Frame>& out);
+  double torque_to_apply() const;
+  void on_heartbeat(const Heartbeat& hb, Micros now);
+  void watch_consumers(Micros now, std::vector<Frame>& out);
+  void on_controlword(std::uint16_t controlword, std::vector<Frame>& out);
   void fault(std::uint16_t code, std::uint8_t error_register, const std::string& reason,
-             std::vector<cia301::Frame>& out);
-  void lost_master(std::uint16_t emcy_code, const std::string& reason, std::vector<cia301::Frame>& out);
+             std::vector<Frame>& out);
+  void lost_master(std::uint16_t emcy_code, const std::string& reason, std::vector<Frame>& out);
   void finish_fault_reaction();
   void refresh_process_values();
-  void send_emcy(std::uint16_t code, std::uint8_t error_register, std::vector<cia301::Frame>& out);
-  std::optional<cia301::PdoLayout> layout(cia301::PdoDirection direction, int number) const;
-  cia301::PdoCobId cob_id(cia301::PdoDirection direction, int number) const;
+  void send_emcy(std::uint16_t code, std::uint8_t error_register, std::vector<Frame>& out);
+  static std::uint16_t communication_index(Direction direction, int number) noexcept;
+  static std::uint16_t mapping_index(Direction direction, int number) noexcept;
+  std::optional<PdoLayout> layout(Direction direction, int number) const;
+  PdoCobId cob_id(Direction direction, int number) const;
+  ConsumerEntry consumer(int i) const;
 
   DriveSettings settings_;
   DrivePlant& plant_;
   ObjectDictionary od_;
-  cia301::NmtState nmt_ = cia301::NmtState::boot_up;
-  cia402::DriveState state_ = cia402::DriveState::not_ready_to_switch_on;
+  NmtState nmt_ = NmtState::boot_up;
+  DriveState state_ = DriveState::not_ready_to_switch_on;
   std::uint16_t controlword_ = 0;
   double applied_force_ = 0.0;
   std::string fault_reason_;
@@ -185,7 +205,7 @@ class SimulatedDrive {
   bool mute_ = false;
   std::int64_t drop_tpdos_ = 0;
   bool abort_pending_ = false;
-  std::optional<cia301::ObjectAddress> abort_address_;
+  std::optional<Address> abort_address_;
   std::uint32_t abort_code_ = 0;
   bool refuse_mode_ = false;
   std::int64_t position_offset_counts_ = 0;  ///< added to 0x6064 (position-jump)
@@ -194,7 +214,7 @@ class SimulatedDrive {
 };
 
 /// The error register an EMCY of this code sets: generic, plus current /
-/// voltage / temperature / communication / device profile by the code's class.
+/// voltage / temperature / communication by the code's class.
 std::uint8_t error_register_for(std::uint16_t code) noexcept;
 
 }  // namespace hapticd::drivers::canopen::sim

@@ -266,7 +266,7 @@ TEST_F(MasterTest, SetupConfiguresTheDriveTheStandardWay) {
   EXPECT_EQ(od.get({0x1801, 1}) >> 31, 1U);  // TPDO2 not valid: no velocity asked for
   EXPECT_EQ(od.get({0x1A01, 0}), 0U);
   EXPECT_EQ(od.get({0x1401, 1}) >> 31, 1U);
-  EXPECT_EQ(drive.nmt_state(), co::NmtState::pre_operational);
+  EXPECT_EQ(drive.nmt_state(), sim::NmtState::pre_operational);
   // The mapping went out in the standard order: disable, type, count 0, entries, count, enable.
   std::vector<co::ObjectAddress> rpdo_writes;
   for (const Frame& f : link.sent) {
@@ -313,18 +313,18 @@ TEST_F(MasterTest, SetupRefusalsNameTheReasonAndTheKey) {
             "node 5 did not take cyclic synchronous torque: after 0x6060 = 10, 0x6061 shows 0 (no mode)");
   drive.clear_switches();
 
-  drive.abort_next_sdo(co::ObjectAddress{0x1600, 1}, co::abort_code::not_mappable);
+  drive.abort_next_sdo(sim::Address{0x1600, 1}, co::abort_code::not_mappable);
   EXPECT_EQ(setup_error(options(), &key),
             "SDO write 0x1600:01 = 0x60400010 to node 5: aborted 0x06040041 (the object cannot be mapped to "
             "the PDO)");
 
-  drive.abort_next_sdo(co::ObjectAddress{0x6060, 0}, co::abort_code::wrong_state);
+  drive.abort_next_sdo(sim::Address{0x6060, 0}, co::abort_code::wrong_state);
   EXPECT_EQ(
       setup_error(options(), &key),
       "SDO write 0x6060:00 = 10 to node 5: aborted 0x08000022 (data cannot be stored in the drive's present "
       "state)");
 
-  drive.abort_next_sdo(co::ObjectAddress{0x1016, 1}, co::abort_code::no_sub_index);
+  drive.abort_next_sdo(sim::Address{0x1016, 1}, co::abort_code::no_sub_index);
   EXPECT_EQ(
       setup_error(options(), &key),
       "node 5 has no heartbeat consumer (0x1016:01), so it could not stop when hapticd dies; refusing to "
@@ -389,7 +389,7 @@ TEST_F(MasterTest, EnablesWithTheStandardSequenceAndHaltUntilACommandFlows) {
   const std::vector<std::uint16_t> expected = {0x106, 0x107, 0x10F, 0x00F, 0x00F, 0x00F};
   EXPECT_EQ(controlwords, expected);
   EXPECT_TRUE(exchange->operational());
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
   period(std::nan(""));  // no valid command: halt, no torque
   EXPECT_EQ(sent_controlword(), 0x10F);
   EXPECT_EQ(sent_torque(), 0);
@@ -437,7 +437,7 @@ TEST_F(MasterTest, EmcyZeroesTheTorqueInThatPeriodAndNamesTheDrivesReason) {
       "manufacturer bytes 00 00 00 00 00");
   for (int i = 0; i < 5; ++i) period(0.2);
   EXPECT_EQ(exchange->fault().kind, canopen::FaultKind::emcy);  // the first reason stays
-  EXPECT_EQ(drive.state(), c4::DriveState::fault);
+  EXPECT_EQ(drive.state(), sim::DriveState::fault);
 
   // Fault reset: bit 7 low (it is: 0x100), then high; then the enable sequence.
   exchange->request_fault_reset();
@@ -450,7 +450,7 @@ TEST_F(MasterTest, EmcyZeroesTheTorqueInThatPeriodAndNamesTheDrivesReason) {
   ASSERT_GE(controlwords.size(), 4U);
   EXPECT_EQ(controlwords[0], 0x180);  // the edge
   EXPECT_EQ(controlwords[1] & 0x8F, 0x06);
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
   EXPECT_EQ(drive.error_code(), 0U);
 }
 
@@ -484,14 +484,14 @@ TEST_F(MasterTest, AKilledHapticdFaultsTheDriveThroughItsHeartbeatConsumer) {
   period(0.0);
   enable();
   for (int i = 0; i < 50; ++i) period(0.1);
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
   // hapticd dies: no more frames. The drive's consumer (100 ms) fires.
   std::vector<Frame> out;
   for (int ms = 0; ms < 130; ++ms) {
     now += 1ms;
     drive.tick(now, out);
   }
-  EXPECT_EQ(drive.state(), c4::DriveState::fault);  // 0x6007 = 1, written by the setup
+  EXPECT_EQ(drive.state(), sim::DriveState::fault);  // 0x6007 = 1, written by the setup
   EXPECT_EQ(drive.applied_force(), 0.0);
   EXPECT_EQ(drive.fault_reason(), "heartbeat of node 127 lost (consumer time 100 ms)");
 }

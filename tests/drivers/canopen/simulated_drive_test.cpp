@@ -12,12 +12,10 @@
 #include "drivers/canopen/301/nmt.hpp"
 #include "drivers/canopen/301/pdo.hpp"
 #include "drivers/canopen/301/sdo.hpp"
-#include "drivers/canopen/402/state_machine.hpp"
 #include "sim/canopen/commands.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 
 namespace co = hapticd::drivers::canopen::cia301;
-namespace c4 = hapticd::drivers::canopen::cia402;
 namespace sim = hapticd::drivers::canopen::sim;
 using co::Frame;
 using namespace std::chrono_literals;
@@ -112,7 +110,7 @@ class SimulatedDriveTest : public ::testing::Test {
     write_all(co::pdo_configuration_sequence({co::PdoDirection::transmit, 1, 0x185, 1, co::PdoLayout(tx)}));
     ASSERT_EQ(write({0x6060, 0}, 10, 1), 0U);
     send(co::encode_nmt(co::NmtCommand::start, node));
-    ASSERT_EQ(drive.nmt_state(), co::NmtState::operational);
+    ASSERT_EQ(drive.nmt_state(), sim::NmtState::operational);
   }
   /// One period as the driver does it: RPDO, then SYNC; returns what the drive sent.
   std::vector<Frame> cycle(std::uint16_t controlword, std::int16_t torque_permille) {
@@ -134,7 +132,7 @@ class SimulatedDriveTest : public ::testing::Test {
     cycle(0x06, 0);
     cycle(0x07, 0);
     cycle(0x0F, 0);
-    ASSERT_EQ(drive.state(), c4::DriveState::operation_enabled);
+    ASSERT_EQ(drive.state(), sim::DriveState::operation_enabled);
   }
 
   sim::Micros now{1000000};
@@ -148,8 +146,8 @@ class SimulatedDriveTest : public ::testing::Test {
 TEST_F(SimulatedDriveTest, PowerOnSendsBootUpAndWaitsPreOperational) {
   ASSERT_EQ(out.size(), 1U);
   EXPECT_EQ(out[0], make(0x705, {0x00}));
-  EXPECT_EQ(drive.nmt_state(), co::NmtState::pre_operational);
-  EXPECT_EQ(drive.state(), c4::DriveState::switch_on_disabled);
+  EXPECT_EQ(drive.nmt_state(), sim::NmtState::pre_operational);
+  EXPECT_EQ(drive.state(), sim::DriveState::switch_on_disabled);
   // PDOs are not active before NMT start: an RPDO and a SYNC produce nothing.
   EXPECT_TRUE(send(make(0x205, {0x06, 0x00})).empty());
   EXPECT_TRUE(send(co::encode_sync()).empty());
@@ -248,7 +246,7 @@ TEST_F(SimulatedDriveTest, HaltBitAndModeGateTheTorque) {
   cycle(0x0F, 5000);  // above 0x6072 = 300 %: clamped
   EXPECT_DOUBLE_EQ(drive.applied_force(), 1.5);
   cycle(0x07, 500);  // Disable Operation: power stage off
-  EXPECT_EQ(drive.state(), c4::DriveState::switched_on);
+  EXPECT_EQ(drive.state(), sim::DriveState::switched_on);
   EXPECT_EQ(drive.applied_force(), 0.0);
 }
 
@@ -269,26 +267,74 @@ TEST_F(SimulatedDriveTest, InjectedFaultSendsEmcyAndResetsOnTheEdge) {
   drive.inject_fault({0x2310, std::nullopt}, now, out);
   ASSERT_EQ(out.size(), 1U);
   EXPECT_EQ(out[0], make(0x085, {0x10, 0x23, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00}));  // generic + current
-  EXPECT_EQ(drive.state(), c4::DriveState::fault_reaction_active);
+  EXPECT_EQ(drive.state(), sim::DriveState::fault_reaction_active);
   auto frames = cycle(0x0F, 400);
-  EXPECT_EQ(drive.state(), c4::DriveState::fault);
+  EXPECT_EQ(drive.state(), sim::DriveState::fault);
   EXPECT_EQ(drive.applied_force(), 0.0);
   EXPECT_EQ(*find(frames, 0x185), make(0x185, {0x18, 0x02, 0x00, 0x00, 0x00, 0x00}));  // Fault
   EXPECT_EQ(read({0x603F, 0}), 0x2310U);
   EXPECT_EQ(drive.fault_reason(), "EMCY 0x2310: continuous over current (motor side)");
   // A level on bit 7 does nothing; the 0 -> 1 edge resets, with the EMCY "error reset".
   cycle(0x80, 0);
-  EXPECT_EQ(drive.state(), c4::DriveState::switch_on_disabled);  // 0x0F -> 0x80 is an edge
+  EXPECT_EQ(drive.state(), sim::DriveState::switch_on_disabled);  // 0x0F -> 0x80 is an edge
   drive.inject_fault({0x4310, std::nullopt}, now, out);
   cycle(0x80, 0);
   cycle(0x80, 0);
-  EXPECT_EQ(drive.state(), c4::DriveState::fault);  // bit 7 held high: no edge
+  EXPECT_EQ(drive.state(), sim::DriveState::fault);  // bit 7 held high: no edge
   cycle(0x00, 0);
   frames = cycle(0x80, 0);
-  EXPECT_EQ(drive.state(), c4::DriveState::switch_on_disabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::switch_on_disabled);
   EXPECT_EQ(*find(frames, 0x085), make(0x085, {0, 0, 0, 0, 0, 0, 0, 0}));
   EXPECT_EQ(read({0x603F, 0}), 0U);
   EXPECT_EQ(drive.fault_reason(), "");
+}
+
+TEST_F(SimulatedDriveTest, QuickStopEndsInSwitchOnDisabledUnlessTheOptionCodeKeepsIt) {
+  configure_cyclic_torque();
+  enable();
+  // Quick Stop (controlword 0 x 0 1 x, here 0x0B): transition 11.
+  ASSERT_EQ(write({0x6040, 0}, 0x0B, 2), 0U);
+  EXPECT_EQ(drive.state(), sim::DriveState::quick_stop_active);
+  EXPECT_EQ(read({0x6041, 0}) & 0x6FU, 0x07U);  // bit 5 clear: quick stop active
+  // 0x605A = 2 (quick stop ramp, then Switch On Disabled): in torque mode
+  // the torque is zero at once, so at the SYNC it is done (transition 12).
+  cycle(0x0B, 400);
+  EXPECT_EQ(drive.state(), sim::DriveState::switch_on_disabled);
+  EXPECT_EQ(drive.applied_force(), 0.0);
+  // 0x605A = 6 stays in Quick Stop Active; Enable Operation leaves it (transition 16).
+  ASSERT_EQ(write({0x605A, 0}, 6, 2), 0U);
+  enable();
+  cycle(0x0B, 400);
+  EXPECT_EQ(drive.state(), sim::DriveState::quick_stop_active);
+  EXPECT_EQ(drive.applied_force(), 0.0);
+  cycle(0x0F, 400);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
+}
+
+TEST_F(SimulatedDriveTest, OnlyTheRisingEdgeOfBit7IsACommandWhileItIsHigh) {
+  configure_cyclic_torque();
+  drive.inject_fault({0x2310, std::nullopt}, now, out);
+  cycle(0x00, 0);
+  cycle(0x80, 0);  // the edge: transition 15
+  EXPECT_EQ(drive.state(), sim::DriveState::switch_on_disabled);
+  // CiA 402's commands other than Fault Reset have bit 7 = 0: 0x86 is no Shutdown.
+  cycle(0x86, 0);
+  EXPECT_EQ(drive.state(), sim::DriveState::switch_on_disabled);
+  cycle(0x06, 0);
+  EXPECT_EQ(drive.state(), sim::DriveState::ready_to_switch_on);
+}
+
+TEST_F(SimulatedDriveTest, ExpeditedDownloadWithoutSizeAndShortRequests) {
+  // e = 1, s = 0 (0x22): the size is not indicated, the object's is taken.
+  EXPECT_EQ(send(make(0x605, {0x22, 0x60, 0x60, 0x00, 10, 0, 0, 0})).at(0),
+            make(0x585, {0x60, 0x60, 0x60, 0x00, 0, 0, 0, 0}));
+  EXPECT_EQ(read({0x6061, 0}), 10U);
+  // n = 2 with s = 1 (0x2B): two data bytes.
+  EXPECT_EQ(write({0x6072, 0}, 0x1234, 2), 0U);
+  EXPECT_EQ(send(co::encode_upload_request(node, {0x6072, 0})).at(0),
+            make(0x585, {0x4B, 0x72, 0x60, 0x00, 0x34, 0x12, 0x00, 0x00}));
+  // An SDO frame is 8 bytes: a shorter one is no request, and gets no answer.
+  EXPECT_TRUE(send(make(0x605, {0x40, 0x00, 0x10, 0x00})).empty());
 }
 
 TEST_F(SimulatedDriveTest, HeartbeatProducer) {
@@ -322,25 +368,25 @@ TEST_F(SimulatedDriveTest, HeartbeatConsumerFaultsTheDriveWhenTheMasterDies) {
   now += 200ms;
   out.clear();
   drive.tick(now, out);
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
   // Heartbeats every 20 ms keep it alive.
   for (int i = 0; i < 5; ++i) {
     now += 20ms;
     send(co::encode_heartbeat(master, co::NmtState::operational));
     drive.tick(now, out);
   }
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
   // The master dies: at 50 ms it is still alive, just after it is not.
   now += 50ms;
   out.clear();
   drive.tick(now, out);
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
   now += 1ms;
   drive.tick(now, out);
   ASSERT_EQ(out.size(), 1U);
   EXPECT_EQ(out[0], make(0x085, {0x30, 0x81, 0x11, 0, 0, 0, 0, 0}));  // 0x8130, generic + communication
-  EXPECT_EQ(drive.state(), c4::DriveState::fault_reaction_active);
-  EXPECT_EQ(drive.nmt_state(), co::NmtState::pre_operational);  // 0x1029 default
+  EXPECT_EQ(drive.state(), sim::DriveState::fault_reaction_active);
+  EXPECT_EQ(drive.nmt_state(), sim::NmtState::pre_operational);  // 0x1029 default
   EXPECT_EQ(drive.fault_reason(), "heartbeat of node 127 lost (consumer time 50 ms)");
   EXPECT_EQ(drive.applied_force(), 0.0);
 }
@@ -355,7 +401,7 @@ TEST_F(SimulatedDriveTest, WithoutAbortConnectionOptionTheDriveKeepsGoing) {
   out.clear();
   drive.tick(now, out);
   EXPECT_EQ(out.at(0).id, 0x085U);
-  EXPECT_EQ(drive.state(), c4::DriveState::operation_enabled);
+  EXPECT_EQ(drive.state(), sim::DriveState::operation_enabled);
 }
 
 TEST_F(SimulatedDriveTest, DroppedTpdosAbortedSdoAndBusOff) {
@@ -366,7 +412,7 @@ TEST_F(SimulatedDriveTest, DroppedTpdosAbortedSdoAndBusOff) {
   EXPECT_TRUE(find(cycle(0x06, 0), 0x185));
   EXPECT_EQ(drive.counters().tpdos_dropped, 2U);
 
-  drive.abort_next_sdo(co::ObjectAddress{0x6060, 0}, co::abort_code::wrong_state);
+  drive.abort_next_sdo(sim::Address{0x6060, 0}, co::abort_code::wrong_state);
   EXPECT_EQ(read({0x1000, 0}), 0x00020192U);  // another object: answered
   EXPECT_EQ(write({0x6060, 0}, 10, 1), co::abort_code::wrong_state);
   EXPECT_EQ(write({0x6060, 0}, 10, 1), 0U);  // once
@@ -385,7 +431,7 @@ TEST_F(SimulatedDriveTest, NmtResetCommunicationRestoresTheFactoryMapping) {
   const auto frames = send(co::encode_nmt(co::NmtCommand::reset_communication, 0));  // broadcast
   ASSERT_EQ(frames.size(), 1U);
   EXPECT_EQ(frames[0], make(0x705, {0x00}));
-  EXPECT_EQ(drive.nmt_state(), co::NmtState::pre_operational);
+  EXPECT_EQ(drive.nmt_state(), sim::NmtState::pre_operational);
   EXPECT_EQ(read({0x1600, 0}), 1U);
   EXPECT_EQ(read({0x1600, 1}), 0x60400010U);
   EXPECT_EQ(read({0x1400, 1}), 0x40000205U);

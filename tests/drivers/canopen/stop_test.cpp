@@ -1,20 +1,23 @@
-// The session's blocking waits give way to the daemon's stop (issue 17,
+// The canopen hooks' blocking waits give way to the daemon's stop (issue 17,
 // item 9): an SDO transfer in configure, the CiA 402 state waits of enable
 // and of a fault clear. Each wait would last its timeout (seconds); a stop
-// ends it after one slice with StopRequested. No timing is asserted: a wait
-// that did not give way ends in a SetupError instead, and the test fails by
-// that.
+// ends it after one slice with StopRequested. The hooks run inside the
+// framework's Device, as the daemon runs them. No timing is asserted: a
+// wait that did not give way ends in a SetupError instead, and the test
+// fails by that.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <thread>
 
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/can_socket.hpp"
-#include "drivers/canopen/canopen_session.hpp"
+#include "drivers/canopen/canopen_device.hpp"
+#include "drivers/device.hpp"
 #include "drivers/stop_request.hpp"
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
@@ -22,6 +25,8 @@
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;
 namespace co = hapticd::drivers::canopen::cia301;
+using hapticd::drivers::Device;
+using hapticd::drivers::DeviceState;
 using hapticd::drivers::IoResult;
 using hapticd::drivers::Reading;
 using hapticd::drivers::StopRequest;
@@ -92,10 +97,9 @@ TEST(CanopenStop, ConfigureGivesWayToAStopDuringAnSdoTransfer) {
     aborted = f.id == co::sdo_request_id(node) && f.data[0] == 0x80 && f.data[4] == 0x00 &&
               f.data[5] == 0x00 && f.data[6] == 0x04 && f.data[7] == 0x05;
   });
-  canopen::CanopenSession session(config(path));
-  session.set_stop(stop.token());
+  Device device("canopen", std::make_unique<canopen::CanopenDevice>(config(path)));
   try {
-    session.configure(period_s);
+    device.configure({period_s, stop.token()});
     ADD_FAILURE() << "configured against a peer that answers nothing";
   } catch (const StopRequested& e) {
     EXPECT_EQ(std::string(e.what()),
@@ -105,25 +109,27 @@ TEST(CanopenStop, ConfigureGivesWayToAStopDuringAnSdoTransfer) {
   }
   peer.join();
   EXPECT_TRUE(aborted) << "the transfer was not aborted on the bus";
-  EXPECT_FALSE(session.configured());
+  EXPECT_EQ(device.status().state, DeviceState::closed);
 }
 
 namespace {
 
-/// The simulated drive on its bus thread, and a session to it.
+/// The simulated drive on its bus thread, and the canopen device on it.
 class DriveStop : public ::testing::Test {
  protected:
   DriveStop() : path_(unique_path()), drive_(settings(), plant_), bus_(path_, drive_) {
     thread_ = std::thread([this] { bus_.run(bus_stop_); });
-    session_ = std::make_unique<canopen::CanopenSession>(config(path_));
-    session_->set_stop(stop_.token());
-    session_->configure(period_s);
+    device_ = std::make_unique<Device>("canopen", std::make_unique<canopen::CanopenDevice>(config(path_)));
+    device_->configure({period_s, stop_.token()});
   }
   ~DriveStop() override {
     stop_loop();
-    session_.reset();
+    device_.reset();
     bus_stop_ = true;
     thread_.join();
+  }
+  canopen::ExchangeStatus exchange() const {
+    return device_->hooks_as<canopen::CanopenDevice>().exchange_status();
   }
   static sim::DriveSettings settings() {
     sim::DriveSettings s;
@@ -136,8 +142,8 @@ class DriveStop : public ::testing::Test {
       auto next = std::chrono::steady_clock::now();
       while (!loop_stop_) {
         Reading r;
-        last_read_ = session_->read(r);
-        session_->write(0.0);
+        last_read_ = device_->read(r);
+        device_->write(0.0);
         next += 1ms;
         std::this_thread::sleep_until(next);
       }
@@ -155,7 +161,7 @@ class DriveStop : public ::testing::Test {
   std::atomic<bool> bus_stop_{false};
   std::thread thread_;
   StopRequest stop_;
-  std::unique_ptr<canopen::CanopenSession> session_;
+  std::unique_ptr<Device> device_;
   std::thread loop_;
   std::atomic<bool> loop_stop_{false};
   std::atomic<IoResult> last_read_{IoResult::ok};
@@ -170,27 +176,27 @@ TEST_F(DriveStop, EnableGivesWayToAStop) {
   ASSERT_EQ(bus_.command("mute").rfind("ok", 0), 0U);
   stop_.request("the test");
   try {
-    session_->enable();
+    device_->enable();
     FAIL() << "enabled a mute drive";
   } catch (const StopRequested& e) {
     EXPECT_EQ(std::string(e.what()), "canopen: enabling node 5: abandoned, hapticd is stopping");
   } catch (const canopen::SetupError& e) {
     FAIL() << "waited the whole enable timeout: " << e.what();
   }
-  EXPECT_FALSE(session_->enabled());
+  EXPECT_NE(device_->status().state, DeviceState::enabled);
 }
 
 // clear_fault() hands the fault reset to the running loop and waits for the
 // drive (1.5 s at most); one that stopped answering stays in fault.
 TEST_F(DriveStop, FaultClearGivesWayToAStop) {
-  session_->enable();
+  device_->enable();
   start_loop();
   ASSERT_EQ(bus_.command("fault 0x2310").rfind("ok", 0), 0U);
-  ASSERT_TRUE(eventually([&] { return session_->status().faulted; }));
+  ASSERT_TRUE(eventually([&] { return exchange().faulted; }));
   ASSERT_EQ(bus_.command("mute").rfind("ok", 0), 0U);
   stop_.request("the test");
   try {
-    session_->clear_fault();
+    device_->clear_fault();
     FAIL() << "cleared on a mute drive";
   } catch (const StopRequested& e) {
     EXPECT_EQ(std::string(e.what()), "canopen: clearing the fault of node 5: abandoned, hapticd is stopping");
@@ -199,6 +205,6 @@ TEST_F(DriveStop, FaultClearGivesWayToAStop) {
   }
   // The loop may be in the reset it was handed (its own timeout faults it
   // again); the engine's latch, not cleared, keeps the output at zero.
-  EXPECT_FALSE(session_->status().operational);
+  EXPECT_FALSE(exchange().operational);
   stop_loop();
 }

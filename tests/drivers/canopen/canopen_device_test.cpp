@@ -1,6 +1,8 @@
-// The driver's session over its real transport: the unix SOCK_SEQPACKET seam
-// to the simulated drive's bus loop running in a thread, in real time. No
-// timing is asserted: each check waits (bounded, generously) for a condition.
+// The driver's hooks (CanopenDevice) over their real transport: the unix
+// SOCK_SEQPACKET seam to the simulated drive's bus loop running in a
+// thread, in real time, called in the lifecycle's order as the framework's
+// Device calls them. No timing is asserted: each check waits (bounded,
+// generously) for a condition.
 #include <gtest/gtest.h>
 #include <linux/can.h>
 #include <poll.h>
@@ -16,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/canopen/canopen_session.hpp"
+#include "drivers/canopen/canopen_device.hpp"
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 #include "tests/support/alloc_counter.hpp"
@@ -63,15 +65,15 @@ bool eventually(Condition&& condition, std::chrono::milliseconds limit = 10000ms
   return condition();
 }
 
-class SessionTest : public ::testing::Test {
+class CanopenDeviceTest : public ::testing::Test {
  protected:
-  SessionTest()
+  CanopenDeviceTest()
       : path(unique_path()), drive(settings(), plant), bus(std::make_unique<sim::DriveBus>(path, drive)) {
     thread = std::thread([this] { bus->run(stop); });
   }
-  ~SessionTest() override {
+  ~CanopenDeviceTest() override {
     stop_loop();
-    session.reset();
+    device.reset();
     stop = true;
     if (thread.joinable()) thread.join();
   }
@@ -95,8 +97,8 @@ class SessionTest : public ::testing::Test {
     return c;
   }
   void open(const canopen::CanopenConfig& c) {
-    session = std::make_unique<canopen::CanopenSession>(c);
-    session->configure(period_s);
+    device = std::make_unique<canopen::CanopenDevice>(c);
+    device->configure({period_s});
   }
   /// The RT loop, in its own thread: read, a force, write, every period.
   void start_loop(double force) {
@@ -106,8 +108,8 @@ class SessionTest : public ::testing::Test {
       auto next = std::chrono::steady_clock::now();
       while (!loop_stop) {
         Reading r;
-        last_read = session->read(r);
-        session->write(loop_force.load());
+        last_read = device->read(r);
+        device->write(loop_force.load());
         next += 1ms;
         std::this_thread::sleep_until(next);
       }
@@ -118,6 +120,13 @@ class SessionTest : public ::testing::Test {
     if (loop.joinable()) loop.join();
   }
   std::string drive_status() { return bus ? bus->command("status") : "no bus"; }
+  /// health()'s rated_torque_mnm: the 0x6076 hapticctl device shows the torque scaled by.
+  std::uint64_t rated_torque_counter() const {
+    for (const auto& c : device->health().counters)
+      if (c.name == "rated_torque_mnm") return c.value;
+    ADD_FAILURE() << "health() has no rated_torque_mnm";
+    return 0;
+  }
 
   std::string path;
   RigidPlant plant;
@@ -125,7 +134,7 @@ class SessionTest : public ::testing::Test {
   std::unique_ptr<sim::DriveBus> bus;
   std::atomic<bool> stop{false};
   std::thread thread;
-  std::unique_ptr<canopen::CanopenSession> session;
+  std::unique_ptr<canopen::CanopenDevice> device;
   std::thread loop;
   std::atomic<bool> loop_stop{false};
   std::atomic<double> loop_force{0.0};
@@ -216,13 +225,13 @@ class HostileBus {
   std::thread thread_;
 };
 
-/// The driver's session against the hostile peer (in front of the simulated drive).
-class HostileSessionTest : public SessionTest {
+/// The driver's hooks against the hostile peer (in front of the simulated drive).
+class HostileBusTest : public CanopenDeviceTest {
  protected:
-  HostileSessionTest() : hostile(std::make_unique<HostileBus>(path)) {}
-  ~HostileSessionTest() override {
+  HostileBusTest() : hostile(std::make_unique<HostileBus>(path)) {}
+  ~HostileBusTest() override {
     stop_loop();
-    session.reset();
+    device.reset();
     hostile.reset();
   }
   canopen::CanopenConfig hostile_config() const {
@@ -233,7 +242,7 @@ class HostileSessionTest : public SessionTest {
   /// Configured, enabled, the loop running with `force` reaching the drive.
   void run_with_torque(double force) {
     open(hostile_config());
-    session->enable();
+    device->enable();
     start_loop(force);
     char text[32];
     std::snprintf(text, sizeof text, "force=%g ", force);
@@ -242,8 +251,8 @@ class HostileSessionTest : public SessionTest {
   /// Waits for the fault to be seen by read() and published; its reason.
   std::string fault_seen() {
     EXPECT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
-    EXPECT_TRUE(eventually([&] { return session->status().faulted; }));
-    return session->status().fault_reason;
+    EXPECT_TRUE(eventually([&] { return device->exchange_status().faulted; }));
+    return device->exchange_status().fault_reason;
   }
   /// An SDO expedited download of 4 bytes to node 5 (CiA 301: 0x23 index sub data).
   static std::string sdo_write_request(std::uint16_t index, std::uint8_t sub, std::uint32_t value) {
@@ -257,40 +266,40 @@ class HostileSessionTest : public SessionTest {
 
 }  // namespace
 
-TEST_F(SessionTest, ConfigureEnableRunDisableClose) {
+TEST_F(CanopenDeviceTest, ConfigureEnableRunDisableClose) {
   open(config());
-  EXPECT_EQ(session->setup().identity.device_type, 0x00020192U);
-  EXPECT_EQ(session->setup().rated_torque_mnm, 500U);
-  EXPECT_TRUE(session->budget().fits);
+  EXPECT_EQ(device->setup().identity.device_type, 0x00020192U);
+  EXPECT_EQ(device->setup().rated_torque_mnm, 500U);
+  EXPECT_TRUE(device->budget().fits);
   Reading r;
-  EXPECT_EQ(session->read(r), IoResult::ok);  // valid after configure: the primed TPDO
-  EXPECT_EQ(session->write(0.0), IoResult::ok);
-  session->enable();
+  EXPECT_EQ(device->read(r), IoResult::ok);  // valid after configure: the primed TPDO
+  EXPECT_EQ(device->write(0.0), IoResult::ok);
+  device->enable();
   EXPECT_NE(drive_status().find("state=\"Operation Enabled\" nmt=operational"), std::string::npos);
   start_loop(0.1);
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }))
       << drive_status();
-  EXPECT_TRUE(eventually([&] { return session->status().counters.tpdos > 100; }));
+  EXPECT_TRUE(eventually([&] { return device->exchange_status().counters.tpdos > 100; }));
   stop_loop();
-  const canopen::SessionStatus st = session->status();
+  const canopen::ExchangeStatus st = device->exchange_status();
   EXPECT_TRUE(st.operational);
   EXPECT_EQ(st.drive_state, "Operation Enabled");
   EXPECT_EQ(st.torque_permille, 200);
-  session->disable();
+  device->disable();
   EXPECT_NE(drive_status().find("state=\"Switch On Disabled\""), std::string::npos) << drive_status();
-  session->close();
+  device->close();
   // NMT is unconfirmed: the drive's thread takes the command when it runs.
   EXPECT_TRUE(eventually([&] { return drive_status().find("nmt=pre-operational") != std::string::npos; }))
       << drive_status();
-  session->close();  // idempotent
+  device->close();  // idempotent
 }
 
-TEST_F(SessionTest, DisableWhileTheLoopStillRunsTakesThePowerStageOff) {
+TEST_F(CanopenDeviceTest, DisableWhileTheLoopStillRunsTakesThePowerStageOff) {
   open(config());
-  session->enable();
+  device->enable();
   start_loop(0.1);
   ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
-  session->disable();  // handed to the running loop
+  device->disable();  // handed to the running loop
   EXPECT_TRUE(eventually([&] {
     return drive_status().find("state=\"Switch On Disabled\"") != std::string::npos;
   })) << drive_status();
@@ -298,13 +307,13 @@ TEST_F(SessionTest, DisableWhileTheLoopStillRunsTakesThePowerStageOff) {
   stop_loop();
 }
 
-TEST_F(SessionTest, APeriodTheBusCannotCarryIsRefusedBeforeTouchingIt) {
+TEST_F(CanopenDeviceTest, APeriodTheBusCannotCarryIsRefusedBeforeTouchingIt) {
   canopen::CanopenConfig c = config();
   c.interface = "unix:/nonexistent/bus";  // never reached
   c.bitrate = 250000;
-  canopen::CanopenSession s(c);
+  canopen::CanopenDevice s(c);
   try {
-    s.configure(1e-3);
+    s.configure({1e-3});
     FAIL();
   } catch (const canopen::SetupError& e) {
     EXPECT_EQ(e.key(), "bitrate");
@@ -314,25 +323,25 @@ TEST_F(SessionTest, APeriodTheBusCannotCarryIsRefusedBeforeTouchingIt) {
         "1.6 ms at 250 kbit/s: a 1 ms period needs 500 kbit/s; the shortest period at 250 kbit/s is 1.6 ms");
   }
   c.bitrate = 1000000;
-  canopen::CanopenSession t(c);
+  canopen::CanopenDevice t(c);
   try {
-    t.configure(1e-3);
+    t.configure({1e-3});
     FAIL();
   } catch (const canopen::SetupError& e) {
     EXPECT_EQ(e.key(), "interface");
   }
 }
 
-TEST_F(SessionTest, EmcyFaultsInThatPeriodAndClearRecoversWhileTheLoopRuns) {
+TEST_F(CanopenDeviceTest, EmcyFaultsInThatPeriodAndClearRecoversWhileTheLoopRuns) {
   open(config());
-  session->enable();
+  device->enable();
   start_loop(0.1);
   ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
   EXPECT_EQ(bus->command("fault 0x2310").rfind("ok", 0), 0U);
   ASSERT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
   // read() saw it; the status is published by that period's write().
-  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
-  const canopen::SessionStatus st = session->status();
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().faulted; }));
+  const canopen::ExchangeStatus st = device->exchange_status();
   EXPECT_EQ(
       st.fault_reason,
       "node 5 EMCY 0x2310: continuous over current (motor side); error register 0x03 (generic, current); "
@@ -341,14 +350,14 @@ TEST_F(SessionTest, EmcyFaultsInThatPeriodAndClearRecoversWhileTheLoopRuns) {
   EXPECT_EQ(st.controlword, 0x100);
   EXPECT_NE(drive_status().find("force=0 "), std::string::npos);
   loop_force = 0.0;  // the engine holds zero while latched
-  const std::string cleared = session->clear_fault();
+  const std::string cleared = device->clear_fault();
   EXPECT_EQ(cleared, st.fault_reason);
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_TRUE(device->exchange_status().operational);
   EXPECT_TRUE(eventually([&] { return last_read.load() == IoResult::ok; }));
   EXPECT_NE(drive_status().find("state=\"Operation Enabled\""), std::string::npos);
 }
 
-TEST_F(SessionTest, ClearFaultWaitsForTheResetTheLoopTookToBePublished) {
+TEST_F(CanopenDeviceTest, ClearFaultWaitsForTheResetTheLoopTookToBePublished) {
   // The loop takes a clear at read() and publishes its status at write(): a
   // loop thread preempted between the two (this VM does that under load) left
   // clear_fault() reading the old fault, not yet resetting, and throwing "the
@@ -356,44 +365,44 @@ TEST_F(SessionTest, ClearFaultWaitsForTheResetTheLoopTookToBePublished) {
   // 20 ms between read() and write() on purpose (10 ms period, so the loop is
   // still seen running).
   canopen::CanopenConfig c = config();
-  session = std::make_unique<canopen::CanopenSession>(c);
-  session->configure(10e-3);
-  session->enable();
+  device = std::make_unique<canopen::CanopenDevice>(c);
+  device->configure({10e-3});
+  device->enable();
   loop_stop = false;
   loop = std::thread([this] {
     while (!loop_stop) {
       Reading r;
-      last_read = session->read(r);
+      last_read = device->read(r);
       std::this_thread::sleep_for(20ms);
-      session->write(0.0);
+      device->write(0.0);
     }
   });
   EXPECT_EQ(bus->command("fault 0x2310").rfind("ok", 0), 0U);
-  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().faulted; }));
   std::string cleared;
-  EXPECT_NO_THROW(cleared = session->clear_fault());
+  EXPECT_NO_THROW(cleared = device->clear_fault());
   EXPECT_EQ(cleared.rfind("node 5 EMCY 0x2310", 0), 0U) << cleared;
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_TRUE(device->exchange_status().operational);
   stop_loop();
 }
 
-TEST_F(SessionTest, MissingTpdosFaultWithTheCount) {
+TEST_F(CanopenDeviceTest, MissingTpdosFaultWithTheCount) {
   canopen::CanopenConfig c = config();
   c.tpdo_timeout_periods = 20;
   open(c);
-  session->enable();
+  device->enable();
   start_loop(0.05);
-  ASSERT_TRUE(eventually([&] { return session->status().counters.tpdos > 20; }));
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().counters.tpdos > 20; }));
   bus->command("drop-tpdo all");
   ASSERT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
   // read() saw it; the status is published by that period's write().
-  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
-  EXPECT_EQ(session->status().fault_reason, "no TPDO1 (0x185) from node 5 for 20 periods");
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().faulted; }));
+  EXPECT_EQ(device->exchange_status().fault_reason, "no TPDO1 (0x185) from node 5 for 20 periods");
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0 ") != std::string::npos; }));
   // While TPDOs stay away the reset cannot confirm the drive: clear fails, in words.
   loop_force = 0.0;
   try {
-    session->clear_fault();
+    device->clear_fault();
     FAIL();
   } catch (const canopen::SetupError& e) {
     EXPECT_EQ(
@@ -407,33 +416,33 @@ TEST_F(SessionTest, MissingTpdosFaultWithTheCount) {
   // The statusword in it is the last one seen before the reset gave up: when
   // TPDOs stopped, or one the drive sent as they resumed.
   EXPECT_EQ(
-      session->clear_fault().rfind(
+      device->clear_fault().rfind(
           "the fault reset did not bring node 5 back to Operation Enabled within 1000 periods: statusword 0x",
           0),
       0U);
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_TRUE(device->exchange_status().operational);
 }
 
-TEST_F(SessionTest, AKilledDriveIsAFaultWithTheReason) {
+TEST_F(CanopenDeviceTest, AKilledDriveIsAFaultWithTheReason) {
   open(config());
-  session->enable();
+  device->enable();
   start_loop(0.05);
-  ASSERT_TRUE(eventually([&] { return session->status().counters.tpdos > 20; }));
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().counters.tpdos > 20; }));
   stop = true;  // the bus program ends: its sockets close
   thread.join();
   bus.reset();
   ASSERT_TRUE(eventually([&] { return last_read.load() == IoResult::fault; }));
   // read() saw it; the status is published by that period's write().
-  ASSERT_TRUE(eventually([&] { return session->status().faulted; }));
-  EXPECT_EQ(session->status().fault_reason,
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().faulted; }));
+  EXPECT_EQ(device->exchange_status().fault_reason,
             "the bus connection closed (the simulated drive's bus program ended?)");
 }
 
-TEST_F(SessionTest, AKilledHapticdLetsTheDrivesHeartbeatConsumerStopIt) {
+TEST_F(CanopenDeviceTest, AKilledHapticdLetsTheDrivesHeartbeatConsumerStopIt) {
   canopen::CanopenConfig c = config();
   c.heartbeat_timeout = 0.3;
   open(c);
-  session->enable();
+  device->enable();
   start_loop(0.1);
   ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
   // The loop dies soon after enable, before its 20-period heartbeat: the
@@ -446,67 +455,67 @@ TEST_F(SessionTest, AKilledHapticdLetsTheDrivesHeartbeatConsumerStopIt) {
   EXPECT_TRUE(eventually([&] { return drive_status().find("state=\"Fault\"") != std::string::npos; }));
   EXPECT_NE(drive_status().find("force=0 "), std::string::npos);
   // hapticd restarts: the setup resets the fault it finds, says so, and enables.
-  session.reset();
+  device.reset();
   open(config());
-  ASSERT_FALSE(session->setup().notes.empty());
-  EXPECT_EQ(session->setup().notes.back(),
+  ASSERT_FALSE(device->setup().notes.empty());
+  EXPECT_EQ(device->setup().notes.back(),
             "reset the fault the drive had: 0x603F = 0x8130 (life guard or heartbeat error)");
-  session->enable();
-  EXPECT_TRUE(session->status().operational);
+  device->enable();
+  EXPECT_TRUE(device->exchange_status().operational);
 }
 
-TEST_F(SessionTest, CommissioningReadsAndWritesRefusingTheMappingWhileEnabled) {
+TEST_F(CanopenDeviceTest, CommissioningReadsAndWritesRefusingTheMappingWhileEnabled) {
   open(config());
-  const canopen::SdoAccess id = session->sdo_read({0x1018, 1}, std::nullopt);
+  const canopen::SdoAccess id = device->sdo_read({0x1018, 1}, std::nullopt);
   EXPECT_EQ(id.name, "vendor-ID");
   // Disabled: the torque's bound may be set.
-  const canopen::SdoAccess max = session->sdo_write({0x6072, 0}, 1500, std::nullopt);
+  const canopen::SdoAccess max = device->sdo_write({0x6072, 0}, 1500, std::nullopt);
   EXPECT_EQ(max.value, 1500);
   EXPECT_EQ(max.note, "");  // 0x6076 read back: unchanged
-  EXPECT_EQ(session->sdo_read({0x6072, 0}, std::nullopt).value, 1500);
-  EXPECT_THROW(session->sdo_write({0x6072, 0}, 70000, std::nullopt), std::invalid_argument);  // not a u16
+  EXPECT_EQ(device->sdo_read({0x6072, 0}, std::nullopt).value, 1500);
+  EXPECT_THROW(device->sdo_write({0x6072, 0}, 70000, std::nullopt), std::invalid_argument);  // not a u16
   bus->command("sdo-abort 0x6072:0 0x06090031");
   try {
-    session->sdo_write({0x6072, 0}, 4000, std::nullopt);
+    device->sdo_write({0x6072, 0}, 4000, std::nullopt);
     FAIL();
   } catch (const canopen::SdoError& e) {
     EXPECT_EQ(std::string(e.what()),
               "SDO write 0x6072:00 = 4000 to node 5: aborted 0x06090031 (value too high)");
   }
-  session->enable();
+  device->enable();
   start_loop(0.0);
-  const canopen::SdoAccess sw = session->sdo_read({0x6041, 0}, std::nullopt);
+  const canopen::SdoAccess sw = device->sdo_read({0x6041, 0}, std::nullopt);
   EXPECT_EQ(sw.type, co::DataType::unsigned16);
   EXPECT_EQ(sw.raw & 0x6F, 0x27U);  // Operation Enabled, read through the running loop
   try {
-    session->sdo_write({0x1600, 1}, 0x60710010, std::nullopt);
+    device->sdo_write({0x1600, 1}, 0x60710010, std::nullopt);
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()),
               "0x1600:01 RPDO1 mapping parameter: what the bytes of hapticd's torque command mean; refused "
               "while the drive is enabled, disable it first (hapticd keeps it enabled while it runs)");
   }
-  EXPECT_THROW(session->sdo_write({0x6060, 0}, 8, std::nullopt), std::invalid_argument);
+  EXPECT_THROW(device->sdo_write({0x6060, 0}, 8, std::nullopt), std::invalid_argument);
   // An object outside the list goes to the drive (this one has no 0x6065: its abort, in words).
   try {
-    session->sdo_write({0x6065, 0}, 1000, co::DataType::unsigned32);
+    device->sdo_write({0x6065, 0}, 1000, co::DataType::unsigned32);
     FAIL();
   } catch (const canopen::SdoError& e) {
     EXPECT_NE(std::string(e.what()).find("SDO write 0x6065:00 = 1000 to node 5: aborted 0x0602"),
               std::string::npos)
         << e.what();
   }
-  EXPECT_TRUE(session->status().operational);  // commissioning did not disturb the loop
+  EXPECT_TRUE(device->exchange_status().operational);  // commissioning did not disturb the loop
 }
 
-TEST_F(SessionTest, WhileEnabledWritesThatScaleOrBoundTheTorqueAreRefusedWithTheirRole) {
+TEST_F(CanopenDeviceTest, WhileEnabledWritesThatScaleOrBoundTheTorqueAreRefusedWithTheirRole) {
   open(config());
-  session->enable();
+  device->enable();
   start_loop(0.1);
   ASSERT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }));
   auto refusal = [&](co::ObjectAddress a, std::int64_t value) -> std::string {
     try {
-      session->sdo_write(a, value, co::DataType::unsigned32);
+      device->sdo_write(a, value, co::DataType::unsigned32);
     } catch (const std::invalid_argument& e) {
       return e.what();
     } catch (const std::exception& e) {
@@ -566,36 +575,36 @@ TEST_F(SessionTest, WhileEnabledWritesThatScaleOrBoundTheTorqueAreRefusedWithThe
     EXPECT_NE(why.find("; refused while the drive is enabled, disable it first"), std::string::npos) << why;
   }
   // Nothing reached the drive: its unit and bound are what they were, torque flows as commanded.
-  EXPECT_EQ(session->sdo_read({0x6076, 0}, std::nullopt).value, 500);
-  EXPECT_EQ(session->sdo_read({0x6072, 0}, std::nullopt).value, 3000);
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_EQ(device->sdo_read({0x6076, 0}, std::nullopt).value, 500);
+  EXPECT_EQ(device->sdo_read({0x6072, 0}, std::nullopt).value, 3000);
+  EXPECT_TRUE(device->exchange_status().operational);
   EXPECT_NE(drive_status().find("force=0.1 "), std::string::npos) << drive_status();
 }
 
-TEST_F(SessionTest, AWriteWhileConfiguredThatChangesTheTorqueUnitChangesTheScale) {
+TEST_F(CanopenDeviceTest, AWriteWhileConfiguredThatChangesTheTorqueUnitChangesTheScale) {
   open(config());
-  EXPECT_EQ(session->rated_torque_mnm(), 500U);
-  const canopen::SdoAccess a = session->sdo_write({0x6076, 0}, 1000, std::nullopt);
+  EXPECT_EQ(device->rated_torque_mnm(), 500U);
+  const canopen::SdoAccess a = device->sdo_write({0x6076, 0}, 1000, std::nullopt);
   EXPECT_EQ(
       a.note,
       "node 5's 0x6076 motor rated torque is now 1000 mN m (was 500): hapticd scales every torque by it "
       "from now on");
-  EXPECT_EQ(session->rated_torque_mnm(), 1000U);
-  EXPECT_EQ(session->status().rated_torque_mnm, 1000U);
-  session->enable();
+  EXPECT_EQ(device->rated_torque_mnm(), 1000U);
+  EXPECT_EQ(rated_torque_counter(), 1000U);
+  device->enable();
   start_loop(0.1);
   // 0.1 N m of 1 N m rated: 100 per mille, and the drive applies 0.1 N m.
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }))
       << drive_status();
-  EXPECT_EQ(session->status().torque_permille, 100);
+  EXPECT_EQ(device->exchange_status().torque_permille, 100);
 }
 
-TEST_F(SessionTest, RatedTorqueInTheConfigMustBeTheDrives) {
+TEST_F(CanopenDeviceTest, RatedTorqueInTheConfigMustBeTheDrives) {
   canopen::CanopenConfig c = config();
   c.rated_torque = 1.0;  // the drive's 0x6076 says 0.5 N m, and it scales 0x6071 by its own
-  session = std::make_unique<canopen::CanopenSession>(c);
+  device = std::make_unique<canopen::CanopenDevice>(c);
   try {
-    session->configure(period_s);
+    device->configure({period_s});
     FAIL() << "configured with a torque unit the drive does not use";
   } catch (const canopen::SetupError& e) {
     EXPECT_EQ(e.key(), "rated_torque");
@@ -603,32 +612,32 @@ TEST_F(SessionTest, RatedTorqueInTheConfigMustBeTheDrives) {
               "rated_torque = 1000 mN m, but node 5's 0x6076 motor rated torque = 500 mN m: the drive scales "
               "0x6071 by its own 0x6076; set rated_torque = 0 (the drive's) or correct 0x6076");
   }
-  session.reset();
+  device.reset();
   c.rated_torque = 0.5;
   open(c);
-  EXPECT_EQ(session->rated_torque_mnm(), 500U);
+  EXPECT_EQ(device->rated_torque_mnm(), 500U);
 }
 
-TEST_F(HostileSessionTest, EnableReadsTheTorqueUnitBack) {
+TEST_F(HostileBusTest, EnableReadsTheTorqueUnitBack) {
   open(hostile_config());
   // Between configure and enable another node on the bus (a tool) rewrites 0x6076 to 250 mN m.
   hostile->to_drive_as_third_party(sdo_write_request(0x6076, 0, 250));
   ASSERT_TRUE(eventually([&] { return hostile->third_party_answered(); }));
-  session->enable();
-  EXPECT_EQ(session->rated_torque_mnm(), 250U);
+  device->enable();
+  EXPECT_EQ(device->rated_torque_mnm(), 250U);
   start_loop(0.1);
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }))
       << drive_status();
-  EXPECT_EQ(session->status().torque_permille, 400);
+  EXPECT_EQ(device->exchange_status().torque_permille, 400);
 }
 
-TEST_F(HostileSessionTest, ATorqueUnitChangedUnderTheRunningLoopFaultsAtTheNextSdoWrite) {
+TEST_F(HostileBusTest, ATorqueUnitChangedUnderTheRunningLoopFaultsAtTheNextSdoWrite) {
   run_with_torque(0.1);
   hostile->to_drive_as_third_party(sdo_write_request(0x6076, 0, 5000));
   ASSERT_TRUE(eventually([&] { return hostile->third_party_answered(); }));
   // Any commissioning write reads 0x6076 back, also one the drive aborts.
   try {
-    session->sdo_write({0x6065, 0}, 1000, co::DataType::unsigned32);
+    device->sdo_write({0x6065, 0}, 1000, co::DataType::unsigned32);
     FAIL();
   } catch (const canopen::SdoError& e) {
     EXPECT_NE(
@@ -643,36 +652,36 @@ TEST_F(HostileSessionTest, ATorqueUnitChangedUnderTheRunningLoopFaultsAtTheNextS
       "node 5's 0x6076 motor rated torque, the unit of every torque hapticd sends, is now 5000 mN m, not "
       "the 500 mN m hapticd scaled by: torque held at zero; fault clear takes the new unit");
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0 ") != std::string::npos; }));
-  EXPECT_NO_THROW(session->clear_fault());
+  EXPECT_NO_THROW(device->clear_fault());
   // 0.1 N m is now 20 per mille of 5 N m: what the drive applies is what hapticd commands.
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0.1 ") != std::string::npos; }))
       << drive_status();
-  EXPECT_EQ(session->status().torque_permille, 20);
+  EXPECT_EQ(device->exchange_status().torque_permille, 20);
 }
 
-TEST_F(SessionTest, ReadAndWriteAreAllocationFreeOnTheSocket) {
+TEST_F(CanopenDeviceTest, ReadAndWriteAreAllocationFreeOnTheSocket) {
   open(config());
-  session->enable();
+  device->enable();
   std::size_t allocations = 0;
   auto next = std::chrono::steady_clock::now();
   for (int i = 0; i < 1000; ++i) {
     {
       hapticd::testing::AllocationGuard guard;
       Reading r;
-      session->read(r);
-      session->write(0.01);
+      device->read(r);
+      device->write(0.01);
       allocations += guard.count();
     }
     next += 1ms;
     std::this_thread::sleep_until(next);
   }
   EXPECT_EQ(allocations, 0U);
-  EXPECT_TRUE(session->status().operational) << session->status().fault_reason;
+  EXPECT_TRUE(device->exchange_status().operational) << device->exchange_status().fault_reason;
 }
 
 // ---- a hostile peer on the seam (issue 17) ------------------------------------
 
-TEST_F(HostileSessionTest, AMessageThatIsNoCanFrameFaultsSayingWhatArrived) {
+TEST_F(HostileBusTest, AMessageThatIsNoCanFrameFaultsSayingWhatArrived) {
   run_with_torque(0.1);
   // 72 bytes whose first 16 are a valid TPDO1 (statusword Operation Enabled,
   // position 0): cut to 16 it would pass for one.
@@ -680,7 +689,7 @@ TEST_F(HostileSessionTest, AMessageThatIsNoCanFrameFaultsSayingWhatArrived) {
   oversize.resize(72, '\0');
   ASSERT_TRUE(hostile->inject(oversize));
   EXPECT_EQ(fault_seen(), "a 72-byte message on the CAN socket: not a can_frame (16 bytes)");
-  const canopen::SessionStatus st = session->status();
+  const canopen::ExchangeStatus st = device->exchange_status();
   EXPECT_EQ(st.fault_kind, canopen::FaultKind::malformed_message);
   EXPECT_EQ(st.counters.malformed_messages, 1U);
   EXPECT_EQ(st.torque_permille, 0);
@@ -688,71 +697,71 @@ TEST_F(HostileSessionTest, AMessageThatIsNoCanFrameFaultsSayingWhatArrived) {
 
   // An empty message while the peer lives is no end of the bus; 5 bytes are no "Message too long".
   loop_force = 0.0;
-  EXPECT_EQ(session->clear_fault(), "a 72-byte message on the CAN socket: not a can_frame (16 bytes)");
+  EXPECT_EQ(device->clear_fault(), "a 72-byte message on the CAN socket: not a can_frame (16 bytes)");
   ASSERT_TRUE(hostile->inject(std::string()));
   EXPECT_EQ(fault_seen(), "a 0-byte message on the CAN socket: not a can_frame (16 bytes)");
-  EXPECT_NO_THROW(session->clear_fault());
+  EXPECT_NO_THROW(device->clear_fault());
   ASSERT_TRUE(hostile->inject(std::string(5, '\x01')));
   EXPECT_EQ(fault_seen(), "a 5-byte message on the CAN socket: not a can_frame (16 bytes)");
-  EXPECT_NO_THROW(session->clear_fault());
+  EXPECT_NO_THROW(device->clear_fault());
   // A 16-byte can_frame claiming 15 data bytes: a classic frame has 0..8.
   std::string long_len = raw_frame(0x185, {0x37, 0x02, 0, 0, 0, 0});
   long_len[offsetof(can_frame, len)] = 15;
   ASSERT_TRUE(hostile->inject(long_len));
   EXPECT_EQ(fault_seen(),
             "a can_frame with len 15 (id 0x185) on the CAN socket: a classic frame carries 0..8 data bytes");
-  EXPECT_EQ(session->status().counters.malformed_messages, 4U);
-  EXPECT_NO_THROW(session->clear_fault());
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_EQ(device->exchange_status().counters.malformed_messages, 4U);
+  EXPECT_NO_THROW(device->clear_fault());
+  EXPECT_TRUE(device->exchange_status().operational);
 }
 
-TEST_F(HostileSessionTest, AShortEmcyIsAFaultWithItsBytes) {
+TEST_F(HostileBusTest, AShortEmcyIsAFaultWithItsBytes) {
   run_with_torque(0.1);
   // CiA 301 7.2.7.3.1: an EMCY carries 8 bytes. This one has 3 (code 0x2310, register 0).
   ASSERT_TRUE(hostile->inject(raw_frame(0x085, {0x10, 0x23, 0x00})));
   EXPECT_EQ(fault_seen(),
             "node 5 sent an EMCY of 3 bytes (10 23 00) on 0x085: CiA 301 EMCY has 8 (error code, error "
             "register, 5 manufacturer bytes)");
-  const canopen::SessionStatus st = session->status();
+  const canopen::ExchangeStatus st = device->exchange_status();
   EXPECT_EQ(st.counters.emcys, 1U);
   EXPECT_EQ(st.counters.malformed_frames, 1U);
   EXPECT_EQ(st.torque_permille, 0);
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0 ") != std::string::npos; }));
   // And an empty one.
   loop_force = 0.0;
-  EXPECT_NO_THROW(session->clear_fault());
+  EXPECT_NO_THROW(device->clear_fault());
   ASSERT_TRUE(hostile->inject(raw_frame(0x085, {})));
   EXPECT_EQ(fault_seen(),
             "node 5 sent an EMCY of 0 bytes on 0x085: CiA 301 EMCY has 8 (error code, error register, 5 "
             "manufacturer bytes)");
 }
 
-TEST_F(HostileSessionTest, AHeartbeatWithAnUndefinedStateIsAFaultAtOnce) {
+TEST_F(HostileBusTest, AHeartbeatWithAnUndefinedStateIsAFaultAtOnce) {
   run_with_torque(0.1);
-  ASSERT_TRUE(eventually([&] { return session->status().counters.drive_heartbeats > 0; }));
+  ASSERT_TRUE(eventually([&] { return device->exchange_status().counters.drive_heartbeats > 0; }));
   // CiA 301 heartbeat: one byte, the NMT state: 0x00, 0x04, 0x05 or 0x7F. 0x33 is none.
   ASSERT_TRUE(hostile->inject(raw_frame(0x705, {0x33})));
   EXPECT_EQ(fault_seen(),
             "node 5 sent heartbeat state 0x33 on 0x705: no NMT state (CiA 301: 0x00 boot-up, 0x04 stopped, "
             "0x05 operational, 0x7F pre-operational)");
-  EXPECT_EQ(session->status().fault_kind, canopen::FaultKind::malformed_frame);
-  EXPECT_EQ(session->status().counters.malformed_frames, 1U);
+  EXPECT_EQ(device->exchange_status().fault_kind, canopen::FaultKind::malformed_frame);
+  EXPECT_EQ(device->exchange_status().counters.malformed_frames, 1U);
   EXPECT_TRUE(eventually([&] { return drive_status().find("force=0 ") != std::string::npos; }));
   loop_force = 0.0;
-  EXPECT_NO_THROW(session->clear_fault());
+  EXPECT_NO_THROW(device->clear_fault());
   // A heartbeat of another length.
   ASSERT_TRUE(hostile->inject(raw_frame(0x705, {0x05, 0x00})));
   EXPECT_EQ(fault_seen(),
             "node 5 sent a heartbeat of 2 bytes (05 00) on 0x705: CiA 301 heartbeat has 1 (the NMT state)");
-  EXPECT_NO_THROW(session->clear_fault());
+  EXPECT_NO_THROW(device->clear_fault());
   // A defined state that is wrong while enabled: pre-operational takes no RPDO.
   ASSERT_TRUE(hostile->inject(raw_frame(0x705, {0x7F})));
   EXPECT_EQ(fault_seen(), "node 5 left NMT operational: its heartbeat says pre-operational");
-  EXPECT_NO_THROW(session->clear_fault());  // NMT start brings it back
-  EXPECT_TRUE(session->status().operational);
+  EXPECT_NO_THROW(device->clear_fault());  // NMT start brings it back
+  EXPECT_TRUE(device->exchange_status().operational);
 }
 
-TEST_F(HostileSessionTest, ABootUpAfterTheSetupIsARestartThatFaultClearDoesNotPaperOver) {
+TEST_F(HostileBusTest, ABootUpAfterTheSetupIsARestartThatFaultClearDoesNotPaperOver) {
   run_with_torque(0.1);
   // The boot-up message (state 0x00): the drive restarted, its mapping,
   // mode and dead-man may be its defaults again.
@@ -763,17 +772,17 @@ TEST_F(HostileSessionTest, ABootUpAfterTheSetupIsARestartThatFaultClearDoesNotPa
             "up may be lost; restart hapticd to configure it again");
   loop_force = 0.0;
   try {
-    session->clear_fault();
+    device->clear_fault();
     FAIL() << "cleared a restart";
   } catch (const canopen::SetupError& e) {
     EXPECT_EQ(std::string(e.what()), "not cleared: " + reason);
   }
-  EXPECT_TRUE(session->status().faulted);
+  EXPECT_TRUE(device->exchange_status().faulted);
 }
 
-TEST_F(HostileSessionTest, MalformedMessagesKeepReadAllocationFree) {
+TEST_F(HostileBusTest, MalformedMessagesKeepReadAllocationFree) {
   open(hostile_config());
-  session->enable();
+  device->enable();
   std::string oversize = raw_frame(0x185, {0x37, 0x02, 0, 0, 0, 0});
   oversize.resize(72, '\0');
   const std::string attacks[] = {oversize,
@@ -792,13 +801,13 @@ TEST_F(HostileSessionTest, MalformedMessagesKeepReadAllocationFree) {
     {
       hapticd::testing::AllocationGuard guard;
       Reading r;
-      session->read(r);
-      session->write(0.01);
+      device->read(r);
+      device->write(0.01);
       allocations += guard.count();
     }
     if (i % 100 == 60) {
-      EXPECT_TRUE(session->status().faulted) << "attack " << i / 100;
-      EXPECT_NO_THROW(session->clear_fault());  // not the RT path: outside the guard
+      EXPECT_TRUE(device->exchange_status().faulted) << "attack " << i / 100;
+      EXPECT_NO_THROW(device->clear_fault());  // not the RT path: outside the guard
       next = std::chrono::steady_clock::now();
     }
     next += 1ms;
@@ -806,7 +815,7 @@ TEST_F(HostileSessionTest, MalformedMessagesKeepReadAllocationFree) {
   }
   EXPECT_TRUE(hapticd::testing::allocation_counting_active());
   EXPECT_EQ(allocations, 0U);
-  const canopen::SessionStatus st = session->status();
+  const canopen::ExchangeStatus st = device->exchange_status();
   EXPECT_EQ(st.counters.malformed_messages, 3U);
   EXPECT_EQ(st.counters.malformed_frames, 3U);
 }
