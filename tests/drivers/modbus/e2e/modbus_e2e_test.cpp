@@ -331,7 +331,8 @@ std::vector<std::pair<std::size_t, std::size_t>> episodes(const Recording& rec) 
 void fault_and_clear(const Daemon& d, AmplifierProcess& amplifier, const std::string& injection,
                      const std::string& reason) {
   ASSERT_EQ(amplifier.command(injection), "ok");
-  ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "fault"; })) << d.log();
+  ASSERT_TRUE(within(3000ms, [&] { return status_of(d).value("state", "") == "fault"; }))
+      << d.log() << status_of(d).dump() << "\namplifier: " << amplifier.state().dump();
   const json during = status_of(d);
   EXPECT_EQ(during["device"]["fault_reason"], reason) << during.dump();
   std::this_thread::sleep_for(100ms);
