@@ -43,19 +43,20 @@ double delay_flag(const std::string& text, double period) {
                              ") such as 0, 2ms or 250us");
 }
 
-void run_critical(const CriticalArgs& a) {
-  const double period = period_flag(a.period);
-  const double delay = delay_flag(a.delay, period);
-  const auto sensor = world::parse_sensor(a.sensor);
-  if (!sensor) throw UsageError("--sensor: '" + a.sensor + "' is not accepted; expected motor or body");
-  world::LinearPlant plant;
-  std::optional<world::TwoMassPlant> two_mass;
-  nlohmann::json out;
+/// The plant the flags describe, Table I's values where a flag is not given.
+struct CriticalPlant {
+  world::LinearPlant model;
+  std::optional<world::TwoMassPlant> two_mass;  ///< --plant two-mass
+};
+
+/// --plant and its parameters; each parameter also goes into the JSON output.
+CriticalPlant critical_plant(const CriticalArgs& a, nlohmann::json& out) {
+  CriticalPlant plant;
   if (a.plant == "rigid") {
     world::TwoMassPlant table1;  // its totals are Diaz & Gil's rigid model: m = 5.4 kg, b = 3.5 N s/m
     const double m = value_or(a, "--mass", a.mass, table1.total_mass(), "kg", true);
     const double b = value_or(a, "--damping", a.damping, table1.total_damping(), "N s/m", false);
-    plant = world::RigidPlant{m, b}.model();
+    plant.model = world::RigidPlant{m, b}.model();
     out["mass"] = m;
     out["damping"] = b;
   } else if (a.plant == "two-mass") {
@@ -66,8 +67,8 @@ void run_critical(const CriticalArgs& a) {
     p.body_damping = value_or(a, "--body-damping", a.body_damping, p.body_damping, "N s/m", false);
     p.cable_stiffness = value_or(a, "--cable-stiffness", a.cable_stiffness, p.cable_stiffness, "N/m", true);
     p.cable_damping = value_or(a, "--cable-damping", a.cable_damping, p.cable_damping, "N s/m", false);
-    plant = p.model();
-    two_mass = p;
+    plant.model = p.model();
+    plant.two_mass = p;
     out["motor_mass"] = p.motor_mass;
     out["body_mass"] = p.body_mass;
     out["motor_damping"] = p.motor_damping;
@@ -77,18 +78,13 @@ void run_critical(const CriticalArgs& a) {
   } else {
     throw UsageError("--plant: '" + a.plant + "' is not accepted; expected rigid or two-mass");
   }
-  const auto k = analysis::critical_stiffness(plant, *sensor, period, delay);
-  std::optional<analysis::ResonanceParameters> modes;
-  if (two_mass) modes = analysis::resonance_parameters(*two_mass);
-  // Not assessed: the first reason, the cable mode's (closer to the inputs) before K_CR's.
-  std::string cannot_assess = modes ? modes->numerics.reason() : std::string();
-  if (cannot_assess.empty()) cannot_assess = k.numerics.reason();
-  out["plant"] = a.plant;
-  out["sensor"] = world::to_string(*sensor);
-  out["period"] = period;
-  out["delay"] = delay;
-  out["verdict"] = cannot_assess.empty() ? "assessed" : "cannot_assess";
-  out["reason"] = cannot_assess.empty() ? nlohmann::json(nullptr) : nlohmann::json(cannot_assess);
+  return plant;
+}
+
+/// K_CR and, on a two-mass plant, the cable mode into the JSON output.
+void add_critical_results(nlohmann::json& out, const analysis::CriticalStiffness& k,
+                          const std::optional<analysis::ResonanceParameters>& modes,
+                          const std::optional<world::TwoMassPlant>& two_mass) {
   if (k.assessed()) {
     out["k_cr"] = k.k_cr;
     out["crossover_hz"] = k.crossover_hz;
@@ -103,30 +99,59 @@ void run_critical(const CriticalArgs& a) {
     if (const auto peak = analysis::resonant_peak(*two_mass))
       out["resonant_peak_distance_db"] = peak->distance_db;
   }
+}
+
+/// The table without --json: the loop, K_CR, the cable mode and the verdict.
+void print_critical_table(const CriticalArgs& a, world::Sensor sensor, double period, double delay,
+                          const analysis::CriticalStiffness& k,
+                          const std::optional<analysis::ResonanceParameters>& modes) {
+  Table t;
+  t.row("plant", a.plant + ", " + std::string(world::to_string(sensor)) + " sensing, T = " +
+                     fmt_duration(period) + ", delay " + fmt_duration(delay == 0.0 ? 0.0 : delay));
+  if (k.assessed()) {
+    t.row("critical stiffness", fmt(k.k_cr) + " N/m (gain margin " + fmt(k.gain_margin_db) + " dB)");
+    t.row("phase crossover", fmt(k.crossover_hz) + " Hz (" + fmt(k.crossover_rad_per_s) + " rad/s)");
+  }
+  if (modes && modes->assessed()) {
+    t.row("cable mode",
+          "w_n = " + fmt(modes->omega_n) + " rad/s, z_n = " + fmt(modes->z_n) + " 1/s (eq. 13, 16)");
+    t.row("Q ~ m_m z_n w_n", fmt(modes->q) + " N/m = " + fmt(modes->q_db) + " dB (eq. 24)");
+  }
+  if (modes) {
+    const auto rigid_suffices = analysis::rigid_model_suffices(*modes, k);
+    t.row("verdict", !rigid_suffices   ? std::string("cannot assess (see below)")
+                     : *rigid_suffices ? std::string("Q >= K_CR: the rigid model suffices at this delay")
+                                       : std::string("Q < K_CR: the cable mode limits the stiffness"));
+  } else if (!k.assessed()) {
+    t.row("verdict", "cannot assess (see below)");
+  }
+  t.print(std::cout);
+}
+
+void run_critical(const CriticalArgs& a) {
+  const double period = period_flag(a.period);
+  const double delay = delay_flag(a.delay, period);
+  const auto sensor = world::parse_sensor(a.sensor);
+  if (!sensor) throw UsageError("--sensor: '" + a.sensor + "' is not accepted; expected motor or body");
+  nlohmann::json out;
+  const CriticalPlant plant = critical_plant(a, out);
+  const auto k = analysis::critical_stiffness(plant.model, *sensor, period, delay);
+  std::optional<analysis::ResonanceParameters> modes;
+  if (plant.two_mass) modes = analysis::resonance_parameters(*plant.two_mass);
+  // Not assessed: the first reason, the cable mode's (closer to the inputs) before K_CR's.
+  std::string cannot_assess = modes ? modes->numerics.reason() : std::string();
+  if (cannot_assess.empty()) cannot_assess = k.numerics.reason();
+  out["plant"] = a.plant;
+  out["sensor"] = world::to_string(*sensor);
+  out["period"] = period;
+  out["delay"] = delay;
+  out["verdict"] = cannot_assess.empty() ? "assessed" : "cannot_assess";
+  out["reason"] = cannot_assess.empty() ? nlohmann::json(nullptr) : nlohmann::json(cannot_assess);
+  add_critical_results(out, k, modes, plant.two_mass);
   if (a.json) {
     std::cout << out.dump(2) << "\n";
   } else {
-    Table t;
-    t.row("plant", a.plant + ", " + std::string(world::to_string(*sensor)) + " sensing, T = " +
-                       fmt_duration(period) + ", delay " + fmt_duration(delay == 0.0 ? 0.0 : delay));
-    if (k.assessed()) {
-      t.row("critical stiffness", fmt(k.k_cr) + " N/m (gain margin " + fmt(k.gain_margin_db) + " dB)");
-      t.row("phase crossover", fmt(k.crossover_hz) + " Hz (" + fmt(k.crossover_rad_per_s) + " rad/s)");
-    }
-    if (modes && modes->assessed()) {
-      t.row("cable mode",
-            "w_n = " + fmt(modes->omega_n) + " rad/s, z_n = " + fmt(modes->z_n) + " 1/s (eq. 13, 16)");
-      t.row("Q ~ m_m z_n w_n", fmt(modes->q) + " N/m = " + fmt(modes->q_db) + " dB (eq. 24)");
-    }
-    if (modes) {
-      const auto rigid_suffices = analysis::rigid_model_suffices(*modes, k);
-      t.row("verdict", !rigid_suffices   ? std::string("cannot assess (see below)")
-                       : *rigid_suffices ? std::string("Q >= K_CR: the rigid model suffices at this delay")
-                                         : std::string("Q < K_CR: the cable mode limits the stiffness"));
-    } else if (!k.assessed()) {
-      t.row("verdict", "cannot assess (see below)");
-    }
-    t.print(std::cout);
+    print_critical_table(a, *sensor, period, delay, k, modes);
   }
   if (!cannot_assess.empty()) throw CannotAssess(cannot_assess);
 }

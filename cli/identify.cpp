@@ -241,102 +241,141 @@ void print_identification(const analysis::Identification& id, const json& config
             << " iterations (" << id.fit.stop_reason << ")\n";
 }
 
-int run_identify(const hapticctl::CommonOptions& opts, const IdentifyArgs& args) {
+/// The chirp and the hand, as the flags and the daemon's model set them.
+struct ChirpPlan {
+  HandCondition hand = HandCondition::free;
+  IdentifiedPlant kind = IdentifiedPlant::rigid;
+  double start_hz = 0.0;
+  double end_hz = 0.0;
+  double sweep_s = 0.0;
+  double amplitude = 0.0;
+  double hand_damping = 0.0;
+  std::optional<double> hand_stiffness;  ///< --hand spring only
+  std::int64_t sweep_steps = 0;          ///< one sweep, in loop periods
+  double duration_s = 0.0;               ///< the whole scene: every sweep and one start period more
+};
+
+/// The flags that need no daemon, checked before it is reached.
+ChirpPlan check_identify_flags(const IdentifyArgs& args) {
   const auto hand = analysis::parse_hand_condition(args.hand);
   if (!hand) throw UsageError("--hand: '" + args.hand + "' is not accepted; free, hold or spring");
-  const double f0 = positive("--start-frequency", args.start_frequency);
+  ChirpPlan plan;
+  plan.hand = *hand;
+  plan.start_hz = positive("--start-frequency", args.start_frequency);
   const auto sweep_s = world::units::parse_duration_s(args.sweep);
   if (!sweep_s || !(*sweep_s > 0.0)) throw UsageError("--sweep: '" + args.sweep + "' is not a duration > 0");
-  if (args.apply && *hand != HandCondition::free) {
+  plan.sweep_s = *sweep_s;
+  if (args.apply && plan.hand != HandCondition::free) {
     throw UsageError(
         "--apply needs --hand free: held or on a spring, the run does not give the device's model");
   }
-  const double hand_damping = positive("--hand-damping", args.hand_damping, true);
-  StagedFiles files = open_output(args.out);
-  ExperimentSession session(opts);
+  plan.hand_damping = positive("--hand-damping", args.hand_damping, true);
+  return plan;
+}
+
+/// The flags checked against the device: the model kind, the band up to
+/// Nyquist, the force within the torque limit, the hand's spring.
+void fit_chirp_to_device(ChirpPlan& plan, const IdentifyArgs& args, const ExperimentSession& session,
+                         const MotionUnits& u) {
   const DaemonModel& model = session.model();
-  const MotionUnits u = units_of(model.motion);
-  IdentifiedPlant kind = model.two_mass ? IdentifiedPlant::two_mass : IdentifiedPlant::rigid;
+  plan.kind = model.two_mass ? IdentifiedPlant::two_mass : IdentifiedPlant::rigid;
   if (!args.plant.empty()) {
     const auto parsed = analysis::parse_identified_plant(args.plant);
     if (!parsed) throw UsageError("--plant: '" + args.plant + "' is not accepted; rigid or two-mass");
-    kind = *parsed;
+    plan.kind = *parsed;
   }
   const double nyquist = 0.5 / model.period_s;
-  const double f1 = args.end_frequency.empty()
-                        ? std::min(kind == IdentifiedPlant::rigid ? 50.0 : 200.0, 0.4 / model.period_s)
-                        : positive("--end-frequency", args.end_frequency);
-  if (!(f1 > f0 && f1 <= nyquist)) {
-    throw UsageError("--end-frequency " + fmt(f1) +
+  plan.end_hz = args.end_frequency.empty()
+                    ? std::min(plan.kind == IdentifiedPlant::rigid ? 50.0 : 200.0, 0.4 / model.period_s)
+                    : positive("--end-frequency", args.end_frequency);
+  if (!(plan.end_hz > plan.start_hz && plan.end_hz <= nyquist)) {
+    throw UsageError("--end-frequency " + fmt(plan.end_hz) +
                      " Hz must lie above --start-frequency and at most at 1/(2T) = " + fmt(nyquist) + " Hz");
   }
-  const double amplitude =
+  plan.amplitude =
       args.amplitude.empty() ? 0.5 * session.torque_limit() : positive("--amplitude", args.amplitude);
-  if (amplitude > session.torque_limit()) {
-    throw UsageError("--amplitude " + fmt(amplitude) + " " + u.force +
+  if (plan.amplitude > session.torque_limit()) {
+    throw UsageError("--amplitude " + fmt(plan.amplitude) + " " + u.force +
                      " is above the daemon's torque limit " + fmt(session.torque_limit()) + " " + u.force);
   }
-  std::optional<double> hand_stiffness;
-  if (*hand == HandCondition::spring) {
-    hand_stiffness =
+  if (plan.hand == HandCondition::spring) {
+    plan.hand_stiffness =
         args.hand_stiffness.empty()
             ? model.effective_mass * std::pow(2.0 * std::numbers::pi * 1.0, 2)  // 1 Hz on the mass
             : positive("--hand-stiffness", args.hand_stiffness);
   }
+  plan.sweep_steps = static_cast<std::int64_t>(std::llround(plan.sweep_s / model.period_s));
+  plan.duration_s =
+      static_cast<double>(args.sweeps) * static_cast<double>(plan.sweep_steps) * model.period_s +
+      1.0 / plan.start_hz;
+}
 
-  // The run.
-  const auto sweep_steps = static_cast<std::int64_t>(std::llround(*sweep_s / model.period_s));
-  const double duration =
-      static_cast<double>(args.sweeps) * static_cast<double>(sweep_steps) * model.period_s + 1.0 / f0;
+/// The loopback's hand.set script for the planned hand, holding it at y0.
+json hand_script_json(const ChirpPlan& plan, double y0) {
+  json script{{"mode", "free"}};
+  if (plan.hand == HandCondition::hold) script = {{"mode", "hold"}, {"position", y0}};
+  if (plan.hand == HandCondition::spring) {
+    script = {{"mode", "impedance"},
+              {"stiffness", *plan.hand_stiffness},
+              {"damping", plan.hand_damping},
+              {"position", y0}};
+  }
+  return script;
+}
+
+/// What the chirp recorded, and how the hand was held.
+struct ChirpRecording {
   std::vector<RecordedSample> rows;
   std::string hand_text;
-  try {
-    const double y0 = session.position();
-    json script{{"mode", "free"}};
-    if (*hand == HandCondition::hold) script = {{"mode", "hold"}, {"position", y0}};
-    if (*hand == HandCondition::spring) {
-      script = {
-          {"mode", "impedance"}, {"stiffness", *hand_stiffness}, {"damping", hand_damping}, {"position", y0}};
-    }
-    const auto set = session.set_hand(script);
-    hand_text = set ? "simulated hand: " + *set : "hand: " + args.hand + " (as you hold the device)";
-    const std::string name = "hapticctl-identify-" + std::to_string(::getpid()) + ".csv";
-    const auto file = session.start_recording(name);
-    const std::uint64_t c0 =
-        session.load("chirp", {{"amplitude", amplitude},
-                               {"start_frequency", f0},
-                               {"end_frequency", f1},
-                               {"sweep", static_cast<double>(sweep_steps) * model.period_s},
-                               {"duration", duration}});
-    const auto end = c0 + static_cast<std::uint64_t>(args.sweeps * sweep_steps);
-    std::cerr << "hapticctl: identify: " << args.sweeps << " sweeps of " << fmt(*sweep_s) << " s, "
-              << fmt(amplitude) << " " << u.force << " from " << fmt(f0) << " to " << fmt(f1) << " Hz; "
-              << hand_text << "\n";
-    session.wait_for_cycle(c0 + static_cast<std::uint64_t>(std::llround(duration / model.period_s)));
-    session.stop_recording();
-    rows = read_recorded(file, c0, end);
-    if (!args.keep_recordings) {
-      std::error_code ignored;
-      std::filesystem::remove(file, ignored);
-    }
-  } catch (const Interrupted&) {
-    std::cerr << "hapticctl: identify stopped by Ctrl-C; " << session.restore() << "; nothing written\n";
-    return exit_experiment_interrupted;
-  }
-  const std::string restored = session.restore();
+};
 
+/// Holds the hand as planned, plays the chirp scene to its end and reads its
+/// sweeps back from the daemon's recording.
+ChirpRecording record_chirp(ExperimentSession& session, const IdentifyArgs& args, const ChirpPlan& plan,
+                            const MotionUnits& u) {
+  const double period_s = session.model().period_s;
+  ChirpRecording recording;
+  const auto set = session.set_hand(hand_script_json(plan, session.position()));
+  recording.hand_text = set ? "simulated hand: " + *set : "hand: " + args.hand + " (as you hold the device)";
+  const std::string name = "hapticctl-identify-" + std::to_string(::getpid()) + ".csv";
+  const auto file = session.start_recording(name);
+  const std::uint64_t c0 = session.load("chirp", {{"amplitude", plan.amplitude},
+                                                  {"start_frequency", plan.start_hz},
+                                                  {"end_frequency", plan.end_hz},
+                                                  {"sweep", static_cast<double>(plan.sweep_steps) * period_s},
+                                                  {"duration", plan.duration_s}});
+  const auto end = c0 + static_cast<std::uint64_t>(args.sweeps * plan.sweep_steps);
+  std::cerr << "hapticctl: identify: " << args.sweeps << " sweeps of " << fmt(plan.sweep_s) << " s, "
+            << fmt(plan.amplitude) << " " << u.force << " from " << fmt(plan.start_hz) << " to "
+            << fmt(plan.end_hz) << " Hz; " << recording.hand_text << "\n";
+  session.wait_for_cycle(c0 + static_cast<std::uint64_t>(std::llround(plan.duration_s / period_s)));
+  session.stop_recording();
+  recording.rows = read_recorded(file, c0, end);
+  if (!args.keep_recordings) {
+    std::error_code ignored;
+    std::filesystem::remove(file, ignored);
+  }
+  return recording;
+}
+
+/// The averaged frequency response of the recorded sweeps, the band's edges left out.
+analysis::FrequencyResponse measure_chirp_response(const std::vector<RecordedSample>& rows,
+                                                   const ChirpPlan& plan, double period_s) {
   std::vector<double> y, f;
   for (const auto& r : rows) {
     y.push_back(r.position);
     f.push_back(r.force);
   }
-  const auto data =
-      analysis::measure_frequency_response(y, f, model.period_s, sweep_steps, f0 * 1.05, f1 / 1.05);
-  const auto id = analysis::identify(data, kind, *hand, model.motion, model.sensor);
-  const json configured = configured_values(session, kind, *hand, hand_damping, hand_stiffness);
+  return analysis::measure_frequency_response(y, f, period_s, plan.sweep_steps, plan.start_hz * 1.05,
+                                              plan.end_hz / 1.05);
+}
 
-  json result{{"plant", std::string(analysis::to_string(kind))},
-              {"hand", std::string(analysis::to_string(*hand))},
+/// identification.json (and --json's output) before the model file and --apply.
+json identification_json(const ChirpPlan& plan, const std::string& hand_text,
+                         const analysis::FrequencyResponse& data, const analysis::Identification& id,
+                         const json& configured, const std::string& restored) {
+  json result{{"plant", std::string(analysis::to_string(plan.kind))},
+              {"hand", std::string(analysis::to_string(plan.hand))},
               {"hand_script", hand_text},
               {"bins", data.size()},
               {"sweeps_averaged", data.sweeps},
@@ -363,52 +402,101 @@ int run_identify(const hapticctl::CommonOptions& opts, const IdentifyArgs& args)
                                     {"sum", c.sum},
                                     {"sum_half_width", c.sum_half_width}});
   }
-  const std::string subtitle = std::string(analysis::to_string(kind)) + " model, hand " + args.hand + ", " +
-                               session.driver() + ", T = " + world::units::format_duration(model.period_s);
+  return result;
+}
+
+/// The model file written, and its [model] keys (both empty when the fit was not complete).
+struct WrittenModel {
+  std::filesystem::path path;
+  nlohmann::ordered_json keys;
+};
+
+/// Writes the identified model where --model-file says (OUT/device-model.toml
+/// by default) and names it in the result.
+WrittenModel write_model_file(const analysis::Identification& id, const ExperimentSession& session,
+                              const IdentifyArgs& args, const ChirpPlan& plan, const MotionUnits& u,
+                              const StagedFiles& files, json& result) {
+  WrittenModel model;
+  model.keys = model_keys(id, session);
+  model.path =
+      args.model_file.empty() ? files.dir() / "device-model.toml" : std::filesystem::path(args.model_file);
+  model.path = std::filesystem::absolute(model.path).lexically_normal();
+  const std::string how = std::to_string(args.sweeps) + " sweeps " + fmt(plan.start_hz) + "-" +
+                          fmt(plan.end_hz) + " Hz of " + fmt(plan.amplitude) + " " + u.force + " on " +
+                          session.driver() + ", hand " + args.hand;
+  result["model_file"] = model.path.string();
+  result["model"] = json(model.keys);
+  std::ofstream out(model.path);
+  out << model_file_text(id, model.keys, how);
+  if (!out) throw std::runtime_error("cannot write the model file " + model.path.string());
+  return model;
+}
+
+/// What --apply did: the gate's model now, and the loaded scene's verdict on it.
+void print_applied_model(const json& applied, const std::filesystem::path& model_path) {
+  std::cout << "applied: the stability gate now uses " << applied["model"].value("summary", std::string())
+            << " (" << applied["model"].value("source", std::string()) << ")\n"
+            << "scene " << applied["scene"].value("name", std::string()) << ": "
+            << applied["scene"]["stability"].value("summary", std::string()) << "\n"
+            << "name the file in the config to keep it: [device] model = \"" << model_path.string() << "\"\n";
+}
+
+/// Fits the model to the recording, writes the figures, identification.json
+/// and the model file, applies the model with --apply, and prints the result.
+int report_identification(const hapticctl::CommonOptions& opts, const IdentifyArgs& args,
+                          ExperimentSession& session, const ChirpPlan& plan, const ChirpRecording& recording,
+                          const std::string& restored, StagedFiles& files) {
+  const DaemonModel& model = session.model();
+  const MotionUnits u = units_of(model.motion);
+  const auto data = measure_chirp_response(recording.rows, plan, model.period_s);
+  const auto id = analysis::identify(data, plan.kind, plan.hand, model.motion, model.sensor);
+  const json configured =
+      configured_values(session, plan.kind, plan.hand, plan.hand_damping, plan.hand_stiffness);
+  json result = identification_json(plan, recording.hand_text, data, id, configured, restored);
+  const std::string subtitle = std::string(analysis::to_string(plan.kind)) + " model, hand " + args.hand +
+                               ", " + session.driver() +
+                               ", T = " + world::units::format_duration(model.period_s);
   FigureWriter writer(files);
   for (const Figure& fig : response_figures(data, id, u, subtitle)) writer.write(fig);
-  std::filesystem::path model_path;
-  nlohmann::ordered_json keys;
-  if (id.complete) {
-    keys = model_keys(id, session);
-    model_path =
-        args.model_file.empty() ? files.dir() / "device-model.toml" : std::filesystem::path(args.model_file);
-    model_path = std::filesystem::absolute(model_path).lexically_normal();
-    const std::string how = std::to_string(args.sweeps) + " sweeps " + fmt(f0) + "-" + fmt(f1) + " Hz of " +
-                            fmt(amplitude) + " " + u.force + " on " + session.driver() + ", hand " +
-                            args.hand;
-    result["model_file"] = model_path.string();
-    result["model"] = json(keys);
-    std::ofstream out(model_path);
-    out << model_file_text(id, keys, how);
-    if (!out) throw std::runtime_error("cannot write the model file " + model_path.string());
-  }
+  const WrittenModel written_model =
+      id.complete ? write_model_file(id, session, args, plan, u, files, result) : WrittenModel{};
   files.stage("identification.json", result.dump(1) + "\n");
   const auto written = files.commit();
   json applied;
   if (args.apply) {
-    applied = session.call("device.model.set", {{"model", json(keys)}, {"file", model_path.string()}});
+    applied = session.call("device.model.set",
+                           {{"model", json(written_model.keys)}, {"file", written_model.path.string()}});
     result["applied"] = applied;
   }
   if (opts.json) {
     hapticctl::detail::print_json(result);
     return exit_ok;
   }
-  std::cout << "identify " << analysis::to_string(kind) << " on " << session.driver() << " (" << model.summary
-            << ", model from " << model.source << "), " << hand_text << "\n";
+  std::cout << "identify " << analysis::to_string(plan.kind) << " on " << session.driver() << " ("
+            << model.summary << ", model from " << model.source << "), " << recording.hand_text << "\n";
   print_identification(id, configured, result);
   writer.report_problems(files.dir());
   std::cout << restored << "\n" << written.size() << " files in " << files.dir().string() << "\n";
-  if (!model_path.empty()) std::cout << "model file: " << model_path.string() << "\n";
-  if (args.apply) {
-    std::cout << "applied: the stability gate now uses " << applied["model"].value("summary", std::string())
-              << " (" << applied["model"].value("source", std::string()) << ")\n"
-              << "scene " << applied["scene"].value("name", std::string()) << ": "
-              << applied["scene"]["stability"].value("summary", std::string()) << "\n"
-              << "name the file in the config to keep it: [device] model = \"" << model_path.string()
-              << "\"\n";
-  }
+  if (!written_model.path.empty()) std::cout << "model file: " << written_model.path.string() << "\n";
+  if (args.apply) print_applied_model(applied, written_model.path);
   return exit_ok;
+}
+
+int run_identify(const hapticctl::CommonOptions& opts, const IdentifyArgs& args) {
+  ChirpPlan plan = check_identify_flags(args);
+  StagedFiles files = open_output(args.out);
+  ExperimentSession session(opts);
+  const MotionUnits u = units_of(session.model().motion);
+  fit_chirp_to_device(plan, args, session, u);
+  ChirpRecording recording;
+  try {
+    recording = record_chirp(session, args, plan, u);
+  } catch (const Interrupted&) {
+    std::cerr << "hapticctl: identify stopped by Ctrl-C; " << session.restore() << "; nothing written\n";
+    return exit_experiment_interrupted;
+  }
+  const std::string restored = session.restore();
+  return report_identification(opts, args, session, plan, recording, restored, files);
 }
 
 }  // namespace

@@ -456,7 +456,8 @@ nlohmann::json sweep_json(const std::vector<SweepResult>& results) {
   return out;
 }
 
-int run_stability(const StabilityArgs& a) {
+/// The operating point of the wall map, from the flags.
+OperatingPoint operating_point_flags(const StabilityArgs& a) {
   OperatingPoint op;
   op.mass = positive_number("--mass", a.mass, "kg");
   op.period_s = positive_duration("--period", a.period);
@@ -464,75 +465,125 @@ int run_stability(const StabilityArgs& a) {
   op.stiffness = non_negative_number("--stiffness", a.stiffness, "N/m");
   op.damping = non_negative_number("--damping", a.damping, "N s/m");
   op.device_damping = non_negative_number("--device-damping", a.device_damping, "N s/m");
+  return op;
+}
+
+/// The maps, the sweep's results and how long the sweep took.
+struct StabilityRun {
+  Maps maps;
+  std::vector<SweepResult> results;
+  double sweep_seconds = 0.0;
+};
+
+/// Computes the maps, then runs the sweep; analysis::StudyCancelled on Ctrl-C.
+StabilityRun compute_stability(bool quick, const OperatingPoint& op, analysis::StudyProgress& progress) {
+  StabilityRun run;
+  run.maps = compute_maps(quick, op, progress);
+  const auto sweep_start = std::chrono::steady_clock::now();
+  run.results = analysis::run_stability_sweep(analysis::sweep_cases(quick), {}, progress);
+  run.sweep_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count();
+  return run;
+}
+
+void write_stability_figures(FigureWriter& writer, const StabilityRun& run, const OperatingPoint& op) {
+  writer.write(wall_figure(run.maps, op));
+  writer.write(integrator_figure(run.maps));
+  writer.write(critical_figure(run.maps));
+  writer.write(sweep_figure(run.results));
+}
+
+int count_disagreements(const std::vector<SweepResult>& results) {
+  int disagreements = 0;
+  for (const auto& r : results) disagreements += r.agreement == SweepAgreement::disagree;
+  return disagreements;
+}
+
+/// Hulin's largest stable stiffness at each delay, and the damping there.
+nlohmann::json wall_maxima_json(const Maps& maps) {
+  nlohmann::json wall = nlohmann::json::array();
+  for (const auto& p : maps.wall.maximum_stiffness) {
+    wall.push_back({{"delay", p.delay},
+                    {"alpha_max", p.alpha},
+                    {"beta_at_alpha_max", p.beta},
+                    {"beta_max_at_zero_stiffness", analysis::beta_max_at_zero_stiffness(p.delay)}});
+  }
+  return wall;
+}
+
+/// K_CR against the delay for each plant and sensor (null where it is not finite).
+nlohmann::json critical_stiffness_json(const Maps& maps) {
+  nlohmann::json critical = nlohmann::json::array();
+  for (const auto& r : maps.critical) {
+    critical.push_back({{"plant", r.plant},
+                        {"sensor", world::to_string(r.sensor)},
+                        {"delay_s", r.delay_s},
+                        {"k_cr", std::isfinite(r.k_cr) ? nlohmann::json(r.k_cr) : nlohmann::json(nullptr)}});
+  }
+  return critical;
+}
+
+/// Colgate & Schenkel on the device damping: the passive maxima and the operating point's verdict.
+nlohmann::json passivity_report_json(const OperatingPoint& op) {
+  const analysis::PassivityVerdict passivity = op.passivity();
+  nlohmann::json passive_maxima = nlohmann::json::array();
+  for (int d = 0; d <= map_delays; ++d)
+    passive_maxima.push_back(
+        {{"delay", d}, {"alpha_at_zero_beta", analysis::passive_alpha_max(0.0, op.device_beta(), d)}});
+  return {{"device_damping", op.device_damping},
+          {"device_beta", op.device_beta()},
+          {"maxima", passive_maxima},
+          {"operating_point",
+           {{"required_damping", passivity.bound.required_damping},
+            {"frequency_hz", passivity.bound.frequency_hz},
+            {"passive", passivity.passive},
+            {"max_stiffness", passivity.max_stiffness}}}};
+}
+
+/// --json's output: the maps' tables, the sweep and the files written.
+nlohmann::json stability_json(const StabilityRun& run, const OperatingPoint& op, int disagreements,
+                              double elapsed, const std::vector<std::filesystem::path>& written) {
+  nlohmann::json out{{"wall_maxima", wall_maxima_json(run.maps)},
+                     {"critical_stiffness", critical_stiffness_json(run.maps)},
+                     {"sweep", sweep_json(run.results)},
+                     {"cases", run.results.size()},
+                     {"disagreements", disagreements},
+                     {"sweep_seconds", run.sweep_seconds},
+                     {"elapsed_s", elapsed},
+                     {"files", nlohmann::json::array()}};
+  for (const auto& f : written) out["files"].push_back(f.string());
+  out["passivity"] = passivity_report_json(op);
+  return out;
+}
+
+int run_stability(const StabilityArgs& a) {
+  const OperatingPoint op = operating_point_flags(a);
   ReportSession session;
   StagedFiles files = open_output(a.out);
   analysis::StudyProgress progress = session.progress("report stability");
   const auto start = std::chrono::steady_clock::now();
-  Maps maps;
-  std::vector<SweepResult> results;
-  double sweep_seconds = 0.0;
+  StabilityRun run;
   try {
-    maps = compute_maps(a.quick, op, progress);
-    const auto sweep_start = std::chrono::steady_clock::now();
-    results = analysis::run_stability_sweep(analysis::sweep_cases(a.quick), {}, progress);
-    sweep_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - sweep_start).count();
+    run = compute_stability(a.quick, op, progress);
   } catch (const analysis::StudyCancelled&) {
     return session.stopped();
   }
   progress.stage("drawing");
   FigureWriter writer(files);
-  writer.write(wall_figure(maps, op));
-  writer.write(integrator_figure(maps));
-  writer.write(critical_figure(maps));
-  writer.write(sweep_figure(results));
+  write_stability_figures(writer, run, op);
   if (ReportSession::interrupted()) return session.stopped();
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto written = files.commit();
   session.end_progress();
   writer.report_problems(files.dir());
-  int disagreements = 0;
-  for (const auto& r : results) disagreements += r.agreement == SweepAgreement::disagree;
+  const int disagreements = count_disagreements(run.results);
   if (a.json) {
-    nlohmann::json wall = nlohmann::json::array();
-    for (const auto& p : maps.wall.maximum_stiffness) {
-      wall.push_back({{"delay", p.delay},
-                      {"alpha_max", p.alpha},
-                      {"beta_at_alpha_max", p.beta},
-                      {"beta_max_at_zero_stiffness", analysis::beta_max_at_zero_stiffness(p.delay)}});
-    }
-    nlohmann::json critical = nlohmann::json::array();
-    for (const auto& r : maps.critical) {
-      critical.push_back(
-          {{"plant", r.plant},
-           {"sensor", world::to_string(r.sensor)},
-           {"delay_s", r.delay_s},
-           {"k_cr", std::isfinite(r.k_cr) ? nlohmann::json(r.k_cr) : nlohmann::json(nullptr)}});
-    }
-    const analysis::PassivityVerdict passivity = op.passivity();
-    nlohmann::json passive_maxima = nlohmann::json::array();
-    for (int d = 0; d <= map_delays; ++d)
-      passive_maxima.push_back(
-          {{"delay", d}, {"alpha_at_zero_beta", analysis::passive_alpha_max(0.0, op.device_beta(), d)}});
-    nlohmann::json out{
-        {"wall_maxima", wall},     {"critical_stiffness", critical},  {"sweep", sweep_json(results)},
-        {"cases", results.size()}, {"disagreements", disagreements},  {"sweep_seconds", sweep_seconds},
-        {"elapsed_s", elapsed},    {"files", nlohmann::json::array()}};
-    for (const auto& f : written) out["files"].push_back(f.string());
-    out["passivity"] = {{"device_damping", op.device_damping},
-                        {"device_beta", op.device_beta()},
-                        {"maxima", passive_maxima},
-                        {"operating_point",
-                         {{"required_damping", passivity.bound.required_damping},
-                          {"frequency_hz", passivity.bound.frequency_hz},
-                          {"passive", passivity.passive},
-                          {"max_stiffness", passivity.max_stiffness}}}};
-    std::cout << out.dump(1) << "\n";
+    std::cout << stability_json(run, op, disagreements, elapsed, written).dump(1) << "\n";
   } else {
-    print_maps(std::cout, maps, op);
-    print_sweep(std::cout, results);
+    print_maps(std::cout, run.maps, op);
+    print_sweep(std::cout, run.results);
     std::cout << "\n"
-              << results.size() << " cases, " << disagreements << " disagreement(s); sweep "
-              << fmt(sweep_seconds) << " s, report " << fmt(elapsed) << " s; wrote " << written.size()
+              << run.results.size() << " cases, " << disagreements << " disagreement(s); sweep "
+              << fmt(run.sweep_seconds) << " s, report " << fmt(elapsed) << " s; wrote " << written.size()
               << " files to " << files.dir().string() << "\n";
   }
   if (disagreements > 0) {

@@ -440,7 +440,9 @@ Figure gain_margin_figure(const std::vector<Trial>& trials, const DaemonModel& m
   return f;
 }
 
-int run_tune(const hapticctl::CommonOptions& opts, const TuneArgs& args) {
+/// The flags that need no daemon, checked before it is reached (the
+/// amplitude's default and limit come from the daemon).
+TuneSettings tune_settings_from_flags(const TuneArgs& args) {
   TuneSettings s;
   s.hysteresis = number_flag("--hysteresis", args.hysteresis, 0.0, true);
   s.delays_s = delay_list(args.delays);
@@ -454,16 +456,76 @@ int run_tune(const hapticctl::CommonOptions& opts, const TuneArgs& args) {
     throw UsageError("--settle " + world::units::format_duration(s.settle_s) +
                      " must be shorter than --duration " + world::units::format_duration(s.duration_s));
   }
-  StagedFiles files = open_output(args.out);
-  ExperimentSession session(opts);
-  s.amplitude = args.amplitude.empty() ? 0.5 * session.torque_limit()
-                                       : number_flag("--amplitude", args.amplitude, 0.0, false);
-  const MotionUnits u = units_of(session.model().motion);
-  if (s.amplitude > session.torque_limit()) {
-    throw UsageError("--amplitude " + fmt(s.amplitude) + " " + u.force +
+  return s;
+}
+
+/// --amplitude: half the daemon's torque limit by default, never above it.
+double relay_amplitude_flag(const TuneArgs& args, const ExperimentSession& session, const MotionUnits& u) {
+  const double amplitude = args.amplitude.empty() ? 0.5 * session.torque_limit()
+                                                  : number_flag("--amplitude", args.amplitude, 0.0, false);
+  if (amplitude > session.torque_limit()) {
+    throw UsageError("--amplitude " + fmt(amplitude) + " " + u.force +
                      " is above the daemon's torque limit " + fmt(session.torque_limit()) + " " + u.force +
                      ": the limit would clip the relay");
   }
+  return amplitude;
+}
+
+/// One limit-cycle figure for each delay that reached a steady state, then the gain margin against the delay.
+void write_relay_figures(FigureWriter& writer, const std::vector<Trial>& trials, const MotionUnits& u,
+                         const ExperimentSession& session) {
+  double last_delay = -1.0;
+  for (const Trial& t : trials) {
+    if (t.delay_s == last_delay || t.steady.empty()) continue;
+    last_delay = t.delay_s;
+    writer.write(limit_cycle_figure(t, u, session.period_s()));
+  }
+  writer.write(gain_margin_figure(trials, session.model()));
+}
+
+/// relay_trials.json (and --json's output).
+json relay_trials_json(const ExperimentSession& session, const TuneSettings& s, const MotionUnits& u,
+                       const std::vector<Trial>& trials, const std::string& restored) {
+  json all{{"device", session.model().summary},
+           {"model_source", session.model().source},
+           {"relay",
+            {{"amplitude", s.amplitude},
+             {"hysteresis", s.hysteresis},
+             {"duration_s", s.duration_s},
+             {"settle_s", s.settle_s}}},
+           {"units", {{"stiffness", u.stiffness}, {"force", u.force}, {"position", u.position}}},
+           {"trials", json::array()},
+           {"restored", restored}};
+  for (const Trial& t : trials) all["trials"].push_back(trial_json(t));
+  return all;
+}
+
+/// The table's heading: the device, the relay and how each trial is read.
+void print_relay_summary(const ExperimentSession& session, const TuneSettings& s, const MotionUnits& u) {
+  std::cout
+      << "relay experiment (Diaz & Gil V) on " << session.driver() << ": " << session.model().summary
+      << " (model: " << session.model().source << ")\n"
+      << "relay h = " << fmt(s.amplitude) << " " << u.force << ", hysteresis " << fmt(s.hysteresis) << " "
+      << u.position << ", " << fmt(s.duration_s) << " s per trial, the first " << fmt(s.settle_s)
+      << " s dropped; frequency and gain from the empirical transfer function at the peak of the averaged "
+         "spectra\n";
+}
+
+void warn_about_trials(const std::vector<Trial>& trials) {
+  for (const Trial& t : trials) {
+    if (!t.warning.empty()) {
+      std::cerr << "hapticctl: warning: trial " << t.trial << " at " << fmt(t.delay_s * 1e3)
+                << " ms: " << t.warning << "\n";
+    }
+  }
+}
+
+int run_tune(const hapticctl::CommonOptions& opts, const TuneArgs& args) {
+  TuneSettings s = tune_settings_from_flags(args);
+  StagedFiles files = open_output(args.out);
+  ExperimentSession session(opts);
+  const MotionUnits u = units_of(session.model().motion);
+  s.amplitude = relay_amplitude_flag(args, session, u);
   std::vector<Trial> trials;
   try {
     RelayTuning tuning(session, s, args);
@@ -476,29 +538,8 @@ int run_tune(const hapticctl::CommonOptions& opts, const TuneArgs& args) {
   const std::string restored = session.restore();
 
   FigureWriter writer(files);
-  std::vector<std::string> figure_names;
-  double last_delay = -1.0;
-  for (const Trial& t : trials) {
-    if (t.delay_s == last_delay || t.steady.empty()) continue;
-    last_delay = t.delay_s;
-    const Figure f = limit_cycle_figure(t, u, session.period_s());
-    writer.write(f);
-    figure_names.push_back(f.name);
-  }
-  const Figure gm = gain_margin_figure(trials, session.model());
-  writer.write(gm);
-  figure_names.push_back(gm.name);
-  json all{{"device", session.model().summary},
-           {"model_source", session.model().source},
-           {"relay",
-            {{"amplitude", s.amplitude},
-             {"hysteresis", s.hysteresis},
-             {"duration_s", s.duration_s},
-             {"settle_s", s.settle_s}}},
-           {"units", {{"stiffness", u.stiffness}, {"force", u.force}, {"position", u.position}}},
-           {"trials", json::array()},
-           {"restored", restored}};
-  for (const Trial& t : trials) all["trials"].push_back(trial_json(t));
+  write_relay_figures(writer, trials, u, session);
+  const json all = relay_trials_json(session, s, u, trials, restored);
   files.stage("relay_trials.json", all.dump(1) + "\n");
   const auto written = files.commit();
   bool warned = false;
@@ -507,21 +548,10 @@ int run_tune(const hapticctl::CommonOptions& opts, const TuneArgs& args) {
     hapticctl::detail::print_json(all);
     return warned ? exit_refused : exit_ok;
   }
-  std::cout
-      << "relay experiment (Diaz & Gil V) on " << session.driver() << ": " << session.model().summary
-      << " (model: " << session.model().source << ")\n"
-      << "relay h = " << fmt(s.amplitude) << " " << u.force << ", hysteresis " << fmt(s.hysteresis) << " "
-      << u.position << ", " << fmt(s.duration_s) << " s per trial, the first " << fmt(s.settle_s)
-      << " s dropped; frequency and gain from the empirical transfer function at the peak of the averaged "
-         "spectra\n";
+  print_relay_summary(session, s, u);
   print_table(trials, u);
   print_bias(trials);
-  for (const Trial& t : trials) {
-    if (!t.warning.empty()) {
-      std::cerr << "hapticctl: warning: trial " << t.trial << " at " << fmt(t.delay_s * 1e3)
-                << " ms: " << t.warning << "\n";
-    }
-  }
+  warn_about_trials(trials);
   writer.report_problems(files.dir());
   std::cout << restored << "\n" << written.size() << " files in " << files.dir().string() << "\n";
   return warned ? exit_refused : exit_ok;

@@ -127,42 +127,87 @@ int setup_check(const std::string& config_path, bool json) {
   return config::overall(items) == config::Verdict::fail ? 1 : 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"hapticd: real-time haptics daemon"};
+/// The command line: where the config is, what to override in it, and what
+/// to do instead of running (check the config or the machine, list).
+struct DaemonFlags {
   std::string config_path;
   bool require_rt = false;
   bool check_config = false;
+  bool setup = false;
   Listings listings;
   std::string clock;
   std::string duration;
   std::string record;
   std::string socket;
-  app.add_option("-c,--config", config_path, "TOML config file (default: the built-in loopback wheel)");
-  app.add_flag("--require-rt", require_rt, "exit if SCHED_FIFO cannot be had");
-  app.add_option("--clock", clock, "real or virtual (virtual: as fast as possible on simulated time)");
-  app.add_option("--duration", duration, "stop after this much loop time (s, ms, us)");
-  app.add_option("--record", record,
-                 "record from the first cycle to this file name in the recording directory");
-  app.add_option("--socket", socket, "control socket path");
-  app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
-  listings.add_to(app);
-  bool setup = false;
-  app.add_flag(
-      "--setup-check", setup,
-      "check this machine for this config (RT limits, kernel, CPUs, device access, budget), exit 1 on a "
-      "failure; --json for JSON");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);
-    std::cerr << "hapticd: " << e.what() << " (see hapticd --help)\n";
-    return 2;
-  }
-  if (listings.print()) return 0;
-  if (setup) return setup_check(config_path, listings.json);
 
+  void add_to(CLI::App& app) {
+    app.add_option("-c,--config", config_path, "TOML config file (default: the built-in loopback wheel)");
+    app.add_flag("--require-rt", require_rt, "exit if SCHED_FIFO cannot be had");
+    app.add_option("--clock", clock, "real or virtual (virtual: as fast as possible on simulated time)");
+    app.add_option("--duration", duration, "stop after this much loop time (s, ms, us)");
+    app.add_option("--record", record,
+                   "record from the first cycle to this file name in the recording directory");
+    app.add_option("--socket", socket, "control socket path");
+    app.add_flag("--check-config", check_config, "validate the config, print what would run, exit");
+    listings.add_to(app);
+    app.add_flag(
+        "--setup-check", setup,
+        "check this machine for this config (RT limits, kernel, CPUs, device access, budget), exit 1 on a "
+        "failure; --json for JSON");
+  }
+};
+
+/// --require-rt, --clock and --duration over the config's [loop]; false
+/// (after saying why on stderr) when --clock or --duration is refused.
+bool apply_loop_flags(const DaemonFlags& flags, hapticd::daemon::config::LoopConfig& loop) {
+  if (flags.require_rt) loop.require_rt = true;
+  if (!flags.clock.empty()) {
+    if (flags.clock == "real") {
+      loop.clock = hapticd::daemon::config::ClockKind::real;
+    } else if (flags.clock == "virtual") {
+      loop.clock = hapticd::daemon::config::ClockKind::virtual_clock;
+    } else {
+      std::cerr << "hapticd: --clock: '" << flags.clock << "' is not accepted; accepted: real, virtual\n";
+      return false;
+    }
+  }
+  if (!flags.duration.empty()) {
+    const auto d = hapticd::world::units::parse_duration_s(flags.duration);
+    if (!d || *d <= 0) {
+      std::cerr << "hapticd: --duration: '" << flags.duration
+                << "' is not accepted; expected a duration > 0 such as 10s or 500ms\n";
+      return false;
+    }
+    loop.duration_s = *d;
+  }
+  return true;
+}
+
+/// Configures the device (a stop signal meanwhile ends it, exit 0), then
+/// prints the plan (--check-config) or runs the loop until it stops.
+int configure_and_run(hapticd::daemon::ServiceOptions options, const hapticd::drivers::StopRequest& stop,
+                      bool check_config) {
+  std::unique_ptr<hapticd::daemon::Service> configured;
+  try {
+    configured = std::make_unique<hapticd::daemon::Service>(std::move(options));
+  } catch (const hapticd::drivers::StopRequested& e) {
+    // The device is closed (disabled) again; a stop is not a failure.
+    std::cout << "hapticd: stopped by " << stop.why() << " during configure (" << e.what() << ")"
+              << std::endl;
+    return 0;
+  }
+  hapticd::daemon::Service& service = *configured;
+  if (check_config) {
+    std::cout << service.describe() << "\nconfig OK\n";
+    return 0;
+  }
+  return service.run();
+}
+
+/// The daemon: the config with the flags over it, the device, the loop. Exit
+/// 0 when it stopped as asked, 1 on a device or other failure, 2 on a
+/// refused config or flag.
+int run_daemon(const DaemonFlags& flags) {
   // The stop signals are taken from here on, before any other thread starts
   // (each inherits the mask): a SIGTERM while the device is configured or
   // enabled ends that step within drivers::stop_slice, not after its timeout.
@@ -173,54 +218,21 @@ int main(int argc, char** argv) {
 
   try {
     hapticd::daemon::ServiceOptions options;
-    options.config = config_path.empty() ? hapticd::daemon::config::default_config()
-                                         : hapticd::daemon::config::load_config(config_path);
+    options.config = flags.config_path.empty() ? hapticd::daemon::config::default_config()
+                                               : hapticd::daemon::config::load_config(flags.config_path);
     auto& loop = options.config.loop;
-    if (require_rt) loop.require_rt = true;
-    if (!clock.empty()) {
-      if (clock == "real") {
-        loop.clock = hapticd::daemon::config::ClockKind::real;
-      } else if (clock == "virtual") {
-        loop.clock = hapticd::daemon::config::ClockKind::virtual_clock;
-      } else {
-        std::cerr << "hapticd: --clock: '" << clock << "' is not accepted; accepted: real, virtual\n";
-        return 2;
-      }
-    }
-    if (!duration.empty()) {
-      const auto d = hapticd::world::units::parse_duration_s(duration);
-      if (!d || *d <= 0) {
-        std::cerr << "hapticd: --duration: '" << duration
-                  << "' is not accepted; expected a duration > 0 such as 10s or 500ms\n";
-        return 2;
-      }
-      loop.duration_s = *d;
-    }
-    if (!socket.empty()) {
-      options.config.control.socket = socket;
+    if (!apply_loop_flags(flags, loop)) return 2;
+    if (!flags.socket.empty()) {
+      options.config.control.socket = flags.socket;
       options.config.control.socket_where = {"--socket", 0, 0};  // errors name the flag, not the file
     }
-    options.record_name = record;
+    options.record_name = flags.record;
     options.stop = &stop;
     if (loop.cpu >= 0) {
       if (const auto problem = stop_signals.keep_off_cpu(loop.cpu); !problem.empty())
         std::cerr << "hapticd: " << problem << "\n";
     }
-    std::unique_ptr<hapticd::daemon::Service> configured;
-    try {
-      configured = std::make_unique<hapticd::daemon::Service>(std::move(options));
-    } catch (const hapticd::drivers::StopRequested& e) {
-      // The device is closed (disabled) again; a stop is not a failure.
-      std::cout << "hapticd: stopped by " << stop.why() << " during configure (" << e.what() << ")"
-                << std::endl;
-      return 0;
-    }
-    hapticd::daemon::Service& service = *configured;
-    if (check_config) {
-      std::cout << service.describe() << "\nconfig OK\n";
-      return 0;
-    }
-    return service.run();
+    return configure_and_run(std::move(options), stop, flags.check_config);
   } catch (const hapticd::drivers::DeviceError& e) {
     std::cerr << "hapticd: device: " << e.what() << "\n";
     return 1;
@@ -231,4 +243,22 @@ int main(int argc, char** argv) {
     std::cerr << "hapticd: " << e.what() << "\n";
     return 1;
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"hapticd: real-time haptics daemon"};
+  DaemonFlags flags;
+  flags.add_to(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::cerr << "hapticd: " << e.what() << " (see hapticd --help)\n";
+    return 2;
+  }
+  if (flags.listings.print()) return 0;
+  if (flags.setup) return setup_check(flags.config_path, flags.listings.json);
+  return run_daemon(flags);
 }

@@ -119,9 +119,13 @@ std::string HandScript::to_text() const {
 
 std::vector<std::string_view> hand_script_keys() { return {key_names.begin(), key_names.end()}; }
 
-HandScript parse_hand_script(std::string_view text) {
-  const auto pairs = detail::split_key_values(text, "hand script");
-  // Duplicates and unknown keys first, so the message names the key.
+namespace {
+
+using KeyValues = std::vector<std::pair<std::string, std::string>>;
+
+/// Unknown keys and keys given twice (position and its alias offset count as
+/// one), refused before anything else so that the message names the key.
+void refuse_unknown_or_repeated_keys(const KeyValues& pairs) {
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const std::string& key = pairs[i].first;
     const bool known = key == "mode" || key == "trajectory" || key == "position" || key == "offset" ||
@@ -135,42 +139,54 @@ HandScript parse_hand_script(std::string_view text) {
       if (pairs[j].first == key || alias) refuse_script(key, "key '" + key + "' given twice");
     }
   }
-  auto find = [&pairs](std::string_view key) -> const std::string* {
-    for (const auto& [k, v] : pairs) {
-      if (k == key) return &v;
-    }
-    return nullptr;
-  };
-  auto number = [](std::string_view key, const std::string& value) {
-    const auto parsed = world::units::parse_finite(value);
-    if (!parsed) refuse_script(key, std::string(key) + "=" + value + " is not a finite number");
-    const double limit = magnitude_limit(key);
-    if (std::abs(*parsed) > limit)
-      refuse_script(key, std::string(key) + "=" + value + " is out of range; accepted: -" +
-                             format_number(limit) + " to " + format_number(limit));
-    return *parsed;
-  };
+}
 
-  HandScript script;
-  const std::string* mode = find("mode");
+/// The text the script gives `key`, or nullptr when it does not give it.
+const std::string* script_value(const KeyValues& pairs, std::string_view key) {
+  for (const auto& [k, v] : pairs) {
+    if (k == key) return &v;
+  }
+  return nullptr;
+}
+
+/// A key's number: finite and within magnitude_limit(key).
+double script_number(std::string_view key, const std::string& value) {
+  const auto parsed = world::units::parse_finite(value);
+  if (!parsed) refuse_script(key, std::string(key) + "=" + value + " is not a finite number");
+  const double limit = magnitude_limit(key);
+  if (std::abs(*parsed) > limit) {
+    refuse_script(key, std::string(key) + "=" + value + " is out of range; accepted: -" +
+                           format_number(limit) + " to " + format_number(limit));
+  }
+  return *parsed;
+}
+
+/// mode=: required, one of free, hold, force, impedance.
+HandMode parse_hand_mode(const KeyValues& pairs) {
+  const std::string* mode = script_value(pairs, "mode");
   if (!mode)
     refuse_script("mode", "missing mode; accepted: mode=" + join({"free", "hold", "force", "impedance"}));
-  const auto mode_it = std::find(mode_names.begin(), mode_names.end(), *mode);
-  if (mode_it == mode_names.end())
+  const auto it = std::find(mode_names.begin(), mode_names.end(), *mode);
+  if (it == mode_names.end())
     refuse_script("mode", "mode=" + *mode + " is not one of free, hold, force, impedance");
-  script.mode = static_cast<HandMode>(mode_it - mode_names.begin());
+  return static_cast<HandMode>(it - mode_names.begin());
+}
 
-  // Which keys this mode (and trajectory) accepts.
+TrajectoryKind parse_trajectory_kind(const std::string& text) {
+  const auto it = std::find(trajectory_names.begin(), trajectory_names.end(), text);
+  if (it == trajectory_names.end())
+    refuse_script("trajectory", "trajectory=" + text + " is not one of constant, step, ramp, sine");
+  return static_cast<TrajectoryKind>(it - trajectory_names.begin());
+}
+
+/// hold and impedance move the hand along a trajectory (the reference).
+bool follows_trajectory(HandMode mode) { return mode == HandMode::hold || mode == HandMode::impedance; }
+
+/// The keys that apply to the script's mode and, with a reference, its trajectory.
+std::vector<std::string_view> accepted_keys(const HandScript& script) {
   std::vector<std::string_view> accepted{"mode", "release_at"};
-  const bool has_reference = script.mode == HandMode::hold || script.mode == HandMode::impedance;
-  if (has_reference) {
+  if (follows_trajectory(script.mode)) {
     accepted.push_back("trajectory");
-    if (const std::string* kind = find("trajectory")) {
-      const auto it = std::find(trajectory_names.begin(), trajectory_names.end(), *kind);
-      if (it == trajectory_names.end())
-        refuse_script("trajectory", "trajectory=" + *kind + " is not one of constant, step, ramp, sine");
-      script.trajectory.kind = static_cast<TrajectoryKind>(it - trajectory_names.begin());
-    }
     switch (script.trajectory.kind) {
       case TrajectoryKind::constant:
         accepted.insert(accepted.end(), {"position", "offset"});
@@ -189,7 +205,12 @@ HandScript parse_hand_script(std::string_view text) {
     if (script.mode == HandMode::hold) accepted.push_back("ideal");
   }
   if (script.mode == HandMode::force) accepted.insert(accepted.end(), {"force", "at"});
+  return accepted;
+}
 
+/// Refuses the first key that the mode (and trajectory) does not use, with the keys that apply.
+void refuse_keys_that_do_not_apply(const KeyValues& pairs, const HandScript& script) {
+  const std::vector<std::string_view> accepted = accepted_keys(script);
   for (const auto& [key, value] : pairs) {
     if (std::find(accepted.begin(), accepted.end(), key) != accepted.end()) continue;
     std::string list;
@@ -197,24 +218,27 @@ HandScript parse_hand_script(std::string_view text) {
       if (!list.empty()) list += ", ";
       list += name;
     }
-    std::string context = "mode=" + *mode;
-    if (has_reference) context += " trajectory=" + std::string(to_string(script.trajectory.kind));
+    std::string context = "mode=" + std::string(to_string(script.mode));
+    if (follows_trajectory(script.mode)) {
+      context += " trajectory=" + std::string(to_string(script.trajectory.kind));
+    }
     refuse_script(key, "key '" + key + "' does not apply to " + context + "; accepted: " + list);
   }
+}
 
-  if (const std::string* v = find("ideal")) {
-    if (*v == "true" || *v == "1" || *v == "yes") {
-      script.ideal = true;
-    } else if (*v == "false" || *v == "0" || *v == "no") {
-      script.ideal = false;
-    } else {
-      refuse_script("ideal", "ideal=" + *v + " is not one of true, false");
-    }
-  }
+/// ideal=: true, 1 or yes; false, 0 or no.
+bool parse_ideal(const std::string& text) {
+  if (text == "true" || text == "1" || text == "yes") return true;
+  if (text == "false" || text == "0" || text == "no") return false;
+  refuse_script("ideal", "ideal=" + text + " is not one of true, false");
+}
+
+/// Every numeric key into its field, in the order the script gives them.
+void assign_script_numbers(const KeyValues& pairs, HandScript& script) {
   Trajectory& r = script.trajectory;
   for (const auto& [key, value] : pairs) {
     if (key == "mode" || key == "trajectory" || key == "ideal") continue;
-    const double x = number(key, value);
+    const double x = script_number(key, value);
     if (key == "position" || key == "offset")
       r.position = x;
     else if (key == "amplitude")
@@ -242,35 +266,44 @@ HandScript parse_hand_script(std::string_view text) {
     else if (key == "release_at")
       script.release_at = x;
   }
+}
 
-  // Required keys and ranges.
-  // A missing key is blamed on the key that asks for it.
-  auto require = [&find, &script](std::string_view key, std::string_view asked_by = "mode") {
-    if (!find(key))
-      refuse_script(asked_by, "mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
-  };
-  if (has_reference) {
-    switch (r.kind) {
-      case TrajectoryKind::constant:
-        break;
-      case TrajectoryKind::step:
-        require("amplitude", "trajectory");
-        break;
-      case TrajectoryKind::ramp:
-        require("rate", "trajectory");
-        require("to", "trajectory");
-        if (!(r.rate > 0.0)) refuse_script("rate", "rate must be > 0 (got " + format_number(r.rate) + ")");
-        break;
-      case TrajectoryKind::sine:
-        require("amplitude", "trajectory");
-        require("frequency", "trajectory");
-        if (!(r.frequency > 0.0))
-          refuse_script("frequency", "frequency must be > 0 Hz (got " + format_number(r.frequency) + ")");
-        break;
-    }
+/// A missing key is blamed on the key that asks for it (the mode, or the trajectory).
+void require_script_key(const KeyValues& pairs, const HandScript& script, std::string_view key,
+                        std::string_view asked_by = "mode") {
+  if (!script_value(pairs, key))
+    refuse_script(asked_by, "mode=" + std::string(to_string(script.mode)) + " needs " + std::string(key));
+}
+
+/// The keys the reference's trajectory needs, and its rate and frequency > 0.
+void check_trajectory_keys(const KeyValues& pairs, const HandScript& script) {
+  if (!follows_trajectory(script.mode)) return;
+  const Trajectory& r = script.trajectory;
+  switch (r.kind) {
+    case TrajectoryKind::constant:
+      break;
+    case TrajectoryKind::step:
+      require_script_key(pairs, script, "amplitude", "trajectory");
+      break;
+    case TrajectoryKind::ramp:
+      require_script_key(pairs, script, "rate", "trajectory");
+      require_script_key(pairs, script, "to", "trajectory");
+      if (!(r.rate > 0.0)) refuse_script("rate", "rate must be > 0 (got " + format_number(r.rate) + ")");
+      break;
+    case TrajectoryKind::sine:
+      require_script_key(pairs, script, "amplitude", "trajectory");
+      require_script_key(pairs, script, "frequency", "trajectory");
+      if (!(r.frequency > 0.0))
+        refuse_script("frequency", "frequency must be > 0 Hz (got " + format_number(r.frequency) + ")");
+      break;
   }
-  if (script.mode == HandMode::force) require("force");
-  if (script.mode == HandMode::impedance) require("stiffness");
+}
+
+/// The keys the mode needs, and the hand's own spring-damper: only on a
+/// non-ideal hold, stiffness > 0, damping >= 0.
+void check_hand_keys(const KeyValues& pairs, const HandScript& script) {
+  if (script.mode == HandMode::force) require_script_key(pairs, script, "force");
+  if (script.mode == HandMode::impedance) require_script_key(pairs, script, "stiffness");
   if (script.mode == HandMode::hold && script.ideal && (script.stiffness || script.damping)) {
     refuse_script(
         script.stiffness ? "stiffness" : "damping",
@@ -283,6 +316,25 @@ HandScript parse_hand_script(std::string_view text) {
   if (script.damping && !(*script.damping >= 0.0)) {
     refuse_script("damping", "damping must be >= 0 (got " + format_number(*script.damping) + ")");
   }
+}
+
+}  // namespace
+
+HandScript parse_hand_script(std::string_view text) {
+  const auto pairs = detail::split_key_values(text, "hand script");
+  refuse_unknown_or_repeated_keys(pairs);
+  HandScript script;
+  script.mode = parse_hand_mode(pairs);
+  if (follows_trajectory(script.mode)) {
+    if (const std::string* kind = script_value(pairs, "trajectory")) {
+      script.trajectory.kind = parse_trajectory_kind(*kind);
+    }
+  }
+  refuse_keys_that_do_not_apply(pairs, script);
+  if (const std::string* ideal = script_value(pairs, "ideal")) script.ideal = parse_ideal(*ideal);
+  assign_script_numbers(pairs, script);
+  check_trajectory_keys(pairs, script);
+  check_hand_keys(pairs, script);
   return script;
 }
 

@@ -213,88 +213,113 @@ void PlantSimulator::advance_plant(double u) noexcept {
   const HandScript& script = hand->script;
   released_ = script.released(t);
   const HandKind kind = released_ ? HandKind::free : hand->kind;
-  const double fc = config_.coulomb;
-  const std::array<double, 4> x0 = x_;
+  if (kind == HandKind::constraint) {
+    step_along_trajectory(u, script.trajectory.at_time(t_next));
+  } else {
+    const bool impedance = kind == HandKind::impedance;
+    HandPull pull;
+    pull.external = kind == HandKind::force ? script.force_at_time(t) : 0.0;
+    if (impedance) {
+      pull.stiffness = hand->stiffness;
+      pull.damping = hand->damping;
+      pull.reference = script.trajectory.at_time(t);
+    }
+    step_with_friction(u, impedance ? hand->impedance : plain_, pull);
+  }
+  release_hand();
+}
+
+void PlantSimulator::step_model(const StepModel& m, const std::array<double, 4>& x0, double u,
+                                double body_force, double r, double rd) noexcept {
   const int n = plain_.n;
+  std::array<double, 4> next{};
+  for (int i = 0; i < n; ++i) {
+    double acc = m.bd[i][0] * u + m.bd[i][1] * body_force + m.bd[i][2] * r + m.bd[i][3] * rd;
+    for (int j = 0; j < n; ++j) acc += m.ad[i][j] * x0[j];
+    next[i] = acc;
+  }
+  x_ = next;
+}
+
+void PlantSimulator::step_along_trajectory(double u, const Trajectory::Sample& ref) noexcept {
+  // The hand moves the body exactly along the trajectory: solve for the
+  // (piecewise-constant) hand force that lands the body on r(t_next), step
+  // the whole plant with it, then pin position and velocity.
+  const std::array<double, 4> x0 = x_;
+  const int pb = pos_body_;
+  const double fc = config_.coulomb;
+  const double f = fc > 0.0 ? -fc * sign(ref.position - x0[pb]) : 0.0;
+  double free_position = plain_.bd[pb][0] * u + plain_.bd[pb][1] * f;
+  for (int j = 0; j < plain_.n; ++j) free_position += plain_.ad[pb][j] * x0[j];
+  const double fh = (ref.position - free_position) / plain_.bd[pb][1];
+  step_model(plain_, x0, u, fh + f, 0.0, 0.0);
+  x_[pb] = ref.position;
+  x_[vel_body_] = ref.velocity;
+  hand_force_ = fh;
+  friction_ = f;
+  stuck_ = false;
+}
+
+void PlantSimulator::step_with_friction(double u, const StepModel& m, const HandPull& pull) noexcept {
+  const std::array<double, 4> x0 = x_;
   const int pb = pos_body_;
   const int vb = vel_body_;
-
-  auto advance = [&](const StepModel& m, double body_force, double r, double rd) noexcept {
-    std::array<double, 4> next{};
-    for (int i = 0; i < n; ++i) {
-      double acc = m.bd[i][0] * u + m.bd[i][1] * body_force + m.bd[i][2] * r + m.bd[i][3] * rd;
-      for (int j = 0; j < n; ++j) acc += m.ad[i][j] * x0[j];
-      next[i] = acc;
-    }
-    x_ = next;
-  };
-
-  if (kind == HandKind::constraint) {
-    // The hand moves the body exactly along the trajectory: solve for the
-    // (piecewise-constant) hand force that lands the body on r(t_next), step
-    // the whole plant with it, then pin position and velocity.
-    const Trajectory::Sample ref = script.trajectory.at_time(t_next);
-    const double f = fc > 0.0 ? -fc * sign(ref.position - x0[pb]) : 0.0;
-    double free_position = plain_.bd[pb][0] * u + plain_.bd[pb][1] * f;
-    for (int j = 0; j < n; ++j) free_position += plain_.ad[pb][j] * x0[j];
-    const double fh = (ref.position - free_position) / plain_.bd[pb][1];
-    advance(plain_, fh + f, 0.0, 0.0);
-    x_[pb] = ref.position;
-    x_[vb] = ref.velocity;
-    hand_force_ = fh;
-    friction_ = f;
-    stuck_ = false;
-    release_hand();
-    return;
-  }
-
-  const bool impedance = kind == HandKind::impedance;
-  const StepModel& m = impedance ? hand->impedance : plain_;
-  const double k = impedance ? hand->stiffness : 0.0;
-  const double b = impedance ? hand->damping : 0.0;
-  const double external = kind == HandKind::force ? script.force_at_time(t) : 0.0;
-  Trajectory::Sample ref{};
-  if (impedance) ref = script.trajectory.at_time(t);
-  hand_force_ = external + k * (ref.position - x0[pb]) + b * (ref.velocity - x0[vb]);
-
-  double f = 0.0;
-  bool holds = false;
-  const double v0 = x0[vb];
-  if (fc > 0.0) {
-    if (v0 == 0.0) {
-      const double load = friction_mass_load(x0, u, external, k, b, ref.position, ref.velocity);
-      if (std::abs(load) <= fc) {
-        f = -load;  // stiction balances the load
-        holds = true;
-      } else {
-        f = -fc * sign(load);  // breakaway: kinetic friction against the load
-      }
-    } else {
-      f = -fc * sign(v0);
-    }
-  }
-  advance(m, external + f, ref.position, ref.velocity);
+  const Trajectory::Sample& ref = pull.reference;
+  hand_force_ =
+      pull.external + pull.stiffness * (ref.position - x0[pb]) + pull.damping * (ref.velocity - x0[vb]);
+  const Friction friction = coulomb_friction(x0, u, pull);
+  step_model(m, x0, u, pull.external + friction.force, ref.position, ref.velocity);
   stuck_ = false;
-  if (holds) {
+  if (friction.holds) {
     x_[pb] = x0[pb];
     x_[vb] = 0.0;
     stuck_ = true;
-  } else if (fc > 0.0 && v0 != 0.0) {
-    const double v1 = x_[vb];
-    if (v1 == 0.0 || sign(v1) != sign(v0)) {
-      const double load = friction_mass_load(x_, u, external, k, b, ref.position, ref.velocity);
+  } else if (config_.coulomb > 0.0 && x0[vb] != 0.0) {
+    stop_if_velocity_vanished(x0, u, pull);
+  }
+  friction_ = friction.force;
+}
+
+PlantSimulator::Friction PlantSimulator::coulomb_friction(const std::array<double, 4>& x0, double u,
+                                                          const HandPull& pull) const noexcept {
+  const double fc = config_.coulomb;
+  Friction friction;
+  if (fc > 0.0) {
+    const double v0 = x0[vel_body_];
+    if (v0 == 0.0) {
+      const double load = friction_mass_load(x0, u, pull.external, pull.stiffness, pull.damping,
+                                             pull.reference.position, pull.reference.velocity);
       if (std::abs(load) <= fc) {
-        // Stops within the step: position where the (linearly decaying)
-        // velocity reaches zero; exact for a rigid mass without viscous damping.
-        const double stop_time = v0 / (v0 - v1) * period;
-        x_[pb] = x0[pb] + 0.5 * v0 * stop_time;
-        x_[vb] = 0.0;
-        stuck_ = true;
+        friction.force = -load;  // stiction balances the load
+        friction.holds = true;
+      } else {
+        friction.force = -fc * sign(load);  // breakaway: kinetic friction against the load
       }
+    } else {
+      friction.force = -fc * sign(v0);
     }
   }
-  friction_ = f;
-  release_hand();
+  return friction;
+}
+
+void PlantSimulator::stop_if_velocity_vanished(const std::array<double, 4>& x0, double u,
+                                               const HandPull& pull) noexcept {
+  const int pb = pos_body_;
+  const int vb = vel_body_;
+  const double v0 = x0[vb];
+  const double v1 = x_[vb];
+  if (v1 == 0.0 || sign(v1) != sign(v0)) {
+    const double load = friction_mass_load(x_, u, pull.external, pull.stiffness, pull.damping,
+                                           pull.reference.position, pull.reference.velocity);
+    if (std::abs(load) <= config_.coulomb) {
+      // Stops within the step: position where the (linearly decaying)
+      // velocity reaches zero; exact for a rigid mass without viscous damping.
+      const double stop_time = v0 / (v0 - v1) * config_.period_s;
+      x_[pb] = x0[pb] + 0.5 * v0 * stop_time;
+      x_[vb] = 0.0;
+      stuck_ = true;
+    }
+  }
 }
 
 void PlantSimulator::reset_actuator() noexcept {

@@ -137,9 +137,38 @@ class PlantSimulator {
   void set_initial_state(double position, double velocity);
 
  private:
+  /// The hand's pull on the body over one step when it does not pin it: an
+  /// external force (mode force) or a spring-damper to the reference (impedance).
+  struct HandPull {
+    double external = 0.0;
+    double stiffness = 0.0;
+    double damping = 0.0;
+    Trajectory::Sample reference{};
+  };
+  /// Coulomb friction on the friction mass over one step.
+  struct Friction {
+    double force = 0.0;
+    bool holds = false;  ///< stiction holds the mass at rest
+  };
+
   const detail::PreparedHand* acquire_hand() noexcept;
   void release_hand() noexcept;
+  /// One period of the plant under the hand's current script (RT path).
   void advance_plant(double motor_force) noexcept;
+  /// x_ = ad x0 + bd [motor force, body force, reference, reference rate].
+  void step_model(const detail::StepModel& m, const std::array<double, 4>& x0, double motor_force,
+                  double body_force, double reference, double reference_rate) noexcept;
+  /// An ideal hold: the hand force that puts the body on the reference, then the body pinned there.
+  void step_along_trajectory(double motor_force, const Trajectory::Sample& reference) noexcept;
+  /// A free, pushed or impedance-held body, with Coulomb friction and stiction.
+  void step_with_friction(double motor_force, const detail::StepModel& m, const HandPull& pull) noexcept;
+  /// Stiction when the friction mass is at rest and the load is within it, else sliding friction.
+  Friction coulomb_friction(const std::array<double, 4>& x0, double motor_force,
+                            const HandPull& pull) const noexcept;
+  /// A sliding mass whose velocity reached zero or reversed within the step
+  /// stops where it reached zero if stiction holds the load there.
+  void stop_if_velocity_vanished(const std::array<double, 4>& x0, double motor_force,
+                                 const HandPull& pull) noexcept;
   double friction_mass_load(const std::array<double, 4>& x, double motor_force, double body_force,
                             double stiffness, double damping, double reference,
                             double reference_rate) const noexcept;
