@@ -202,15 +202,7 @@ nlohmann::json scene_catalog_json(world::Motion motion) {
 
 namespace {
 
-/// A table cell: a '|' inside ("|F| <= A") must not end it.
-std::string cell(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    if (c == '|') out += '\\';
-    out += c;
-  }
-  return out;
-}
+std::string cell(const std::string& text) { return world::text::markdown_cell(text); }
 
 std::string markdown_range(const world::ParameterSpec& p) {
   namespace text = world::text;

@@ -2,6 +2,8 @@
 
 #include <sstream>
 
+#include "world/text.hpp"
+
 namespace hapticd::drivers {
 
 std::unique_ptr<Device> make_device(const DriverDescription& driver, const DriverParameters& parameters) {
@@ -18,15 +20,7 @@ nlohmann::json to_json(const DriverDescription& driver) {
 }
 
 namespace {
-/// A table cell: a '|' inside (units "kg m^2 | kg", "|force|") must not end it.
-std::string cell(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    if (c == '|') out += '\\';
-    out += c;
-  }
-  return out;
-}
+std::string cell(const std::string& text) { return world::text::markdown_cell(text); }
 }  // namespace
 
 std::string to_markdown(const std::vector<DriverDescription>& drivers) {

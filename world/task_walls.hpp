@@ -60,67 +60,80 @@ CoordinateWall<Damping> coordinate_wall(const TaskWallLaw& law, double surface, 
 
 /// Unit vector of a task direction; throws for a zero or non-finite one.
 AxisVector unit_normal(const AxisVector& direction);
-}  // namespace detail
 
+/// The wall on one coordinate, and the delay of the vector force it makes:
+/// what a plane and a sphere share.
 template <WallDamping Damping, WallDelay Delay>
-class PlaneWall {
+class CoordinateWallWithDelay {
   static constexpr bool delayed = Delay == WallDelay::samples;
 
  public:
-  /// The free side is n . x > offset. Throws std::invalid_argument.
-  PlaneWall(const AxisVector& normal, double offset, const TaskWallLaw& law, double period_s)
-      : normal_(detail::unit_normal(normal)),
-        wall_(detail::coordinate_wall<Damping>(law, offset, WallSide::lower, period_s)),
-        delay_(make_delay(law, normal.size())) {}
+  CoordinateWallWithDelay(const TaskWallLaw& law, double surface, WallSide side, Eigen::Index dimensions,
+                          double period_s)
+      : wall_(coordinate_wall<Damping>(law, surface, side, period_s)), delay_(make_delay(law, dimensions)) {}
 
-  void reset(const AxisVector& x) noexcept {
-    wall_.reset(normal_.dot(x));
+  void reset(double s) noexcept {
+    wall_.reset(s);
     if constexpr (delayed) delay_.reset();
   }
-  void step(const AxisVector& x, AxisVector& force) noexcept {
-    force = wall_.step(normal_.dot(x)) * normal_;
+  /// The force along the coordinate at s (N), before the delay.
+  double step(double s) noexcept { return wall_.step(s); }
+  /// F[n] in, F[n - d] out.
+  void delay(AxisVector& force) noexcept {
     if constexpr (delayed) delay_.push(force);
   }
   /// m, > 0 while penetrating.
   double penetration() const noexcept {
-    std::array<double, detail::CoordinateWall<Damping>::channel_count> p{};
+    std::array<double, CoordinateWall<Damping>::channel_count> p{};
     wall_.channels(p);
     return p[0];
   }
-  const AxisVector& normal() const noexcept { return normal_; }
 
  private:
   static auto make_delay(const TaskWallLaw& law, Eigen::Index n) {
     if constexpr (delayed) {
       return TaskForceDelay(law.delay_samples, n);
     } else {
-      return detail::Absent<3>{};
+      return Absent<3>{};
     }
   }
+  CoordinateWall<Damping> wall_;
+  [[no_unique_address]] std::conditional_t<delayed, TaskForceDelay, Absent<3>> delay_;
+};
+}  // namespace detail
+
+template <WallDamping Damping, WallDelay Delay>
+class PlaneWall {
+ public:
+  /// The free side is n . x > offset. Throws std::invalid_argument.
+  PlaneWall(const AxisVector& normal, double offset, const TaskWallLaw& law, double period_s)
+      : normal_(detail::unit_normal(normal)), wall_(law, offset, WallSide::lower, normal.size(), period_s) {}
+
+  void reset(const AxisVector& x) noexcept { wall_.reset(normal_.dot(x)); }
+  void step(const AxisVector& x, AxisVector& force) noexcept {
+    force = wall_.step(normal_.dot(x)) * normal_;
+    wall_.delay(force);
+  }
+  double penetration() const noexcept { return wall_.penetration(); }
+  const AxisVector& normal() const noexcept { return normal_; }
+
+ private:
   AxisVector normal_;
-  detail::CoordinateWall<Damping> wall_;
-  [[no_unique_address]] std::conditional_t<delayed, TaskForceDelay, detail::Absent<3>> delay_;
+  detail::CoordinateWallWithDelay<Damping, Delay> wall_;
 };
 
 template <WallDamping Damping, WallDelay Delay>
 class SphereWall {
-  static constexpr bool delayed = Delay == WallDelay::samples;
-
  public:
   /// inside: the device is held inside the ball; else kept out of it.
   SphereWall(const AxisVector& center, double radius, bool inside, const TaskWallLaw& law, double period_s)
       : center_(center),
-        wall_(detail::coordinate_wall<Damping>(law, radius, inside ? WallSide::upper : WallSide::lower,
-                                               period_s)),
-        delay_(make_delay(law, center.size())) {
+        wall_(law, radius, inside ? WallSide::upper : WallSide::lower, center.size(), period_s) {
     if (!center.allFinite() || !(std::isfinite(radius) && radius > 0.0))
       throw std::invalid_argument("sphere: the center must be finite and the radius > 0 m");
   }
 
-  void reset(const AxisVector& x) noexcept {
-    wall_.reset((x - center_).norm());
-    if constexpr (delayed) delay_.reset();
-  }
+  void reset(const AxisVector& x) noexcept { wall_.reset((x - center_).norm()); }
   void step(const AxisVector& x, AxisVector& force) noexcept {
     const AxisVector from_center = x - center_;
     const double r = from_center.norm();
@@ -133,25 +146,13 @@ class SphereWall {
     } else {
       force.setZero(x.size());
     }
-    if constexpr (delayed) delay_.push(force);
+    wall_.delay(force);
   }
-  double penetration() const noexcept {
-    std::array<double, detail::CoordinateWall<Damping>::channel_count> p{};
-    wall_.channels(p);
-    return p[0];
-  }
+  double penetration() const noexcept { return wall_.penetration(); }
 
  private:
-  static auto make_delay(const TaskWallLaw& law, Eigen::Index n) {
-    if constexpr (delayed) {
-      return TaskForceDelay(law.delay_samples, n);
-    } else {
-      return detail::Absent<3>{};
-    }
-  }
   AxisVector center_;
-  detail::CoordinateWall<Damping> wall_;
-  [[no_unique_address]] std::conditional_t<delayed, TaskForceDelay, detail::Absent<3>> delay_;
+  detail::CoordinateWallWithDelay<Damping, Delay> wall_;
 };
 
 template <WallDamping Damping, WallDelay Delay>

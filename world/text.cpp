@@ -69,4 +69,13 @@ std::string join(std::initializer_list<std::string_view> items, std::string_view
   return out;
 }
 
+std::string markdown_cell(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    if (c == '|') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
 }  // namespace hapticd::world::text

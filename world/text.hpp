@@ -48,6 +48,10 @@ std::string format_hex(std::uint32_t value, int digits);
 /// format_number(value) appended to `out` (a CSV line), without a temporary.
 void append_number(std::string& out, double value);
 
+/// A markdown table cell: a '|' inside (units "kg m^2 | kg", "|F| <= A")
+/// escaped so that it does not end the cell.
+std::string markdown_cell(std::string_view text);
+
 /// The C library's text for an errno value ("Connection refused").
 std::string errno_text(int error);
 

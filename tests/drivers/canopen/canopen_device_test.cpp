@@ -663,19 +663,22 @@ TEST_F(CanopenDeviceTest, ReadAndWriteAreAllocationFreeOnTheSocket) {
   open(config());
   device->enable();
   std::size_t allocations = 0;
+  int failures = 0;
   auto next = std::chrono::steady_clock::now();
   for (int i = 0; i < 1000; ++i) {
     {
       hapticd::testing::AllocationGuard guard;
       Reading r;
-      device->read(r);
-      device->write(0.01);
+      const IoResult read = device->read(r);
+      const IoResult write = device->write(0.01);
       allocations += guard.count();
+      failures += (read != IoResult::ok) + (write != IoResult::ok);
     }
     next += 1ms;
     std::this_thread::sleep_until(next);
   }
   EXPECT_EQ(allocations, 0U);
+  EXPECT_EQ(failures, 0) << "every guarded read and write returned ok";
   EXPECT_TRUE(device->exchange_status().operational) << device->exchange_status().fault_reason;
 }
 

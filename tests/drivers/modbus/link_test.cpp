@@ -155,19 +155,21 @@ TEST_P(LinkTest, TransactionsAllocateNothing) {
   std::array<std::uint16_t, 2> command{0, 50};
   server_->inject(mb::sim::Injection::exception, 10, mb::exception_code::server_device_busy);
   std::size_t cpp = 0, c = 0;
+  int ok = 0;
   {
     hapticd::testing::AllocationGuard cpp_guard;
     mb::testing::CAllocationGuard c_guard;
     for (int i = 0; i < 200; ++i) {
-      (void)link.write_and_read(10, command, 0, state);  // the first ten are exceptions
-      (void)link.write_registers(10, command);
-      (void)link.read_registers(mb::ReadTable::holding, 0, state);
+      ok += link.write_and_read(10, command, 0, state).ok();  // the first ten are exceptions
+      ok += link.write_registers(10, command).ok();
+      ok += link.read_registers(mb::ReadTable::holding, 0, state).ok();
     }
     cpp = cpp_guard.count();
     c = c_guard.count();
   }
   EXPECT_EQ(cpp, 0u);
   EXPECT_EQ(c, 0u);
+  EXPECT_EQ(ok, 600 - 10) << "every transaction answered but the ten exceptions";
   EXPECT_EQ(link.counters().exceptions.load(), 10u);
 }
 
