@@ -110,8 +110,27 @@ asan_excluded='^(Overload\.(ClientsThatNeverRead|HundredClientsComingAndGoing)|S
 # - the headless Chromium test of `hapticctl scope` (label browser): it runs
 #   once, in the Release ctest; under ASan it would test the same page again
 #   (not built there).
+# As in the Release stage (scripts/test.sh): a real-clock test that fails
+# beside another test and the background TSan build runs once more, alone,
+# with that build paused; one that fails alone too fails the stage, and
+# every such test is named.
 asan_tests() {
-  (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j"$jobs" -E "$asan_excluded" -LE browser)
+  (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j"$jobs" -E "$asan_excluded" -LE browser) &&
+    return 0
+  local failed
+  failed=$(cut -d: -f2 "$asan_build/Testing/Temporary/LastTestsFailed.log" 2>/dev/null | tr '\n' ' ')
+  [[ -n "$failed" ]] || return 1
+  echo "asan+ubsan: failed beside another test and the background build: $failed; again, alone:"
+  [[ -z "$tsan_pid" ]] || kill -STOP -- "-$tsan_pid" 2>/dev/null || true
+  local rc=0
+  (cd "$asan_build" && ctest --output-on-failure --timeout 1200 -j1 --rerun-failed) || rc=1
+  [[ -z "$tsan_pid" ]] || kill -CONT -- "-$tsan_pid" 2>/dev/null || true
+  if [[ "$rc" -eq 0 ]]; then
+    timings+=("asan+ubsan: passed alone after failing beside others: $failed")
+  else
+    timings+=("asan+ubsan: failed alone too: $(cut -d: -f2 "$asan_build/Testing/Temporary/LastTestsFailed.log" | tr '\n' ' ')")
+  fi
+  return "$rc"
 }
 fuzz() {
   if [[ "$have_clang" != 1 ]]; then
@@ -166,8 +185,12 @@ tsan_tests() {
 tsan_pid=""
 tsan_build_background() {
   mkdir -p "$tsan_build"
+  # A process group of its own (job control on while it starts), so the
+  # ASan stage can pause it while a failed test runs again alone.
+  set -m
   (renice -n 19 -p "$BASHPID" >/dev/null && tsan_build_targets) >"$tsan_build/background-build.log" 2>&1 &
   tsan_pid=$!
+  set +m
   echo "=== sanitizers: tsan build started at nice 19 (log: $tsan_build/background-build.log)"
 }
 tsan_build_wait() {
