@@ -394,7 +394,9 @@ int Service::run() {
   try {
     device_.device->enable();
   } catch (const drivers::DeviceError& e) {
-    std::cerr << "hapticd: device: " << e.what() << "\n";
+    // A refusal with a key to blame (a homing key, rated_torque) is said at its file:line:column.
+    std::cerr << "hapticd: device: "
+              << (e.key().empty() ? e.what() : device_config_error(options_.config.device, e).what()) << "\n";
     shutdown();
     return 1;
   } catch (const drivers::StopRequested& e) {

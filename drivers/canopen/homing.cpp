@@ -56,7 +56,10 @@ void prepare_homing(SdoClient& sdo, const HomingSettings& s, std::vector<std::st
   check_homing_offered(sdo);
   const bool moves = cia402::homing_method_moves(s.method);
   write_homing_object(sdo, {obj402::homing_method, 0}, static_cast<std::uint8_t>(s.method), 1,
-                      "homing_method", true, "0x6098 homing method " + std::to_string(s.method), notes);
+                      "homing_method", true,
+                      "0x6098 homing method " + std::to_string(s.method) + " (" +
+                          std::string(cia402::describe_homing_method(s.method)) + ")",
+                      notes);
   write_homing_object(sdo, {obj402::home_offset, 0}, static_cast<std::uint32_t>(s.home_offset_counts), 4,
                       "home_offset", s.home_offset_counts != 0, "home offset", notes);
   if (s.speed_switch)
