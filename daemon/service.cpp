@@ -125,9 +125,9 @@ Service::Service(ServiceOptions options)
                       std::string(drivers::to_string(device_model.motion)),
                       device_model.position_resolution > 0.0 ? device_model.position_resolution : 0.0};
   if (cfg.device.origin_keeping() == config::OriginKeeping::persist) {
-    // NOLINTNEXTLINE(concurrency-mt-unsafe): start-up, no setenv
-    stored_origin_ = find_stored_origin(
-        config::resolve_origin_file(cfg.device, std::getenv("STATE_DIRECTORY")), origin_identity_);
+    const char* state_directory = std::getenv("STATE_DIRECTORY");  // NOLINT(concurrency-mt-unsafe): no setenv
+    stored_origin_ =
+        find_stored_origin(config::resolve_origin_file(cfg.device, state_directory), origin_identity_);
   }
   initial_requested_ = to_parameter_set(cfg.scene.parameters);
   // `force = true` in [scene] is the config's explicit override for showing

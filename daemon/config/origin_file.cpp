@@ -90,7 +90,7 @@ class TableReader {
   std::string choice(std::string_view key, std::initializer_list<std::string_view> values) const {
     std::string accepted;
     for (const auto v : values) accepted += (accepted.empty() ? "" : " or ") + toml_string(v);
-    const std::string value = text(key, accepted);
+    std::string value = text(key, accepted);
     for (const auto v : values)
       if (value == v) return value;
     wrong(need(key), key, accepted);

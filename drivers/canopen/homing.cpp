@@ -142,9 +142,9 @@ HomingVerdict describe(const HomingSequence& q, std::uint8_t node, std::int8_t m
     case HomingFailure::not_enabled:
       return {homing_node(node) + " did not reach Operation Enabled in homing mode: statusword " +
                   world::text::format_hex(q.last_statusword(), 4),
-              ""};
+              "homing"};
     case HomingFailure::drive_fault:
-      return {who + " stopped by the drive" + after, ""};
+      return {who + " stopped by the drive" + after, "homing"};
     case HomingFailure::homing_error:
       return {who + ": the drive reports a homing error" + after + ", " + status +
                   "; check the method against the drive's switches and wiring",
@@ -152,7 +152,7 @@ HomingVerdict describe(const HomingSequence& q, std::uint8_t node, std::int8_t m
     case HomingFailure::interrupted:
       return {who + " was interrupted by the drive" + after + ", " + status, "homing_method"};
     case HomingFailure::reserved_status:
-      return {who + ": the drive shows a reserved homing status, " + status, ""};
+      return {who + ": the drive shows a reserved homing status, " + status, "homing"};
     case HomingFailure::timed_out:
       return {who + " did not complete" + after + " (homing_timeout); the last " + status, "homing_timeout"};
   }

@@ -109,7 +109,8 @@ class HomingSequence {
 /// the first may be a late answer to a SYNC sent before it.
 inline constexpr std::uint64_t tpdos_after_start = 2;
 
-/// Why it failed, in words, with the config key to blame ("" if none).
+/// Why it failed, in words, with the config key to blame (homing_method for
+/// the drive's homing error, homing_timeout, else homing: the homing asked for).
 struct HomingVerdict {
   std::string text;
   std::string key;
