@@ -9,15 +9,19 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <thread>
 #include <vector>
 
 #include "daemon/engine/engine.hpp"
+#include "drivers/loopback/loopback_device.hpp"
 #include "rt/clock.hpp"
 #include "rt/loop_timing.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
 namespace {
@@ -295,4 +299,70 @@ TEST_F(EngineOrigin, ZeroingAndHoldingDoNotAllocate) {
   }
   EXPECT_EQ(samples, 621u);
   EXPECT_EQ(held, 200u) << "held until the first zero was taken";
+}
+
+// The hand-over with the real loop thread, for ThreadSanitizer
+// (tests/run_sanitizers.sh runs every daemon test under it): device.zero
+// from the control thread while the loop runs, a hand turns the wheel,
+// estops and clears land, and a consumer drains. Every zero is taken at a
+// cycle whose sample reads exactly 0, and no sample steps the torque.
+TEST(EngineOriginThreads, ZerosFromTheControlThreadWhileTheLoopRuns) {
+  auto config = hapticd::drivers::loopback::LoopbackConfig::defaults(drivers::Motion::rotary);
+  config.damping = 0.002;
+  hapticd::testing::LoopbackRig rig{config};
+  rig.plant.set_hand("mode=hold trajectory=sine amplitude=0.3 frequency=2");
+  hapticd::testing::start(rig.device);
+  EngineOptions options;
+  options.realtime.priority = 0;
+  options.realtime.lock_memory = false;
+  options.realtime.hold_dma_latency = false;
+  options.overrun_limit = 0;
+  options.require_calibration = true;
+  rt::RealClock clock;
+  Engine engine(options, rig.device, clock);
+  engine.publish(wheel());
+
+  std::atomic<bool> consuming{true};
+  std::vector<TelemetrySample> samples;
+  std::thread consumer([&] {
+    std::vector<TelemetrySample> buffer(512);
+    for (;;) {
+      const bool more = consuming.load(std::memory_order_acquire);
+      const std::size_t n = engine.drain(buffer);
+      samples.insert(samples.end(), buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(n));
+      if (!more && n == 0) break;
+      if (n == 0) std::this_thread::sleep_for(200us);
+    }
+  });
+  ASSERT_FALSE(engine.start().fatal);
+  std::vector<std::uint64_t> zero_cycles;
+  for (int i = 0; i < 20; ++i) {
+    if (i % 7 == 3) engine.estop();
+    const auto outcome = engine.zero_here(2000ms);
+    ASSERT_TRUE(outcome.has_value()) << i;
+    EXPECT_TRUE(outcome->taken) << i;
+    EXPECT_DOUBLE_EQ(engine.origin(), outcome->origin);
+    zero_cycles.push_back(outcome->cycle);
+    if (i % 7 == 3) engine.clear_fault();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5 + i % 4));
+  }
+  engine.stop();
+  consuming.store(false, std::memory_order_release);
+  consumer.join();
+  rig.device.disable();
+
+  EXPECT_TRUE(engine.calibrated());
+  std::size_t matched = 0;
+  for (const auto& s : samples) {
+    for (const auto cycle : zero_cycles) {
+      if (s.cycle != cycle) continue;
+      ++matched;
+      EXPECT_EQ(s.position, 0.0) << "cycle " << cycle;
+      EXPECT_LT(std::abs(s.applied), 1e-9) << "no torque step at cycle " << cycle;
+    }
+    if (s.cycle < zero_cycles.front()) {
+      EXPECT_EQ(s.applied, 0.0) << "held until the first zero";
+    }
+  }
+  EXPECT_EQ(matched, zero_cycles.size());
 }
