@@ -118,6 +118,17 @@ Service::Service(ServiceOptions options)
         cfg.loop.period_s);
   }
   position_rule_ = position_rule_for(cfg, model_.info);
+  // Whose origin a stored one must be, and what the state directory holds.
+  const drivers::DeviceModel device_model = device_.device->model();
+  origin_identity_ = {cfg.device.driver, device_.device->identity(),
+                      std::string(config::to_string(cfg.device.encoder)),
+                      std::string(drivers::to_string(device_model.motion)),
+                      device_model.position_resolution > 0.0 ? device_model.position_resolution : 0.0};
+  if (cfg.device.origin_keeping() == config::OriginKeeping::persist) {
+    const char* state_directory = std::getenv("STATE_DIRECTORY");  // NOLINT(concurrency-mt-unsafe): no setenv
+    stored_origin_ =
+        find_stored_origin(config::resolve_origin_file(cfg.device, state_directory), origin_identity_);
+  }
   initial_requested_ = to_parameter_set(cfg.scene.parameters);
   // `force = true` in [scene] is the config's explicit override for showing
   // an instability on purpose (Freudenberg Fig. 8); it is not a scene parameter.
@@ -156,6 +167,17 @@ std::string Service::describe() const {
       << "\nscene: " << initial_.plan.scene;
   for (const auto& [k, v] : initial_.plan.parameters) out << " " << k << "=" << to_text(v);
   out << "\nstability: " << initial_.stability.summary;
+  const Calibration stored = initial_calibration(std::nullopt, stored_origin_);
+  out << "\ncalibration: encoder " << config::to_string(cfg.device.encoder) << ", origin "
+      << config::to_string(cfg.device.origin_keeping());
+  if (cfg.device.origin_keeping() == config::OriginKeeping::persist) {
+    out << " (" << stored_origin_.file.string() << "): "
+        << (stored.kind == CalibrationKind::restored
+                ? summary(stored, model_.info.motion == drivers::Motion::rotary, cfg.device.encoder)
+            : stored.note.empty() ? "nothing stored yet"
+                                  : stored.note);
+  }
+  if (cfg.device.require_calibration) out << "; required before any scene renders";
   return out.str();
 }
 
@@ -183,6 +205,18 @@ recorder::RecordingHeader Service::header_for(const CurrentScene& scene) const {
   h.notes = scene.notes;
   h.notes.push_back("stability: " + scene.stability.summary);
   if (scene.forced) h.notes.push_back("UNSTABLE parameters loaded with force=true");
+  // A recording says the origin its positions are measured from (none when
+  // the device is not calibrated and need not be: as before calibration existed).
+  const Calibration c = calibration();
+  const auto& device = options_.config.device;
+  if (c.kind != CalibrationKind::none) {
+    h.notes.push_back("calibration: " + summary(c, rotary, device.encoder) +
+                      "; positions are the device's minus the origin");
+  } else if (device.require_calibration) {
+    h.notes.push_back(
+        "calibration: not calibrated; output held at zero (flag 128) until `hapticctl device zero`");
+  }
+  h.uncalibrated_flag = device.require_calibration;
   return h;
 }
 
@@ -244,6 +278,11 @@ json Service::apply(const PlannedScene& planned, const world::ParameterSet& requ
              {"stability", to_json(next.stability)},
              {"forced", next.forced},
              {"notes", next.notes}};
+  if (output_held_uncalibrated()) {
+    reply["notes"].push_back(
+        "the output stays zero until the device is calibrated ([device] require_calibration): hapticctl "
+        "device zero");
+  }
   adopt(std::move(next));
   return reply;
 }
@@ -256,6 +295,7 @@ void Service::register_methods(control::ControlServer& server) {
   register_device_methods(server);
   register_model_methods(server);
   register_telemetry_methods(server);
+  register_calibration_methods(server);
 }
 
 // ---- run(), step by step ----------------------------------------------------
@@ -278,6 +318,7 @@ void Service::start_engine() {
   eo.realtime.hold_dma_latency = !virtual_clock;
   eo.overrun_limit = virtual_clock ? 0 : cfg.loop.overrun_limit;
   eo.position_rule = position_rule_;
+  eo.require_calibration = cfg.device.require_calibration;
   if (cfg.loop.duration_s) eo.duration = nanos(*cfg.loop.duration_s);
   eo.telemetry_capacity = power_of_two_at_least(cfg.recorder.ring_capacity(cfg.loop.period_s));
   eo.wait_for_telemetry_space = virtual_clock;
@@ -353,7 +394,9 @@ int Service::run() {
   try {
     device_.device->enable();
   } catch (const drivers::DeviceError& e) {
-    std::cerr << "hapticd: device: " << e.what() << "\n";
+    // A refusal with a key to blame (a homing key, rated_torque) is said at its file:line:column.
+    std::cerr << "hapticd: device: "
+              << (e.key().empty() ? e.what() : device_config_error(options_.config.device, e).what()) << "\n";
     shutdown();
     return 1;
   } catch (const drivers::StopRequested& e) {
@@ -361,6 +404,7 @@ int Service::run() {
     shutdown();
     return 0;
   }
+  start_calibration();
   start_recorder();
   if (!start_telemetry()) {
     shutdown();

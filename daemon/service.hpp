@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "daemon/calibration.hpp"
 #include "daemon/config/config.hpp"
 #include "daemon/control/server.hpp"
 #include "daemon/device_factory.hpp"
@@ -99,6 +100,22 @@ class Service {
   void register_device_methods(control::ControlServer& server);
   void register_model_methods(control::ControlServer& server);
   void register_telemetry_methods(control::ControlServer& server);
+  void register_calibration_methods(control::ControlServer& server);
+  // Calibration (daemon/methods/calibration_methods.cpp).
+  /// After enable(), before the loop: homed, restored or none; the engine's
+  /// origin preset to it, a homing persisted.
+  void start_calibration();
+  /// device.zero: the position read in the next cycle becomes the origin.
+  nlohmann::json zero_device();
+  /// Writes the origin to the state directory when [device] origin =
+  /// "persist"; the path, or "" (not kept, or the write failed: said in the
+  /// calibration's note).
+  std::string persist_origin(Calibration& calibration);
+  /// Takes a zero the loop carried out after device.zero stopped waiting.
+  void settle_zero() const;
+  Calibration calibration() const;
+  bool output_held_uncalibrated() const;
+  nlohmann::json calibration_json() const;
   nlohmann::json telemetry_json() const;
   nlohmann::json telemetry_counters_json() const;
   /// Makes `next` the gate's device model if the loaded scene stays stable
@@ -130,6 +147,15 @@ class Service {
   mutable std::mutex scene_mutex_;
   CurrentScene scene_;
   std::vector<std::string> previous_channels_;  ///< names before scene_.effective_cycle
+
+  // Calibration: who the device is for a stored origin, what start-up found
+  // there, and how the origin in force came to be (control thread; status
+  // reads it under the mutex).
+  config::OriginIdentity origin_identity_;
+  StoredOrigin stored_origin_;
+  mutable std::mutex calibration_mutex_;
+  mutable Calibration calibration_;
+  mutable bool zero_unsettled_ = false;  ///< device.zero gave up waiting for the loop
 
   mutable std::mutex latest_mutex_;
   std::optional<TelemetrySample> latest_;

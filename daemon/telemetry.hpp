@@ -24,6 +24,8 @@ enum TelemetryFlag : std::uint32_t {
   flag_unstable_forced = 1u << 4,  ///< scene loaded with force=true although unstable
   flag_position_jump = 1u << 5,    ///< the reading stepped beyond max_velocity: not rendered, output zero
   flag_stale_position = 1u << 6,   ///< the device had no new sample: its last position was rendered
+  /// [device] require_calibration and no origin in force yet: output held at zero.
+  flag_uncalibrated = 1u << 7,
 };
 
 struct TelemetrySample {

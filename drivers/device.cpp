@@ -122,6 +122,12 @@ DeviceModel Device::model() const {
   return hooks_->model();
 }
 
+std::string Device::identity() const {
+  if (state_.load(std::memory_order_acquire) == Lifecycle::closed) out_of_order("identity()");
+  std::string id = hooks_->identity();
+  return id.empty() ? hooks_->model().description : id;
+}
+
 DeviceStatus Device::status() const {
   DeviceHealth health = hooks_->health();
   DeviceStatus s;

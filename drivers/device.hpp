@@ -76,6 +76,10 @@ class Device final {
   // ---- any non-RT thread ----
 
   DeviceModel model() const;  ///< from configure() on
+  /// The device's identity for a stored calibration: the hook's, else the
+  /// model's description (from configure() on).
+  std::string identity() const;
+  std::optional<DeviceHoming> homing() const { return hooks_->homing(); }
   DeviceStatus status() const;
   std::vector<DeviceMethod> methods() { return hooks_->methods(); }
   const std::string& kind() const noexcept { return kind_; }

@@ -81,6 +81,17 @@ struct DeviceModel {
   std::string description;  ///< a few words, e.g. "rotary, two-mass" or "Copley Accelnet, node 3"
 };
 
+/// A reference search the device ran itself before the loop (CiA 402
+/// homing): its position is then measured from the home the standard
+/// defines, and the daemon counts the device as calibrated (origin 0).
+struct DeviceHoming {
+  int method = 0;           ///< the device's method number (CiA 402 0x6098)
+  std::string description;  ///< "CiA 402 homing method 37 (on the current position)"
+  double duration_s = 0.0;  ///< from the start command to the home attained
+  std::uint64_t periods = 0;
+  double home_position = 0.0;  ///< m or rad, the first position read after it
+};
+
 /// A driver-specific counter (late TPDOs, CRC errors, dropped frames ...).
 struct NamedCounter {
   std::string name;
@@ -168,6 +179,12 @@ class DeviceHooks {
   /// From configure() on.
   virtual DeviceModel model() const = 0;
   virtual DeviceHealth health() const { return {}; }
+  /// Who the device is, for a stored calibration (docs/config.md,
+  /// "Calibration"): bus address and serial where the driver knows them.
+  /// From configure() on; "" (the default): the model's description.
+  virtual std::string identity() const { return {}; }
+  /// The reference search enable() ran, if the device was asked for one.
+  virtual std::optional<DeviceHoming> homing() const { return std::nullopt; }
   /// Control-plane methods of this driver (none by default).
   virtual std::vector<DeviceMethod> methods() { return {}; }
 };

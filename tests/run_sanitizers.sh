@@ -164,9 +164,10 @@ tsan_tests() {
   # The canopen driver's hooks: their RT loop thread against clear_fault(),
   # commissioning SDO through the ring and the published status on other
   # threads, the simulated drive's bus thread; a stop during a fault clear
-  # the loop runs; and the conformance suite over the socket.
+  # the loop runs; the homing's periods against the bus thread and a stop;
+  # and the conformance suite over the socket.
   echo "--- tsan canopen_tests"
-  "${no_aslr[@]}" "$t/drivers/canopen/canopen_tests" --gtest_filter='CanopenDeviceTest.*:DriveStop.*:Canopen/*' || rc=1
+  "${no_aslr[@]}" "$t/drivers/canopen/canopen_tests" --gtest_filter='CanopenDeviceTest.*:DriveStop.*:HomingDevice.*:Canopen/*' || rc=1
   # The usb-hid driver through libusb under umockdev: the RT-like thread
   # against clear_fault's hand-over, libusb's event and hotplug threads, the
   # umockdev handler thread. The preload must come before libtsan (the test

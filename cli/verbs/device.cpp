@@ -1,9 +1,10 @@
-// hapticctl device [describe] | device call METHOD [key=value ...]
+// hapticctl device [describe] | device call METHOD [key=value ...] | device zero
 //          | device sdo read INDEX SUB [--type T] | device sdo write INDEX SUB VALUE [--type T]
 //
 // What the device is (its driver, the parameters in force from the driver's
 // own description, its state and model) and the methods its driver adds;
-// `sdo` is the canopen driver's commissioning access (device.sdo.read/write).
+// `zero` sets the origin (device.zero, docs/protocol.md); `sdo` is the
+// canopen driver's commissioning access (device.sdo.read/write).
 
 #include <iomanip>
 #include <iostream>
@@ -94,6 +95,30 @@ void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
   });
 }
 
+/// "origin set at cycle 1234: the device's 0.785398 rad is now 0 (before: 0 rad, none); kept in FILE"
+void print_zero(const nlohmann::json& r) {
+  const std::string unit = r.value("unit", "");
+  std::cout << "origin set at cycle " << detail::scalar(r["cycle"]) << ": the device's "
+            << detail::scalar(r["origin"]) << " " << unit
+            << " is now 0 (before: " << detail::scalar(r["previous_origin"]) << " " << unit << ", "
+            << detail::scalar(r["previously"]) << ")\n";
+  if (!r["kept"].is_null()) std::cout << "kept in " << detail::scalar(r["kept"]) << "\n";
+  const auto& c = r["calibration"];
+  if (c.is_object() && !c["note"].is_null()) std::cout << detail::scalar(c["note"]) << "\n";
+}
+
+void add_zero_command(CLI::App& device, CommonOptions& opts) {
+  auto* zero = device.add_subcommand("zero",
+                                     "make the device's current position the origin (device.zero; the scene "
+                                     "restarts there, no torque step)");
+  add_common_options(*zero, opts);
+  zero->callback([&opts] {
+    auto result = detail::call(opts, "device.zero");
+    if (opts.json) return detail::print_json(result);
+    print_zero(result);
+  });
+}
+
 }  // namespace
 
 void add_device_command(CLI::App& app, CommonOptions& opts) {
@@ -122,6 +147,7 @@ void add_device_command(CLI::App& app, CommonOptions& opts) {
     detail::print_fields(std::cout, result);
   });
   add_sdo_commands(*cmd, opts);
+  add_zero_command(*cmd, opts);
   cmd->callback([cmd, show] {
     if (cmd->get_subcommands().empty()) show();
   });

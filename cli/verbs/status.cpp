@@ -66,6 +66,8 @@ std::string headline(const json& status) {
     s << "stopped (the RT loop has finished)";
   } else {
     s << state;
+    if (status.value("calibration", json::object()).value("output_held", false))
+      s << ", output held at zero: not calibrated";
   }
   if (status.contains("time_s")) s << ", " << format_value("time_s", status["time_s"]) << " of loop time";
   if (status.contains("period_s")) {
@@ -101,6 +103,19 @@ void device_lines(std::ostream& out, const json& status, const DeviceUnits& unit
     items.push_back("torque limit " + text_of(status, "torque_limit") + " " + units.force);
   }
   field(out, "device", items);
+}
+
+/// How the device is calibrated (docs/config.md, "Calibration"); nothing
+/// from a daemon that does not say.
+void calibration_lines(std::ostream& out, const json& status) {
+  const json c = status.value("calibration", json::object());
+  if (!c.is_object() || c.empty()) return;
+  std::vector<std::string> items{text_of(c, "summary", "?")};
+  if (c.value("output_held", false))
+    items.emplace_back(
+        "OUTPUT HELD AT ZERO until calibrated ([device] require_calibration): `hapticctl device zero`");
+  if (const std::string note = text_of(c, "note"); !note.empty()) items.push_back(note);
+  field(out, "calibration", items);
 }
 
 /// "passive" / "not passive" where the daemon reports passivity (a scene's
@@ -242,6 +257,7 @@ std::string status_text(const json& status, const json& stats) {
   out << headline(status) << '\n';
   fault_lines(out, status);
   device_lines(out, status, units);
+  calibration_lines(out, status);
   scene_lines(out, status);
   loop_lines(out, stats);
   realtime_lines(out, status);

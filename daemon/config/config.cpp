@@ -304,9 +304,46 @@ class Parser {
     return value;
   }
 
+  /// [device] encoder, origin, origin_file, require_calibration (docs/config.md, "Calibration").
+  bool parse_calibration_key(std::string_view name, const toml::node& node, DeviceConfig& device) const {
+    const std::string dotted = "device." + std::string(name);
+    if (name == "encoder") {
+      const std::string accepted_encoder = "\"incremental\" or \"absolute\"";
+      const std::string value = get_string(node, dotted, accepted_encoder);
+      if (value != "incremental" && value != "absolute")
+        fail(node.source(), dotted,
+             dotted + " = " + render(node) + " is not accepted; accepted: " + accepted_encoder);
+      device.encoder = value == "absolute" ? EncoderKind::absolute : EncoderKind::incremental;
+    } else if (name == "origin") {
+      const std::string accepted_origin =
+          "\"session\" (a calibration lasts until hapticd stops) or \"persist\" (kept in the state "
+          "directory and restored at start-up)";
+      const std::string value = get_string(node, dotted, accepted_origin);
+      if (value != "session" && value != "persist")
+        fail(node.source(), dotted,
+             dotted + " = " + render(node) + " is not accepted; accepted: " + accepted_origin);
+      device.origin = value == "persist" ? OriginKeeping::persist : OriginKeeping::session;
+      device.origin_where = position(node.source());
+    } else if (name == "origin_file") {
+      const std::string path =
+          get_string(node, dotted, "\"\" (origin.toml in the state directory) or a file path");
+      device.origin_file =
+          path.empty() || file_ == builtin_source
+              ? path
+              : (std::filesystem::path(file_).parent_path() / path).lexically_normal().string();
+      device.origin_file_where = position(node.source());
+    } else if (name == "require_calibration") {
+      device.require_calibration = get_bool(node, dotted);
+    } else {
+      return false;
+    }
+    return true;
+  }
+
   void parse_device(const toml::table& table, DeviceConfig& device) const {
     static const std::string accepted =
-        "driver, torque_limit, max_velocity, model, and a table [device.<driver>] for the selected driver";
+        "driver, torque_limit, max_velocity, model, encoder, origin, origin_file, require_calibration, and a "
+        "table [device.<driver>] for the selected driver";
     const std::string drivers = driver_list();
     // The driver first: the driver table's name is checked against it.
     if (const auto* node = table.get("driver")) {
@@ -337,6 +374,8 @@ class Parser {
                            ? path
                            : (std::filesystem::path(file_).parent_path() / path).lexically_normal().string();
         device.model_where = position(node->source());
+      } else if (parse_calibration_key(name, *node, device)) {
+        continue;
       } else if (const auto* sub = node->as_table(); sub && is_driver_kind(name)) {
         if (name != device.driver) {
           fail(key->source(), dotted,
@@ -514,6 +553,7 @@ class Parser {
     // Until a key says otherwise, what the file leaves out is blamed on the file.
     const SourcePosition whole_file{file_, 0, 0};
     config.device.driver_where = config.device.table_where = whole_file;
+    config.device.origin_where = config.device.origin_file_where = whole_file;
     config.scene.name_where = config.scene.table_where = whole_file;
     config.control.socket_where = config.control.group_where = whole_file;
     config.recorder.directory_where = whole_file;
@@ -525,6 +565,7 @@ class Parser {
         parse_loop(section_table(*key, *node), config.loop);
       } else if (name == "device") {
         config.device.driver_where = config.device.table_where = position(key->source());
+        config.device.origin_where = config.device.origin_file_where = position(key->source());
         parse_device(section_table(*key, *node), config.device);
       } else if (name == "scene") {
         config.scene.table_where = position(key->source());
@@ -577,6 +618,14 @@ std::string to_toml(const ParameterValue& value) {
 
 std::string_view to_string(ClockKind clock) noexcept { return clock == ClockKind::real ? "real" : "virtual"; }
 
+std::string_view to_string(EncoderKind encoder) noexcept {
+  return encoder == EncoderKind::absolute ? "absolute" : "incremental";
+}
+
+std::string_view to_string(OriginKeeping keeping) noexcept {
+  return keeping == OriginKeeping::persist ? "persist" : "session";
+}
+
 std::size_t RecorderConfig::ring_capacity(double period_s) const noexcept {
   if (!(period_s > 0.0)) return 2;
   const double samples = std::ceil(ring_seconds / period_s - 1e-9);
@@ -625,15 +674,28 @@ DaemonConfig default_config() {
 
 std::string_view default_config_text() noexcept { return default_text; }
 
+namespace {
+/// The first entry of $STATE_DIRECTORY (systemd's StateDirectory=; colon-separated), "" without.
+std::string_view state_directory(const char* state_directory_env) {
+  if (state_directory_env == nullptr) return {};
+  const std::string_view all(state_directory_env);
+  return all.substr(0, all.find(':'));
+}
+}  // namespace
+
 std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder,
                                                   const char* state_directory_env) {
   if (!recorder.directory.empty()) return recorder.directory;
-  if (state_directory_env != nullptr && *state_directory_env != '\0') {
-    const std::string_view all(state_directory_env);
-    const std::string_view first = all.substr(0, all.find(':'));
-    if (!first.empty()) return std::filesystem::path(first) / "recordings";
-  }
+  if (const auto first = state_directory(state_directory_env); !first.empty())
+    return std::filesystem::path(first) / "recordings";
   return ".";
+}
+
+std::filesystem::path resolve_origin_file(const DeviceConfig& device, const char* state_directory_env) {
+  if (!device.origin_file.empty()) return device.origin_file;
+  if (const auto first = state_directory(state_directory_env); !first.empty())
+    return std::filesystem::path(first) / "origin.toml";
+  return "origin.toml";
 }
 
 }  // namespace hapticd::daemon::config

@@ -69,6 +69,20 @@ struct LoopConfig {
   bool operator==(const LoopConfig&) const = default;
 };
 
+/// [device] encoder: what the position is relative to (docs/config.md, "Calibration").
+enum class EncoderKind {
+  incremental,  ///< counts from where the device powered up
+  absolute,     ///< the same position reads the same across power cycles
+};
+std::string_view to_string(EncoderKind encoder) noexcept;
+
+/// [device] origin: how long a calibration (device.zero, homing) lasts.
+enum class OriginKeeping {
+  session,  ///< until hapticd stops
+  persist,  ///< also written to the state directory and restored at start-up
+};
+std::string_view to_string(OriginKeeping keeping) noexcept;
+
 struct DeviceConfig {
   std::string driver = "loopback";
   double torque_limit = 1.0;  ///< N (linear) or N m (rotary), > 0
@@ -80,6 +94,21 @@ struct DeviceConfig {
   /// A model file (`hapticctl identify --apply`) replacing the driver's model
   /// for the stability gate; resolved against the config file's directory. Empty: none.
   std::string model;
+  EncoderKind encoder = EncoderKind::incremental;
+  /// How long a calibration lasts; nullopt: "persist" for an absolute
+  /// encoder, "session" for an incremental one (origin_keeping()).
+  std::optional<OriginKeeping> origin;
+  /// Where a persisted origin lives; "": origin.toml in the state directory
+  /// (resolve_origin_file). Resolved against the config file's directory.
+  std::string origin_file;
+  /// No scene renders (output zero) until the device is calibrated.
+  bool require_calibration = false;
+  OriginKeeping origin_keeping() const noexcept {
+    return origin.value_or(encoder == EncoderKind::absolute ? OriginKeeping::persist
+                                                            : OriginKeeping::session);
+  }
+  SourcePosition origin_where;        ///< position of device.origin's value (else of [device])
+  SourcePosition origin_file_where;   ///< position of device.origin_file's value (else of [device])
   SourcePosition model_where;         ///< position of device.model's value
   SourcePosition max_velocity_where;  ///< position of device.max_velocity's value
   SourcePosition driver_where;        ///< position of device.driver's value, else of the [device] key
@@ -177,5 +206,9 @@ std::string_view default_config_text() noexcept;
 /// StateDirectory=; colon-separated) + "/recordings", else ".".
 std::filesystem::path resolve_recording_directory(const RecorderConfig& recorder,
                                                   const char* state_directory_env);
+/// The file a persisted origin lives in: DeviceConfig::origin_file if set,
+/// else the first entry of $STATE_DIRECTORY + "/origin.toml", else
+/// "./origin.toml" (the daemon's working directory, as recordings).
+std::filesystem::path resolve_origin_file(const DeviceConfig& device, const char* state_directory_env);
 
 }  // namespace hapticd::daemon::config

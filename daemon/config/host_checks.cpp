@@ -107,12 +107,38 @@ void check_recording_directory(const RecorderConfig& recorder, const char* state
   }
 }
 
+/// [device] origin = "persist": the origin file's directory is created if
+/// missing and must take new files (the file is written by a rename there).
+void check_origin_file(const DeviceConfig& device, const char* state_directory_env) {
+  if (device.origin_keeping() != OriginKeeping::persist) return;
+  const std::filesystem::path file = resolve_origin_file(device, state_directory_env);
+  std::filesystem::path dir = file.parent_path();
+  if (dir.empty()) dir = ".";
+  std::string what = "device.origin_file = " + quoted(device.origin_file);
+  if (device.origin_file.empty()) what += " (" + file.string() + ")";
+  what += ": ";
+  const std::string accepted =
+      "; accepted: \"\" (origin.toml in $STATE_DIRECTORY under systemd, else in the working directory) or "
+      "a file in a directory the daemon can create files in (created if missing), for [device] origin = "
+      "\"persist\"";
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    throw ConfigError(device.origin_file_where, "device.origin_file",
+                      what + "cannot create " + dir.string() + ": " + ec.message() + accepted);
+  }
+  if (const std::string problem = directory_problem(dir); !problem.empty()) {
+    throw ConfigError(device.origin_file_where, "device.origin_file", what + problem + accepted);
+  }
+}
+
 }  // namespace
 
 void check_host(const DaemonConfig& config, const char* state_directory_env) {
   check_socket(config.control);
   check_group(config.control);
   check_recording_directory(config.recorder, state_directory_env);
+  check_origin_file(config.device, state_directory_env);
 }
 
 }  // namespace hapticd::daemon::config

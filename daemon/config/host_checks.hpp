@@ -18,7 +18,8 @@ namespace hapticd::daemon::config {
 ///  - control.group (when set): the group exists;
 ///  - the recording directory (resolve_recording_directory): created if
 ///    missing, as start-up does; it must then be a directory the daemon can
-///    create files in.
+///    create files in;
+///  - with [device] origin = "persist", the origin file's directory, the same way.
 /// state_directory_env: $STATE_DIRECTORY (nullptr when unset).
 void check_host(const DaemonConfig& config, const char* state_directory_env);
 

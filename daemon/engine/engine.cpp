@@ -1,5 +1,6 @@
 #include "daemon/engine/engine.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "daemon/system/thread_placement.hpp"
@@ -142,20 +143,70 @@ bool Engine::read_position(const rt::WakeUp& wake, TelemetrySample& sample, doub
   }
   // Beside the finite-value guard: a step no device makes in this interval
   // is a fault of the encoder or the link, never motion. Zero output in this
-  // very period; the recording keeps the reading, flagged.
-  last_position_ = reading.position;
+  // very period; the recording keeps the reading, flagged. The rule sees the
+  // device's own readings, so a new origin is no step.
   PositionJump jump;
   if (position_guard_.implausible(reading.position, std::chrono::duration<double>(wake.woke).count(), jump)) {
+    last_position_ = reading.position - origin_;
     sample.flags |= flag_position_jump;
     latch_jump(jump);
     return false;
   }
+  take_origin(wake.cycle, &reading.position);
+  last_position_ = reading.position - origin_;  // the one subtraction: everything downstream is calibrated
   if (reset_pending_ && plan_ != nullptr) {
-    world::reset(scene_, reading.position);
+    world::reset(scene_, last_position_);
     reset_pending_ = false;
   }
-  position = reading.position;
+  position = last_position_;
   return true;
+}
+
+void Engine::take_origin(std::uint64_t cycle, const double* raw) noexcept {
+  OriginHandover::Pending request;
+  if (!origins_.pending(request)) return;
+  const bool usable = request.kind == OriginRequest::set_value || raw != nullptr;
+  if (!usable) {
+    if (cycle > request.valid_until_cycle) origins_.complete(false, cycle, origin_, origin_);
+    return;
+  }
+  const double previous = origin_;
+  origin_ = request.kind == OriginRequest::zero_here ? *raw : request.value;
+  calibrated_ = true;
+  // The scene restarts at equilibrium at the position now measured from the
+  // new origin, as for a new plan: no torque step.
+  reset_pending_ = true;
+  origin_published_.store(origin_, std::memory_order_release);
+  calibrated_published_.store(true, std::memory_order_release);
+  origins_.complete(true, cycle, origin_, previous);
+}
+
+void Engine::preset_origin(double origin) noexcept {
+  origin_ = origin;
+  calibrated_ = true;
+  origin_published_.store(origin, std::memory_order_release);
+  calibrated_published_.store(true, std::memory_order_release);
+}
+
+std::uint64_t Engine::request_zero(std::chrono::milliseconds valid_for) noexcept {
+  const double period_s = std::chrono::duration<double>(options_.period).count();
+  const auto periods =
+      static_cast<std::uint64_t>(std::chrono::duration<double>(valid_for).count() / period_s);
+  const std::uint64_t ticket =
+      origins_.request(OriginRequest::zero_here, 0.0, cycle() + std::max<std::uint64_t>(periods, 1) + 1);
+  if (ticket != 0) waiting_ticket_ = ticket;
+  return ticket;
+}
+
+std::optional<OriginOutcome> Engine::zero_here(std::chrono::milliseconds valid_for) {
+  const std::uint64_t ticket = request_zero(valid_for);
+  if (ticket == 0) return std::nullopt;  // the last one is still pending
+  const auto end = std::chrono::steady_clock::now() + valid_for + std::chrono::seconds(2);
+  for (;;) {
+    if (const auto outcome = origins_.outcome(ticket)) return outcome;
+    if (finished() || std::chrono::steady_clock::now() >= end) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
 }
 
 void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
@@ -190,12 +241,16 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
 
   double position = 0.0;
   const bool position_valid = read_position(wake, sample, position);
+  if (!position_valid) take_origin(wake.cycle, nullptr);  // a set value needs no reading; a zero expires
   sample.position = last_position_;
+  // [device] require_calibration: nothing renders until an origin is in force.
+  const bool uncalibrated = options_.require_calibration && !calibrated_;
+  if (uncalibrated) sample.flags |= flag_uncalibrated;
 
   // A fault.clear landing after the latch check at the top of this cycle
   // takes effect next cycle, where it restarts the scene at the measured
   // position: computing a command now would use the stale scene state.
-  const bool output_allowed = !latched_before && !latch_.latched();
+  const bool output_allowed = !latched_before && !latch_.latched() && !uncalibrated;
   double command = 0.0;
   if (position_valid && plan_ != nullptr && output_allowed) {
     command = world::step(scene_, position);
@@ -206,7 +261,7 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   // this sample must not say "latched" beside the torque it did send.
   const bool output_latched = latched_before || latch_.latched();
   double applied = 0.0;
-  if (position_valid && plan_ != nullptr && !output_latched) {
+  if (position_valid && plan_ != nullptr && !output_latched && !uncalibrated) {
     applied = limit_output(command, plan_->torque_limit);
     if (applied != command) {
       sample.flags |= flag_torque_limited;

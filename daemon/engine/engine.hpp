@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "daemon/engine/loop_plan.hpp"
+#include "daemon/engine/origin.hpp"
 #include "daemon/engine/safety.hpp"
 #include "daemon/system/rt_setup.hpp"
 #include "daemon/telemetry.hpp"
@@ -39,6 +40,9 @@ struct EngineOptions {
   PositionStepRule position_rule{};
   std::optional<rt::Nanos> duration;          ///< stop by itself after this much loop time
   std::size_t telemetry_capacity = 1u << 14;  ///< samples; a power of two
+  /// [device] require_calibration: the output stays zero (flag_uncalibrated)
+  /// until an origin is in force (preset_origin() or a taken request).
+  bool require_calibration = false;
   /// Virtual clock only: wait for ring space instead of dropping a sample.
   /// Simulated time is not real time, so a deterministic run that loses
   /// nothing is worth more than speed; never set with the real clock.
@@ -84,6 +88,30 @@ class Engine {
   /// Clears a latched fault; the scene restarts at equilibrium at the next period.
   void clear_fault() noexcept { latch_.clear(); }
   FaultReason fault() const noexcept { return latch_.reason(); }
+
+  // ---- the origin (origin.hpp) ----
+  /// Before start() only: the origin in force from the first cycle (restored
+  /// from the state directory, or 0 for a device that homed itself).
+  void preset_origin(double origin) noexcept;
+  /// Control thread: makes the position read in the coming cycle the
+  /// origin (device.zero); the scene restarts at equilibrium there. Waits
+  /// until the RT thread took it, or dropped it for want of a valid reading
+  /// within `valid_for` of loop time. Nothing when the loop did not get to it
+  /// within `valid_for` + 2 s of wall time (stopped, or stalled), or the last
+  /// request is still pending; settle_origin() then tells it later.
+  std::optional<OriginOutcome> zero_here(std::chrono::milliseconds valid_for);
+  /// zero_here() without the wait: the request's ticket (0: the last one is
+  /// still pending), for origin_outcome().
+  std::uint64_t request_zero(std::chrono::milliseconds valid_for) noexcept;
+  std::optional<OriginOutcome> origin_outcome(std::uint64_t ticket) const noexcept {
+    return origins_.outcome(ticket);
+  }
+  /// The outcome of the last request, once done (zero_here() may have given up waiting).
+  std::optional<OriginOutcome> settle_origin() const noexcept { return origins_.outcome(waiting_ticket_); }
+  bool origin_request_pending() const noexcept { return !origins_.idle(); }
+  /// m or rad in the device's frame; 0 until calibrated.
+  double origin() const noexcept { return origin_published_.load(std::memory_order_acquire); }
+  bool calibrated() const noexcept { return calibrated_published_.load(std::memory_order_acquire); }
   /// The figures of the latched encoder jump (nothing for any other fault).
   std::optional<PositionJump> position_jump() const;
   /// The latched fault in words, with its figures where it has them
@@ -119,6 +147,9 @@ class Engine {
   void latch(FaultReason reason) noexcept;
   /// Stores a refused step's figures for position_jump(), then latches.
   void latch_jump(const PositionJump& jump) noexcept;
+  /// Takes a pending origin request with this cycle's valid reading (raw,
+  /// the device's own), or drops it once expired.
+  void take_origin(std::uint64_t cycle, const double* raw) noexcept;
   /// Statistics, flags, channels and the push of this cycle's sample.
   void finish_sample(const rt::WakeUp& wake, TelemetrySample& sample, bool output_latched) noexcept;
 
@@ -135,7 +166,9 @@ class Engine {
   world::AnyScene scene_{};
   bool was_latched_ = false;
   bool reset_pending_ = false;  ///< reset the scene at the next valid reading
-  double last_position_ = 0.0;
+  double last_position_ = 0.0;  ///< calibrated (the device's minus origin_)
+  double origin_ = 0.0;         ///< subtracted from every reading
+  bool calibrated_ = false;
   StreakCounter read_error_streak_;
   PositionStepGuard position_guard_;
   rt::Nanos t0_{0};
@@ -159,6 +192,12 @@ class Engine {
   std::atomic<std::uint64_t> stats_reset_requested_{0};
   std::atomic<std::uint64_t> stats_reset_done_{0};
   std::atomic<std::uint64_t> stats_since_cycle_{0};
+
+  // The origin: requests in (origins_), what is in force out (for status).
+  OriginHandover origins_;
+  std::uint64_t waiting_ticket_ = 0;  ///< control thread: the last zero_here() request
+  std::atomic<double> origin_published_{0.0};
+  std::atomic<bool> calibrated_published_{false};
 
   std::atomic<bool> stop_requested_{false};
   std::atomic<bool> finished_{false};

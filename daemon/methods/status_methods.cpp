@@ -102,6 +102,7 @@ json Service::status() const {
         {"model_source", model_.info.source},
         {"state", std::string(drivers::to_string(device.state))},
         {"fault_reason", device.fault_reason.empty() ? json(nullptr) : json(device.fault_reason)}}},
+      {"calibration", calibration_json()},
       {"scene",
        {{"name", scene.name},
         {"parameters", to_json(scene.resolved, scene.name)},

@@ -262,7 +262,8 @@ struct Recorder::Recording {
     b += "; " + names[k] + " " + std::string(force_unit) + " (scene output before the limit); " +
          names[k + 1] + " " + std::string(force_unit) + " (sent to the device); latency_s s; compute_s s\n";
     b += "# flags: bits 1 fault_latched, 2 torque_limited, 4 read_error, 8 overrun, 16 unstable_forced, 32 "
-         "position_jump, 64 stale_position\n";
+         "position_jump, 64 stale_position";
+    b += header.uncalibrated_flag ? ", 128 uncalibrated\n" : "\n";
     for (std::size_t i = 0; i < names.size(); ++i) {
       if (i > 0) b += ',';
       b += names[i];
@@ -271,11 +272,12 @@ struct Recorder::Recording {
     pieces.push_back({buffer.size(), 0, Piece::Kind::header});
   }
 
-  /// The scene changed: a new section from the sample at first_cycle on. With
-  /// nothing being written, the section that resumes writing takes the header.
+  /// The scene (or the origin) changed: a new section from the sample at
+  /// first_cycle on. With nothing being written, the section that resumes
+  /// writing takes the header.
   void start_section(std::uint64_t first_cycle) {
     if (writing != Writing::ok) return;
-    append_header("# section " + std::to_string(sections + 1) + ": scene changed at cycle " +
+    append_header("# section " + std::to_string(sections + 1) + ": " + header.change + " at cycle " +
                   std::to_string(first_cycle) + "\n");
   }
 

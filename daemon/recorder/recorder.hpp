@@ -136,6 +136,10 @@ struct RecordingHeader {
   std::string clock = "real";      ///< "real" or "virtual"
   std::string device;              ///< e.g. "loopback (rotary, rigid)"
   std::vector<std::string> notes;  ///< extra '# note: ' lines (e.g. "unstable, forced: grows x1.3/s")
+  /// What starts a section with this header: "# section N: <change> at cycle C".
+  std::string change = "scene changed";
+  /// The flags line names bit 128, uncalibrated ([device] require_calibration).
+  bool uncalibrated_flag = false;
 };
 
 /// The CSV column names for a header: fixed columns with units, scene/device

@@ -59,6 +59,52 @@ void validate(const CanopenConfig& c) {
           "sdo_timeout");
   require(positive(c.mass), "mass must be > 0", "mass");
   require(std::isfinite(c.damping) && c.damping >= 0.0, "damping must be >= 0", "damping");
+  require(c.homing_method >= -128 && c.homing_method <= 127,
+          "homing_method must be -128..127 (0x6098 is INTEGER8)", "homing_method");
+  require(positive(c.homing_timeout), "homing_timeout must be > 0", "homing_timeout");
+  if (c.homing) (void)homing_settings(c);  // every value fits its object
+}
+
+namespace {
+
+/// A speed or acceleration in the drive's units: 0 stays "the drive's own";
+/// otherwise it must be at least one unit and fit UNSIGNED32.
+std::optional<std::uint32_t> drive_units(double si, double units_per_si, const std::string& key,
+                                         const std::string& unit) {
+  require(std::isfinite(si) && si >= 0.0, key + " must be >= 0 (0: the drive's own)", key);
+  if (si == 0.0) return std::nullopt;
+  const double units = std::round(si * units_per_si);
+  require(units >= 1.0 && units <= 4294967295.0,
+          key + " = " + std::to_string(si) + " " + unit + " is " + std::to_string(units) +
+              " drive units: CiA 402 takes 1..4294967295 (UNSIGNED32)",
+          key);
+  return static_cast<std::uint32_t>(units);
+}
+
+}  // namespace
+
+HomingSettings homing_settings(const CanopenConfig& c) {
+  const bool rotary = c.motion == Motion::rotary;
+  const double unit = rotary ? 2.0 * std::numbers::pi : 1.0;
+  const double counts_per_si = c.counts_per_unit / unit;
+  const double velocity_per_si =
+      (c.velocity_counts_per_unit > 0.0 ? c.velocity_counts_per_unit : c.counts_per_unit) / unit;
+  HomingSettings h;
+  h.method = static_cast<std::int8_t>(c.homing_method);
+  // 0x607C in the drive's frame: `reversed` flips hapticd's.
+  const double offset = std::round(c.home_offset * counts_per_si * (c.reversed ? -1.0 : 1.0));
+  require(std::isfinite(offset) && offset >= -2147483648.0 && offset <= 2147483647.0,
+          "home_offset = " + std::to_string(c.home_offset) + " is beyond 0x607C (INTEGER32 increments)",
+          "home_offset");
+  h.home_offset_counts = static_cast<std::int32_t>(offset);
+  h.speed_switch =
+      drive_units(c.homing_speed_switch, velocity_per_si, "homing_speed_switch", rotary ? "rad/s" : "m/s");
+  h.speed_zero =
+      drive_units(c.homing_speed_zero, velocity_per_si, "homing_speed_zero", rotary ? "rad/s" : "m/s");
+  h.acceleration = drive_units(c.homing_acceleration, velocity_per_si, "homing_acceleration",
+                               rotary ? "rad/s^2" : "m/s^2");
+  h.timeout_s = c.homing_timeout;
+  return h;
 }
 
 Scaling scaling(const CanopenConfig& c, std::uint32_t rated_torque_mnm) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include "drivers/canopen/homing.hpp"
 #include "drivers/device_hooks.hpp"
 #include "drivers/parameter.hpp"
 
@@ -36,6 +37,14 @@ struct CanopenConfig {
   bool velocity_pdo = false;               ///< map 0x606C in TPDO2 (only for a scene that uses the velocity)
   double mass = 0.01;    ///< kg m^2 (kg): moving inertia for the stability gate (the drive cannot know it)
   double damping = 0.0;  ///< N m s/rad (N s/m)
+  // CiA 402 homing before the loop (README.md, "Homing"); SI, converted by homing_settings().
+  bool homing = false;             ///< homing = "cia402"
+  int homing_method = 37;          ///< 0x6098 (37: on the current position)
+  double home_offset = 0.0;        ///< 0x607C, rad (m): the zero lies this far past the home position
+  double homing_speed_switch = 0;  ///< 0x6099:1, rad/s (m/s); 0: the drive's own
+  double homing_speed_zero = 0;    ///< 0x6099:2, rad/s (m/s); 0: the drive's own
+  double homing_acceleration = 0;  ///< 0x609A, rad/s^2 (m/s^2); 0: the drive's own
+  double homing_timeout = 20.0;    ///< s, from the start command to homing attained
 };
 
 /// A setting that cannot work, naming the key.
@@ -61,6 +70,11 @@ struct Scaling {
 };
 /// rated_torque_mnm: 0x6076 as read (mN m), used when config.rated_torque is 0.
 Scaling scaling(const CanopenConfig& config, std::uint32_t rated_torque_mnm);
+
+/// The homing keys in the drive's units (0x607C increments, 0x6099 velocity
+/// units, 0x609A velocity units per second). Throws ConfigError naming the
+/// key when a value does not fit its object (or rounds to 0).
+HomingSettings homing_settings(const CanopenConfig& config);
 
 /// The typed config from a checked [device.canopen] table; throws
 /// ParameterError naming the key.

@@ -82,6 +82,7 @@ std::chrono::microseconds CanopenDevice::sdo_timeout() const {
 
 void CanopenDevice::configure(const LoopContext& loop) {
   stop_ = loop.stop;
+  homing_.reset();
   clear_requested_.store(false, std::memory_order_relaxed);
   disable_requested_.store(false, std::memory_order_relaxed);
   if (!(loop.period_s > 0.0)) throw SetupError("canopen: the loop period must be > 0 s", "period");
@@ -207,6 +208,7 @@ void CanopenDevice::enable() {
       throw StopRequested(abandoned(step));
     }
   }
+  if (config_.homing && !homing_) run_homing();
   exchange_->set_enabled(true);
   const bool ok = run_periods(
       [this] { return stop_.stop_requested() || exchange_->operational() || exchange_->faulted(); },
@@ -223,6 +225,63 @@ void CanopenDevice::enable() {
     throw SetupError("node " + std::to_string(config_.node_id) + " could not be enabled: " + why, "");
   }
   enabled_.store(true, std::memory_order_release);
+}
+
+void CanopenDevice::run_homing() {
+  const std::string step = "canopen: homing node " + std::to_string(config_.node_id);
+  const HomingSettings settings = homing_settings(config_);
+  {
+    std::lock_guard lock(sdo_mutex_);
+    try {
+      with_sdo_link(false, [&](FrameLink& link) {
+        SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
+        prepare_homing(sdo, settings, setup_.notes);
+      });
+    } catch (const StopRequested&) {
+      throw StopRequested(abandoned(step));
+    }
+  }
+  HomingSequence sequence(periods_in(enable_timeout_s, period_s_), periods_in(settings.timeout_s, period_s_));
+  double home = 0.0;
+  exchange_->set_enabled(true);
+  drive_homing(sequence, home);
+  exchange_->set_homing_start(false);
+  exchange_->set_enabled(false);
+  run_periods([] { return false; }, 2);  // Disable Voltage, bit 4 low
+  if (stop_.stop_requested()) throw StopRequested(abandoned(step));
+  if (sequence.phase() != HomingPhase::completed) {
+    HomingVerdict verdict = describe(sequence, config_.node_id, settings.method, period_s_);
+    if (exchange_->faulted()) verdict.text += ": " + describe(exchange_->fault(), exchange_->settings());
+    throw SetupError(verdict.text, verdict.key);
+  }
+  {
+    std::lock_guard lock(sdo_mutex_);
+    with_sdo_link(false, [&](FrameLink& link) {
+      SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
+      select_mode(sdo, cia402::Mode::cyclic_synchronous_torque, "homing");
+    });
+  }
+  homing_ = DeviceHoming{settings.method,
+                         "CiA 402 homing method " + std::to_string(settings.method) + " (" +
+                             std::string(cia402::describe_homing_method(settings.method)) + ")",
+                         static_cast<double>(sequence.homing_periods()) * period_s_,
+                         sequence.homing_periods(), home};
+}
+
+void CanopenDevice::drive_homing(HomingSequence& sequence, double& last_position) {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_s_));
+  auto next = Clock::now();
+  // Bounded by the sequence's own limits (enable, then homing_timeout), and cut by a stop.
+  while (!sequence.done() && !stop_.stop_requested()) {
+    Reading r;
+    if (read(r) == IoResult::ok) last_position = r.position;
+    sequence.step({exchange_->operational(), exchange_->faulted(), exchange_->statusword(),
+                   exchange_->counters().tpdos});
+    exchange_->set_homing_start(sequence.start_bit());
+    (void)write(0.0);
+    next += period;
+    std::this_thread::sleep_until(next);
+  }
 }
 
 std::string CanopenDevice::clear_fault() {
@@ -399,6 +458,14 @@ DeviceModel CanopenDevice::model() const {
                   world::text::format_hex(id.product_code, 8) + "), cyclic synchronous torque";
   for (const std::string& note : setup_.notes) m.description += "; " + note;
   return m;
+}
+
+std::string CanopenDevice::identity() const {
+  const DriveIdentity& id = setup_.identity;
+  using world::text::format_hex;
+  return "interface " + config_.interface + ", node " + std::to_string(config_.node_id) + ", vendor " +
+         format_hex(id.vendor_id, 8) + ", product " + format_hex(id.product_code, 8) + ", revision " +
+         format_hex(id.revision, 8) + ", serial " + format_hex(id.serial, 8);
 }
 
 ExchangeStatus CanopenDevice::exchange_status() const {

@@ -36,6 +36,7 @@
 #include "drivers/canopen/cyclic_exchange.hpp"
 #include "drivers/canopen/drive_setup.hpp"
 #include "drivers/canopen/exchange_status.hpp"
+#include "drivers/canopen/homing.hpp"
 #include "drivers/device_hooks.hpp"
 #include "rt/spsc_ring.hpp"
 
@@ -90,6 +91,10 @@ class CanopenDevice final : public DeviceHooks {
 
   DeviceModel model() const override;
   DeviceHealth health() const override;
+  /// "interface can0, node 1, vendor 0x..., product 0x..., revision 0x..., serial 0x..." (0x1018).
+  std::string identity() const override;
+  /// The CiA 402 homing the last enable() ran (homing = "cia402").
+  std::optional<DeviceHoming> homing() const override { return homing_; }
   /// device.sdo.read and device.sdo.write (canopen_device_sdo.cpp).
   std::vector<DeviceMethod> methods() override;
 
@@ -141,6 +146,12 @@ class CanopenDevice final : public DeviceHooks {
   /// exchange at its next read(), with a fault first when `fault_if_changed`.
   /// Returns a note ("" if unchanged). Throws SetupError.
   std::string recheck_torque_unit(FrameLink& link, bool fault_if_changed);
+  /// homing = "cia402": the homing objects and mode 6 by SDO, the periods
+  /// of the homing run, then mode 10 again. Throws SetupError naming the key
+  /// (README.md, "Homing"), or StopRequested.
+  void run_homing();
+  /// The periods of the homing run (read, step, write), until it ends or a stop.
+  void drive_homing(HomingSequence& sequence, double& last_position);
   void apply_torque_unit() noexcept;  ///< RT: takes what recheck_torque_unit() handed over
   void drain_socket() noexcept;       ///< RT: the frames of this period into the exchange
 
@@ -165,7 +176,8 @@ class CanopenDevice final : public DeviceHooks {
   std::atomic<std::uint64_t> reads_{0};         ///< read() calls: is a loop running?
   /// The unit the exchange scales by (or will, at its next read).
   std::atomic<std::uint32_t> rated_torque_mnm_{0};
-  std::mutex sdo_mutex_;  // one commissioning transfer at a time (non-RT)
+  std::mutex sdo_mutex_;                // one commissioning transfer at a time (non-RT)
+  std::optional<DeviceHoming> homing_;  ///< since the last configure()
 };
 
 }  // namespace hapticd::drivers::canopen

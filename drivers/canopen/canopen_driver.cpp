@@ -69,6 +69,37 @@ std::vector<ParameterSpec> make_parameters() {
           .at_most(127),
       P::boolean("velocity_pdo", "map 0x606C velocity actual in TPDO2 (one more frame per period)")
           .defaults_to(false),
+      P::choice("homing", {"none", "cia402"},
+                "cia402: the drive homes (mode 6) before the loop, then cyclic synchronous torque; the "
+                "device counts as calibrated")
+          .defaults_to("none"),
+      P::integer("homing_method", "",
+                 "0x6098 homing method (37: on the current position; 17, 18: on a limit switch)")
+          .defaults_to(37.0)
+          .at_least(-128)
+          .at_most(127),
+      P::number(
+          "home_offset", "rad | m",
+          "0x607C: the zero lies this far past the home position (the home position reads -home_offset)")
+          .defaults_to(0.0)
+          .at_least(-1e6)
+          .at_most(1e6),
+      P::number("homing_speed_switch", "rad/s | m/s", "0x6099:1 speed while searching for the switch")
+          .defaults_to(0.0, "0: the drive's own")
+          .at_least(0.0)
+          .at_most(1e6),
+      P::number("homing_speed_zero", "rad/s | m/s", "0x6099:2 speed while searching for zero")
+          .defaults_to(0.0, "0: the drive's own")
+          .at_least(0.0)
+          .at_most(1e6),
+      P::number("homing_acceleration", "rad/s^2 | m/s^2", "0x609A homing acceleration")
+          .defaults_to(0.0, "0: the drive's own")
+          .at_least(0.0)
+          .at_most(1e9),
+      P::duration("homing_timeout", "from the start command to homing completed")
+          .defaults_to(d.homing_timeout)
+          .above(0.0)
+          .at_most(600.0),
   };
 }
 
@@ -93,6 +124,13 @@ CanopenConfig canopen_config_from(const DriverParameters& p) {
   c.sdo_timeout = p.duration_s("sdo_timeout");
   c.master_node_id = static_cast<std::uint8_t>(p.integer("master_node_id"));
   c.velocity_pdo = p.boolean("velocity_pdo");
+  c.homing = p.text("homing") == "cia402";
+  c.homing_method = static_cast<int>(p.integer("homing_method"));
+  c.home_offset = p.number("home_offset");
+  c.homing_speed_switch = p.number("homing_speed_switch");
+  c.homing_speed_zero = p.number("homing_speed_zero");
+  c.homing_acceleration = p.number("homing_acceleration");
+  c.homing_timeout = p.duration_s("homing_timeout");
   try {
     validate(c);
   } catch (const ConfigError& e) {

@@ -6,6 +6,7 @@
 
 #include "drivers/canopen/301/cob_id.hpp"
 #include "drivers/canopen/402/drive_errors.hpp"
+#include "drivers/canopen/402/homing.hpp"
 #include "drivers/canopen/402/objects.hpp"
 #include "world/text.hpp"
 
@@ -310,6 +311,7 @@ std::size_t CyclicExchange::end_period(double force, std::span<Frame, 4> out) no
   } else {
     cw |= cia402::control_bit::halt;  // halt clear only while a valid command flows
   }
+  if (command_flows && homing_start_) cw |= cia402::homing_operation_start;
   controlword_ = cw;
   torque_ = torque;
 

@@ -147,6 +147,9 @@ class CyclicExchange {
   /// Enabled: the controlwords lead the drive to Operation Enabled and keep it
   /// there; disabled: Disable Voltage. Either way the torque is 0 until enabled.
   void set_enabled(bool enabled) noexcept;
+  /// Homing mode (before the loop): while set, a period whose command flows
+  /// also carries controlword bit 4, homing operation start (CiA 402).
+  void set_homing_start(bool start) noexcept { homing_start_ = start; }
   void request_fault_reset() noexcept;
 
   // ---- observation (the same thread, or copied out by the owner) ----
@@ -177,6 +180,7 @@ class CyclicExchange {
   FaultRecord fault_;
   CyclicCounters counters_;
   bool enabled_ = false;
+  bool homing_start_ = false;
   bool resetting_ = false;
   bool was_operation_enabled_ = false;
   std::uint64_t reset_started_ = 0;

@@ -146,18 +146,8 @@ void select_torque_mode(SdoClient& sdo, const std::string& node, SetupResult& r)
     throw SetupError(node + " does not offer cyclic synchronous torque: 0x6502 supported drive modes = " +
                          world::text::format_hex(modes, 8) + " (bit 9 clear)",
                      "node_id");
-  write(sdo, {obj402::modes_of_operation, 0}, static_cast<std::uint8_t>(cst), 1);
-  std::int8_t shown = 0;
-  for (int i = 0; i < mode_confirm_reads && shown != static_cast<std::int8_t>(cst); ++i)
-    step(
-        [&] {
-          shown = static_cast<std::int8_t>(sdo.read({obj402::modes_of_operation_display, 0}) & 0xFFU);
-        },
-        "");
-  if (shown != static_cast<std::int8_t>(cst))
-    throw SetupError(node + " did not take cyclic synchronous torque: after 0x6060 = 10, 0x6061 shows " +
-                         std::to_string(shown) + " (" + std::string(cia402::describe_mode(shown)) + ")",
-                     "node_id");
+  (void)node;
+  select_mode(sdo, cst, "node_id");
 }
 
 // 4. Rated torque (the unit of 0x6071) and the interpolation period.
@@ -227,6 +217,23 @@ cia402::DriveState reset_old_fault(SdoClient& sdo, const std::string& node, Setu
 }
 
 }  // namespace
+
+void select_mode(SdoClient& sdo, cia402::Mode mode, const std::string& key, const std::string& sdo_key) {
+  const auto wanted = static_cast<std::int8_t>(mode);
+  write(sdo, {obj402::modes_of_operation, 0}, static_cast<std::uint8_t>(wanted), 1, sdo_key);
+  std::int8_t shown = 0;
+  for (int i = 0; i < mode_confirm_reads && shown != wanted; ++i)
+    step(
+        [&] {
+          shown = static_cast<std::int8_t>(sdo.read({obj402::modes_of_operation_display, 0}) & 0xFFU);
+        },
+        sdo_key);
+  if (shown != wanted)
+    throw SetupError(node_name(sdo.node()) + " did not take " + std::string(cia402::to_string(mode)) +
+                         ": after 0x6060 = " + std::to_string(wanted) + ", 0x6061 shows " +
+                         std::to_string(shown) + " (" + std::string(cia402::describe_mode(shown)) + ")",
+                     key);
+}
 
 std::optional<std::uint32_t> read_rated_torque(SdoClient& sdo) {
   try {

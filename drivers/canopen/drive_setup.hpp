@@ -24,6 +24,7 @@
 
 #include "drivers/canopen/301/bus_budget.hpp"
 #include "drivers/canopen/301/pdo.hpp"
+#include "drivers/canopen/402/objects.hpp"
 #include "drivers/canopen/402/state_machine.hpp"
 #include "drivers/canopen/sdo_client.hpp"
 #include "drivers/device_hooks.hpp"
@@ -82,6 +83,11 @@ std::optional<std::uint32_t> read_rated_torque(SdoClient& sdo);
 /// for a drive without 0x6076. Throws SetupError (key rated_torque).
 std::uint32_t torque_unit(std::optional<std::uint32_t> drive_mnm, std::uint32_t config_mnm,
                           std::uint8_t node);
+
+/// 0x6060 = mode, confirmed by reading 0x6061 back (a few reads); a drive
+/// that shows another mode is a SetupError blaming `key`, an SDO failure
+/// one blaming `sdo_key`.
+void select_mode(SdoClient& sdo, cia402::Mode mode, const std::string& key, const std::string& sdo_key = "");
 
 /// Runs the steps above. Throws SetupError.
 SetupResult setup_drive(SdoClient& sdo, FrameLink& link, const SetupOptions& options);

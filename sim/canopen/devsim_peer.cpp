@@ -8,6 +8,8 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <optional>
+#include <stdexcept>
 #include <string>
 #include <thread>
 
@@ -45,7 +47,31 @@ struct Options {
   double rated_torque = 1.0;
   std::string plant;
   std::string hand;
+  std::string limit_switches;  ///< "NEG,POS" in m or rad ("" none; either side may be empty)
 };
+
+/// --limit-switches "NEG,POS": where the negative and positive limit
+/// switches become active (homing methods 17 and 18); throws on bad text.
+LimitSwitches limit_switches_from(const std::string& text) {
+  LimitSwitches switches;
+  if (text.empty()) return switches;
+  const auto comma = text.find(',');
+  if (comma == std::string::npos)
+    throw std::invalid_argument("--limit-switches needs NEG,POS, got '" + text + "'");
+  auto side = [&](const std::string& part) -> std::optional<double> {
+    if (part.empty()) return std::nullopt;
+    std::size_t used = 0;
+    const double value = std::stod(part, &used);
+    if (used != part.size() || !std::isfinite(value))
+      throw std::invalid_argument("--limit-switches: '" + part + "' is not a position");
+    return value;
+  };
+  switches.negative = side(text.substr(0, comma));
+  switches.positive = side(text.substr(comma + 1));
+  if (switches.negative && switches.positive && *switches.negative >= *switches.positive)
+    throw std::invalid_argument("--limit-switches: the negative switch must lie below the positive one");
+  return switches;
+}
 
 int run_peer(const Options& o) {
   const std::string path(unix_path_of(o.listen));
@@ -67,6 +93,10 @@ int run_peer(const Options& o) {
   const double unit = plant_config.motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0;
   settings.position_units_per_si = plant_config.counts / unit;  // one increment per encoder count
   settings.velocity_units_per_si = plant_config.counts / unit;
+  settings.supported_modes |= 1U << 5;  // homing mode (6), besides cyclic synchronous torque
+  settings.limit_switches = limit_switches_from(o.limit_switches);
+  settings.period_s = period_s;
+  settings.moving_mass = plant_config.total_mass();
   SimulatedDrive drive(settings, plant);
 
   // SIGINT/SIGTERM end the peer: blocked here, taken by sigwait below.
@@ -110,6 +140,10 @@ devsim::SimulatedPeer canopen_peer() {
                         "0x6076 motor rated torque, N m (N): 0x6071 is per mille of it")
             ->check(CLI::PositiveNumber);
         devsim::add_plant_option(*cmd, options->plant);
+        cmd->add_option(
+            "--limit-switches", options->limit_switches,
+            "NEG,POS: positions (m or rad) beyond which the limit switches are active, for homing "
+            "methods 17 and 18; either may be left empty");
         cmd->add_option(
             "--hand", options->hand,
             "the scripted hand, as the loopback's: \"mode=hold trajectory=step amplitude=0.785 at=0.5\"");

@@ -42,7 +42,17 @@ constexpr std::uint16_t rated_torque = 0x6076;
 constexpr std::uint16_t torque_actual = 0x6077;
 constexpr std::uint16_t interpolation_time_period = 0x60C2;
 constexpr std::uint16_t supported_drive_modes = 0x6502;
+constexpr std::uint16_t home_offset = 0x607C;
+constexpr std::uint16_t homing_method = 0x6098;
+constexpr std::uint16_t homing_speeds = 0x6099;
+constexpr std::uint16_t homing_acceleration = 0x609A;
+constexpr std::uint16_t digital_inputs = 0x60FD;
 }  // namespace object
+
+/// 0x6060 homing mode (CiA 402-2 6.3.2).
+constexpr std::int8_t homing_mode = 6;
+/// The velocity loop of the homing mode: its bandwidth, Hz.
+constexpr double homing_loop_hz = 20.0;
 
 /// 0x6060 cyclic synchronous torque (CiA 402-2 6.3.2).
 constexpr std::int8_t cyclic_synchronous_torque = 10;
@@ -103,7 +113,10 @@ std::uint8_t error_register_for(std::uint16_t code) noexcept {
 }
 
 SimulatedDrive::SimulatedDrive(const DriveSettings& settings, DrivePlant& plant)
-    : settings_(settings), plant_(plant), consumers_(consumer_entries) {
+    : settings_(settings),
+      plant_(plant),
+      consumers_(consumer_entries),
+      homing_(settings.limit_switches, settings.moving_mass * 2.0 * 3.141592653589793 * homing_loop_hz) {
   build_dictionary();
 }
 
@@ -146,6 +159,18 @@ void SimulatedDrive::build_dictionary() {
   od_.add({object::interpolation_time_period, 1}, T::unsigned8, A::rw, M::none, 1);
   od_.add({object::interpolation_time_period, 2}, T::integer8, A::rw, M::none, 0xFD);  // 1 x 10^-3 s
   od_.add({object::supported_drive_modes, 0}, T::unsigned32, A::ro, M::none, s.supported_modes);
+  // Homing (CiA 402-2 6.6): defaults of 0.5 and 0.1 per second and 5 per second squared of the unit.
+  const double v = s.velocity_units_per_si;
+  od_.add({object::home_offset, 0}, T::integer32, A::rw, M::rpdo, 0);
+  od_.add({object::homing_method, 0}, T::integer8, A::rw, M::rpdo, 37);
+  od_.add({object::homing_speeds, 0}, T::unsigned8, A::ro, M::none, 2);
+  od_.add({object::homing_speeds, 1}, T::unsigned32, A::rw, M::rpdo,
+          static_cast<std::uint32_t>(std::lround(0.5 * v)));
+  od_.add({object::homing_speeds, 2}, T::unsigned32, A::rw, M::rpdo,
+          static_cast<std::uint32_t>(std::lround(0.1 * v)));
+  od_.add({object::homing_acceleration, 0}, T::unsigned32, A::rw, M::rpdo,
+          static_cast<std::uint32_t>(std::lround(5.0 * v)));
+  od_.add({object::digital_inputs, 0}, T::unsigned32, A::ro, M::tpdo, 0);
 }
 
 void SimulatedDrive::add_pdo_parameters(int p) {
@@ -233,6 +258,8 @@ void SimulatedDrive::on_nmt(NmtCommand command, Micros now, std::vector<Frame>& 
       break;
     case NmtCommand::reset_node:
       od_.reset(0x0000, 0xFFFF);
+      homing_ = HomingController(settings_.limit_switches, homing_.gain());
+      home_shift_counts_ = 0;  // the application's reset: the homing is lost
       state_ = DriveState::switch_on_disabled;
       controlword_ = 0;
       fault_reason_.clear();
@@ -439,6 +466,8 @@ std::uint32_t SimulatedDrive::check_drive_write(Address a, std::uint32_t value) 
     const std::uint32_t supported = od_.get({object::supported_drive_modes, 0});
     return bit && (supported >> *bit & 1U) != 0 ? 0 : abort_code::invalid_value;
   }
+  if (a == Address{object::homing_method, 0})
+    return homing_.has_method(static_cast<std::int8_t>(value & 0xFFU)) ? 0 : abort_code::invalid_value;
   if (a == Address{object::abort_connection_option, 0}) {
     const auto option = static_cast<std::int16_t>(value & 0xFFFFU);
     return option >= abort_connection::no_action && option <= abort_connection::quick_stop
@@ -541,7 +570,7 @@ void SimulatedDrive::on_sync(std::vector<Frame>& out) {
   const auto option = static_cast<std::int16_t>(od_.get({object::quick_stop_option, 0}));
   if (state_ == DriveState::quick_stop_active && (option < 5 || option > 8))
     state_ = DriveState::switch_on_disabled;
-  const double force = torque_to_apply();
+  const double force = mode_display() == homing_mode ? homing_force() : torque_to_apply();
   applied_force_ = force;
   if (nmt_ == NmtState::operational) send_tpdos(out);
   plant_.step(force);
@@ -555,6 +584,33 @@ double SimulatedDrive::torque_to_apply() const {
   const auto limit = static_cast<int>(od_.get({object::max_torque, 0}));
   const int permille = std::clamp<int>(target, -limit, limit);  // 0x6071 and 0x6072: per mille of 0x6076
   return permille * 1e-3 * od_.get({object::rated_torque, 0}) * 1e-3;
+}
+
+double SimulatedDrive::homing_force() {
+  if (state_ != DriveState::operation_enabled) {
+    homing_.interrupt();
+    return 0.0;
+  }
+  const double v_units = settings_.velocity_units_per_si;
+  HomingObjects o;
+  o.method = static_cast<std::int8_t>(od_.get({object::homing_method, 0}) & 0xFFU);
+  o.speed_switch = od_.get({object::homing_speeds, 1}) / v_units;
+  o.speed_zero = od_.get({object::homing_speeds, 2}) / v_units;
+  o.acceleration = od_.get({object::homing_acceleration, 0}) / v_units;
+  o.max_force = od_.get({object::max_torque, 0}) * 1e-3 * od_.get({object::rated_torque, 0}) * 1e-3;
+  const double force = homing_.step(plant_.position(), plant_.velocity(), o, settings_.period_s);
+  if (const auto home = homing_.take_home()) {
+    // CiA 402: the zero lies the home offset past the home, so the home reads -0x607C.
+    const auto offset = static_cast<std::int32_t>(od_.get({object::home_offset, 0}));
+    const std::int64_t at_home =
+        std::llround(*home * settings_.position_units_per_si) + position_offset_counts_;
+    home_shift_counts_ = -static_cast<std::int64_t>(offset) - at_home;
+  }
+  return force;
+}
+
+std::int64_t SimulatedDrive::position_counts() const {
+  return std::llround(plant_.position() * settings_.position_units_per_si) + position_offset_counts_;
 }
 
 void SimulatedDrive::send_tpdos(std::vector<Frame>& out) {
@@ -584,9 +640,10 @@ void SimulatedDrive::send_tpdos(std::vector<Frame>& out) {
 
 void SimulatedDrive::refresh_process_values() {
   od_.set({object::statusword, 0}, statusword());
+  // INTEGER32 wraps like a drive's counter.
   od_.set({object::position_actual, 0},
-          to_int32_units(plant_.position() * settings_.position_units_per_si) +
-              static_cast<std::uint32_t>(static_cast<std::uint64_t>(position_offset_counts_)));
+          static_cast<std::uint32_t>(static_cast<std::uint64_t>(position_counts() + home_shift_counts_)));
+  od_.set({object::digital_inputs, 0}, homing_.digital_inputs(plant_.position()));
   od_.set({object::velocity_actual, 0}, to_int32_units(plant_.velocity() * settings_.velocity_units_per_si));
   const double rated_nm = od_.get({object::rated_torque, 0}) * 1e-3;
   const double permille = rated_nm > 0.0 ? applied_force_ / rated_nm * 1e3 : 0.0;
@@ -602,6 +659,11 @@ void SimulatedDrive::on_controlword(std::uint16_t cw, std::vector<Frame>& out) {
   if (command)
     state_ =
         after_command(state_, *command, static_cast<std::int16_t>(od_.get({object::quick_stop_option, 0})));
+  if (mode_display() == homing_mode && state_ == DriveState::operation_enabled) {
+    homing_.on_controlword(controlword_, cw, plant_.position());
+  } else {
+    homing_.interrupt();
+  }
   controlword_ = cw;
   od_.set({object::controlword, 0}, cw);
   if (before == DriveState::fault && state_ == DriveState::switch_on_disabled) {
@@ -620,6 +682,7 @@ std::uint16_t SimulatedDrive::statusword() const noexcept {
   if (state_ == DriveState::operation_enabled && (controlword_ & halt_bit) == 0 &&
       mode_display() == cyclic_synchronous_torque)
     sw |= status_bit::following_command;
+  if (mode_display() == homing_mode) sw |= homing_.status_bits(plant_.velocity());
   return sw;
 }
 

@@ -16,7 +16,8 @@
 /// the standard mapping rules, SYNC consumer, heartbeat producer (0x1017)
 /// and consumer (0x1016), EMCY producer, error behaviour (0x1029).
 /// (CiA 402): the drive state machine from the controlword, the statusword,
-/// modes 0x6060/0x6061 (cyclic synchronous torque), target torque 0x6071
+/// modes 0x6060/0x6061 (cyclic synchronous torque; homing, when 0x6502 offers
+/// it: homing_controller.hpp, 0x607C, 0x6098, 0x6099, 0x609A, 0x60FD), target torque 0x6071
 /// per mille of 0x6076, position 0x6064 and velocity 0x606C from the plant,
 /// 0x603F, and the abort connection option 0x6007 on a lost master.
 ///
@@ -33,6 +34,7 @@
 #include <vector>
 
 #include "sim/canopen/drive_state_machine.hpp"
+#include "sim/canopen/homing_controller.hpp"
 #include "sim/canopen/object_dictionary.hpp"
 #include "sim/canopen/wire.hpp"
 
@@ -60,8 +62,13 @@ struct DriveSettings {
   std::uint32_t rated_torque_mnm = 1000;  ///< 0x6076, mN m (mN for a linear motor)
   double position_units_per_si = 16384.0 / (2.0 * 3.141592653589793);  ///< 0x6064 increments per rad (or m)
   double velocity_units_per_si = 16384.0 / (2.0 * 3.141592653589793);  ///< 0x606C units per rad/s (or m/s)
-  std::uint32_t supported_modes = 1U << 9;  ///< 0x6502: cyclic synchronous torque only
+  std::uint32_t supported_modes = 1U << 9;  ///< 0x6502: cyclic synchronous torque only (| 1U << 5: homing)
   std::uint16_t producer_heartbeat_ms = 0;  ///< 0x1017 at power-on
+  // Homing mode (homing_controller.hpp): the limit switches, and what the
+  // velocity loop needs: the plant's period and moving mass or inertia.
+  LimitSwitches limit_switches;
+  double period_s = 1e-3;
+  double moving_mass = 0.01;  ///< kg m^2 (kg): the velocity loop's gain is this x 2 pi x 20 Hz
 };
 
 /// Faults the drive can be told to show (each one a switch a test or the
@@ -173,6 +180,10 @@ class SimulatedDrive {
   void apply_rpdo(int number, const Frame& frame, std::vector<Frame>& out);
   void send_tpdos(std::vector<Frame>& out);
   double torque_to_apply() const;
+  /// Homing mode: the homing controller's force for this period, and the
+  /// position shift once it found the home.
+  double homing_force();
+  std::int64_t position_counts() const;  ///< 0x6064 before the homing shift
   void on_heartbeat(const Heartbeat& hb, Micros now);
   void watch_consumers(Micros now, std::vector<Frame>& out);
   void on_controlword(std::uint16_t controlword, std::vector<Frame>& out);
@@ -209,6 +220,8 @@ class SimulatedDrive {
   std::uint32_t abort_code_ = 0;
   bool refuse_mode_ = false;
   std::int64_t position_offset_counts_ = 0;  ///< added to 0x6064 (position-jump)
+  HomingController homing_;
+  std::int64_t home_shift_counts_ = 0;  ///< added to 0x6064 by a homing, until power-on or NMT reset node
 
   DriveCounters counters_;
 };

@@ -73,6 +73,7 @@ void strip_positions(DaemonConfig& config) {
   config.source.clear();
   config.device.driver_where = {};
   config.device.table_where = {};
+  config.device.origin_where = config.device.origin_file_where = {};
   config.scene.name_where = {};
   config.scene.table_where = {};
   config.control.socket_where = {};
@@ -256,11 +257,11 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
       "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
             "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, max_velocity, "
-            "model, and a table "
+            "model, encoder, origin, origin_file, require_calibration, and a table "
             "[device.<driver>] for the selected driver");
   EXPECT_EQ(error_of("[device.serial]\nx = 1"),
             "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, max_velocity, "
-            "model, and a table "
+            "model, encoder, origin, origin_file, require_calibration, and a table "
             "[device.<driver>] for the selected driver");
 }
 
