@@ -252,6 +252,9 @@ std::string markdown_stability(world::StabilityRule rule) {
     case world::StabilityRule::hulin_wall:
       return "its linear model, held and closed with the released device; Hulin's region on a rigid "
              "undamped device";
+    case world::StabilityRule::task_wall:
+      return "Hulin's one-axis wall along each judged direction, with the mass and damping the device has "
+             "there (m_n = 1 / (n^T J M^-1 J^T n))";
   }
   return {};
 }
@@ -265,8 +268,10 @@ std::string scene_catalog_markdown() {
   for (const auto& d : world::scene_catalog()) {
     out += "\n### " + d.name + "\n\n" + d.summary + ". Reference: " + d.reference + ".\n\n";
     out += "Units: " +
-           (d.fixed_motion ? std::string(world::to_string(*d.fixed_motion)) + ", on any device"
-                           : std::string("the device's; rotary in parentheses")) +
+           (d.space == world::SceneSpace::task
+                ? std::string("linear, in task space, on a device with several axes")
+            : d.fixed_motion ? std::string(world::to_string(*d.fixed_motion)) + ", on any device"
+                             : std::string("the device's; rotary in parentheses")) +
            ". Stability gate: " + markdown_stability(d.stability) + ".\n";
     if (d.parameters.empty()) {
       out += "\nNo parameters.\n";
