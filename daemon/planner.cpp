@@ -22,6 +22,8 @@ analysis::GateDevice DeviceModel::gate() const {
   device.mass = info.effective_mass;
   device.damping = info.viscous_damping;
   device.motion = motion();
+  for (const auto& axis : info.axes) device.axes.push_back({axis.mass, axis.damping});
+  device.axis_names = axis_names;
   return device;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +27,9 @@ struct DeviceModel {
   world::LinearPlant plant;   ///< info.plant, or the rigid mass with its viscous damping
   world::Sensor sensor = world::Sensor::motor;
   double period_s = 1e-3;
+  /// A device with several axes: their names ([device] axis_names), one per
+  /// entry of info.axes; empty for one axis.
+  std::vector<std::string> axis_names;
   world::Motion motion() const noexcept { return info.motion; }
   /// The same device as the stability gate (analysis/stability_gate.hpp) sees it.
   analysis::GateDevice gate() const;
