@@ -185,9 +185,11 @@ nlohmann::json parameter_json(const world::ParameterSpec& p, world::Motion motio
 
 }  // namespace
 
-nlohmann::json scene_catalog_json(world::Motion motion) {
+nlohmann::json scene_catalog_json(world::Motion motion, int axes) {
   nlohmann::json scenes = nlohmann::json::array();
   for (const auto& d : world::scene_catalog()) {
+    // The scenes this device takes (a task-space scene needs several axes).
+    if (d.space != world::SceneSpace::any && (d.space == world::SceneSpace::task) != (axes > 1)) continue;
     const world::Motion units = d.fixed_motion.value_or(motion);
     nlohmann::json params = nlohmann::json::array();
     for (const auto& p : d.parameters) params.push_back(parameter_json(p, units));
@@ -198,6 +200,7 @@ nlohmann::json scene_catalog_json(world::Motion motion) {
                       {"motion", d.fixed_motion ? nlohmann::json(world::to_string(*d.fixed_motion))
                                                 : nlohmann::json("device")},
                       {"stability", world::to_string(d.stability)}});
+    if (axes > 1) scenes.back()["space"] = world::to_string(d.space);
   }
   return scenes;
 }
@@ -224,6 +227,8 @@ std::string markdown_range(const world::ParameterSpec& p) {
     }
     case world::ParameterType::boolean:
       return "`true`, `false`";
+    case world::ParameterType::text:
+      return "comma-separated numbers, one per axis";
     default:
       return out;
   }
@@ -235,6 +240,7 @@ std::string markdown_default(const world::ParameterSpec& p) {
     return world::text::format_significant(*d, world::text::precision::message);
   }
   if (const auto* b = std::get_if<bool>(&*p.default_value)) return *b ? "`true`" : "`false`";
+  if (std::get<std::string>(*p.default_value).empty()) return "empty";
   return "`" + std::get<std::string>(*p.default_value) + "`";
 }
 

@@ -88,7 +88,10 @@ nlohmann::json parameter_units(std::string_view scene, world::Motion motion);
 /// The scene catalog as scene.list's "scenes": every scene with its
 /// parameters, their units on a device of this motion, defaults and ranges,
 /// and what it needs from the device and how the gate judges it.
-nlohmann::json scene_catalog_json(world::Motion motion);
+/// The scenes a device with `axes` axes takes: one axis, today's (the
+/// list is exactly what it was); several, the task-space scenes and free,
+/// each with its "space".
+nlohmann::json scene_catalog_json(world::Motion motion, int axes = 1);
 /// docs/scenes.md's parameter tables (`hapticd --list-scenes --format
 /// markdown`), between the markers a test (scenes_doc) compares.
 std::string scene_catalog_markdown();
