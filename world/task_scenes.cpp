@@ -12,11 +12,15 @@
 
 namespace hapticd::world {
 
-AxisVector parse_axis_vector(std::string_view name, std::string_view text, int axes,
-                             const AxisVector& empty) {
+AxisVector parse_axis_vector(std::string_view name, std::string_view text, int axes, const AxisVector& empty,
+                             std::optional<double> bound) {
   const auto fail = [&] {
+    const auto show = [](double x) { return text::format_significant(x, text::precision::message); };
     throw std::invalid_argument(std::string(name) + ": '" + std::string(text) + "' is not accepted; " +
-                                std::to_string(axes) + " comma-separated finite numbers, one per axis");
+                                std::to_string(axes) + " comma-separated " +
+                                (bound ? "numbers from " + show(-*bound) + " to " + show(*bound) + " (m)"
+                                       : std::string("finite numbers")) +
+                                ", one per axis");
   };
   if (text.find_first_not_of(" ") == std::string_view::npos) return empty;
   AxisVector out(axes);
@@ -28,7 +32,7 @@ AxisVector parse_axis_vector(std::string_view name, std::string_view text, int a
     while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
     while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
     const auto value = units::parse_finite(item);
-    if (!value || count == axes) fail();
+    if (!value || count == axes || (bound && !(std::abs(*value) <= *bound))) fail();
     out(count++) = *value;
     begin = end + 1;
   }
@@ -108,8 +112,10 @@ void build_plane_wall(ScenePlan& plan, const SceneContext& context) {
   const ParameterSet& p = plan.parameters;
   const AxisVector first_axis = AxisVector::Unit(context.axes, 0);
   const AxisVector given = parse_axis_vector("normal", text_of(p, "normal"), context.axes, first_axis);
-  if (given.norm() == 0.0) throw std::invalid_argument("normal: a direction, not all zero");
-  const AxisVector normal = given.normalized();
+  // Scaled by its largest entry first: "1e300,1e300" is a direction too.
+  const double largest = given.cwiseAbs().maxCoeff();
+  if (!(largest > 0.0)) throw std::invalid_argument("normal: a direction, not all zero");
+  const AxisVector normal = (given / largest).normalized();
   const TaskWallLaw law = law_of(p);
   const double offset = number_of(p, "offset");
   const double t = context.period_s;
@@ -121,8 +127,8 @@ void build_plane_wall(ScenePlan& plan, const SceneContext& context) {
 
 void build_sphere(ScenePlan& plan, const SceneContext& context) {
   const ParameterSet& p = plan.parameters;
-  const AxisVector center =
-      parse_axis_vector("center", text_of(p, "center"), context.axes, AxisVector::Zero(context.axes));
+  const AxisVector center = parse_axis_vector("center", text_of(p, "center"), context.axes,
+                                              AxisVector::Zero(context.axes), r::max_position);
   const double radius = number_of(p, "radius");
   const bool inside = text_of(p, "side") == "inside";
   const TaskWallLaw law = law_of(p);
@@ -136,8 +142,8 @@ void build_sphere(ScenePlan& plan, const SceneContext& context) {
 void build_box(ScenePlan& plan, const SceneContext& context) {
   const ParameterSet& p = plan.parameters;
   const AxisVector half = AxisVector::Constant(context.axes, default_box_half_width);
-  const AxisVector low = parse_axis_vector("low", text_of(p, "low"), context.axes, -half);
-  const AxisVector high = parse_axis_vector("high", text_of(p, "high"), context.axes, half);
+  const AxisVector low = parse_axis_vector("low", text_of(p, "low"), context.axes, -half, r::max_position);
+  const AxisVector high = parse_axis_vector("high", text_of(p, "high"), context.axes, half, r::max_position);
   for (Eigen::Index i = 0; i < low.size(); ++i) {
     if (!(low(i) < high(i)))
       throw std::invalid_argument("low, high: low < high on every axis; axis " + std::to_string(i + 1) +

@@ -16,6 +16,7 @@
 /// variants of its shape.
 
 #include <array>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -96,8 +97,11 @@ struct BoxEntry {
   static SceneDescription describe();
 };
 
-/// "1,1" -> (1, 1): exactly `axes` comma-separated finite numbers; "" gives
-/// `empty`. Throws std::invalid_argument naming `name` and what is accepted.
-AxisVector parse_axis_vector(std::string_view name, std::string_view text, int axes, const AxisVector& empty);
+/// "1,1" -> (1, 1): exactly `axes` comma-separated finite numbers, each
+/// within +-`bound` when one is given (a position: parameter_range's, m);
+/// "" gives `empty`. Throws std::invalid_argument naming `name` and what is
+/// accepted.
+AxisVector parse_axis_vector(std::string_view name, std::string_view text, int axes, const AxisVector& empty,
+                             std::optional<double> bound = std::nullopt);
 
 }  // namespace hapticd::world

@@ -109,7 +109,15 @@ TEST(TaskScenes, BadVectorsAreRefusedNamingTheParameter) {
   EXPECT_EQ(refusal("plane-wall", {{"normal", "1,nan"}}, 2),
             "plane-wall: normal: '1,nan' is not accepted; 2 comma-separated finite numbers, one per axis");
   EXPECT_EQ(refusal("sphere", {{"center", "x"}}, 2),
-            "sphere: center: 'x' is not accepted; 2 comma-separated finite numbers, one per axis");
+            "sphere: center: 'x' is not accepted; 2 comma-separated numbers from -1e+06 to 1e+06 (m), one "
+            "per axis");
+  EXPECT_EQ(refusal("box", {{"high", "1e308,1"}}, 2),
+            "box: high: '1e308,1' is not accepted; 2 comma-separated numbers from -1e+06 to 1e+06 (m), one "
+            "per axis");
+  const ScenePlan huge = planned("plane-wall", {{"normal", "1e308,1e308"}}, 2);
+  EXPECT_EQ(huge.task_wall->labels[0], "the normal (0.7071, 0.7071)") << "a long normal is still a direction";
+  EXPECT_EQ(planned("plane-wall", {{"normal", "1e-320,0"}}, 2).task_wall->labels[0], "the normal (1, 0)")
+      << "nor is a short one nothing";
   EXPECT_EQ(refusal("box", {{"low", "0,0"}, {"high", "0.01,0"}}, 2),
             "box: low, high: low < high on every axis; axis 2 has low 0 m, high 0 m");
   EXPECT_EQ(refusal("plane-wall", {{"normal", 1.0}}, 2),
