@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <stdexcept>
 
 #include "analysis/closed_loop.hpp"
+#include "analysis/task_gate.hpp"
 #include "analysis/wall_stability.hpp"
 #include "world/text.hpp"
 
@@ -197,6 +199,19 @@ GateDevice rigid_device(double mass, double damping, double period_s, int delay_
 }
 
 SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDevice& device) {
+  if (plan.task_wall) {
+    try {
+      return check_task_wall_stability(plan, device);
+    } catch (const std::invalid_argument& e) {
+      SceneStability v;
+      v.checked = true;
+      v.verdict = VerdictState::cannot_assess;
+      v.stable = false;
+      v.reason = e.what();
+      v.summary = "stability cannot be assessed on this device: " + v.reason;
+      return v;
+    }
+  }
   SceneStability v;
   if (!plan.linear) {
     v.summary = "not a linear scene: no stability region applies (the torque limit holds)";
@@ -245,7 +260,7 @@ SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDev
 
 GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parameters,
                        const GateDevice& device, bool force) {
-  auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion);
+  auto outcome = world::plan_scene(scene, parameters, device.period_s, device.motion, device.axis_count());
   if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
     GateRefusal invalid;
     invalid.invalid = true;
@@ -253,6 +268,8 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
     invalid.parameter = error->parameter;
     return invalid;
   }
+  if (std::get<world::ScenePlan>(outcome).task_wall)
+    return gate_task_wall(std::move(std::get<world::ScenePlan>(outcome)), device, force);
   GateAccepted accepted{std::move(std::get<world::ScenePlan>(outcome)), {}, false};
   accepted.stability = check_scene_stability(accepted.plan, device);
   if (accepted.stability.stable) return accepted;

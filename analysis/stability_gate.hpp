@@ -15,9 +15,11 @@
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include "analysis/passivity.hpp"
 #include "analysis/polynomial.hpp"
+#include "analysis/task_space.hpp"
 #include "analysis/verdict.hpp"
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
@@ -33,6 +35,13 @@ struct GateDevice {
   double mass = 0.0;      ///< effective mass, kg, or inertia, kg m^2
   double damping = 0.0;   ///< viscous damping to ground, N s/m or N m s/rad
   world::Motion motion = world::Motion::rotary;
+  /// A device with several axes (a Cartesian stage): each axis' mass and
+  /// damping, and its name; empty for one axis. Task-space walls are judged
+  /// along their directions with these (analysis/task_gate.hpp).
+  std::vector<JointModel> axes;
+  std::vector<std::string> axis_names;
+  /// 1, or the number of axes.
+  int axis_count() const noexcept { return axes.empty() ? 1 : static_cast<int>(axes.size()); }
   /// "J = 0.01 kg m^2, b = 0 N m s/rad, T = 1 ms, d = 0" (or m = ... kg for a linear device).
   std::string describe() const;
 };

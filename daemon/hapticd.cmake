@@ -2,6 +2,7 @@
 add_library(hapticd_daemon_core STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/engine/engine.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/engine/safety.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/engine/task_cycle.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/planner.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/device_model.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/device_factory.cpp

@@ -22,6 +22,8 @@ analysis::GateDevice DeviceModel::gate() const {
   device.mass = info.effective_mass;
   device.damping = info.viscous_damping;
   device.motion = motion();
+  for (const auto& axis : info.axes) device.axes.push_back({axis.mass, axis.damping});
+  device.axis_names = axis_names;
   return device;
 }
 
@@ -183,9 +185,11 @@ nlohmann::json parameter_json(const world::ParameterSpec& p, world::Motion motio
 
 }  // namespace
 
-nlohmann::json scene_catalog_json(world::Motion motion) {
+nlohmann::json scene_catalog_json(world::Motion motion, int axes) {
   nlohmann::json scenes = nlohmann::json::array();
   for (const auto& d : world::scene_catalog()) {
+    // The scenes this device takes (a task-space scene needs several axes).
+    if (d.space != world::SceneSpace::any && (d.space == world::SceneSpace::task) != (axes > 1)) continue;
     const world::Motion units = d.fixed_motion.value_or(motion);
     nlohmann::json params = nlohmann::json::array();
     for (const auto& p : d.parameters) params.push_back(parameter_json(p, units));
@@ -196,6 +200,7 @@ nlohmann::json scene_catalog_json(world::Motion motion) {
                       {"motion", d.fixed_motion ? nlohmann::json(world::to_string(*d.fixed_motion))
                                                 : nlohmann::json("device")},
                       {"stability", world::to_string(d.stability)}});
+    if (axes > 1) scenes.back()["space"] = world::to_string(d.space);
   }
   return scenes;
 }
@@ -222,6 +227,8 @@ std::string markdown_range(const world::ParameterSpec& p) {
     }
     case world::ParameterType::boolean:
       return "`true`, `false`";
+    case world::ParameterType::text:
+      return "comma-separated numbers, one per axis";
     default:
       return out;
   }
@@ -233,6 +240,7 @@ std::string markdown_default(const world::ParameterSpec& p) {
     return world::text::format_significant(*d, world::text::precision::message);
   }
   if (const auto* b = std::get_if<bool>(&*p.default_value)) return *b ? "`true`" : "`false`";
+  if (std::get<std::string>(*p.default_value).empty()) return "empty";
   return "`" + std::get<std::string>(*p.default_value) + "`";
 }
 
@@ -252,6 +260,9 @@ std::string markdown_stability(world::StabilityRule rule) {
     case world::StabilityRule::hulin_wall:
       return "its linear model, held and closed with the released device; Hulin's region on a rigid "
              "undamped device";
+    case world::StabilityRule::task_wall:
+      return "Hulin's one-axis wall along each judged direction, with the mass and damping the device has "
+             "there (m_n = 1 / (n^T J M^-1 J^T n))";
   }
   return {};
 }
@@ -265,8 +276,10 @@ std::string scene_catalog_markdown() {
   for (const auto& d : world::scene_catalog()) {
     out += "\n### " + d.name + "\n\n" + d.summary + ". Reference: " + d.reference + ".\n\n";
     out += "Units: " +
-           (d.fixed_motion ? std::string(world::to_string(*d.fixed_motion)) + ", on any device"
-                           : std::string("the device's; rotary in parentheses")) +
+           (d.space == world::SceneSpace::task
+                ? std::string("linear, in task space, on a device with several axes")
+            : d.fixed_motion ? std::string(world::to_string(*d.fixed_motion)) + ", on any device"
+                             : std::string("the device's; rotary in parentheses")) +
            ". Stability gate: " + markdown_stability(d.stability) + ".\n";
     if (d.parameters.empty()) {
       out += "\nNo parameters.\n";

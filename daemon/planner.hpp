@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 #include <variant>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +27,9 @@ struct DeviceModel {
   world::LinearPlant plant;   ///< info.plant, or the rigid mass with its viscous damping
   world::Sensor sensor = world::Sensor::motor;
   double period_s = 1e-3;
+  /// A device with several axes: their names ([device] axis_names), one per
+  /// entry of info.axes; empty for one axis.
+  std::vector<std::string> axis_names;
   world::Motion motion() const noexcept { return info.motion; }
   /// The same device as the stability gate (analysis/stability_gate.hpp) sees it.
   analysis::GateDevice gate() const;
@@ -84,7 +88,10 @@ nlohmann::json parameter_units(std::string_view scene, world::Motion motion);
 /// The scene catalog as scene.list's "scenes": every scene with its
 /// parameters, their units on a device of this motion, defaults and ranges,
 /// and what it needs from the device and how the gate judges it.
-nlohmann::json scene_catalog_json(world::Motion motion);
+/// The scenes a device with `axes` axes takes: one axis, today's (the
+/// list is exactly what it was); several, the task-space scenes and free,
+/// each with its "space".
+nlohmann::json scene_catalog_json(world::Motion motion, int axes = 1);
 /// docs/scenes.md's parameter tables (`hapticd --list-scenes --format
 /// markdown`), between the markers a test (scenes_doc) compares.
 std::string scene_catalog_markdown();

@@ -91,6 +91,31 @@ engine::PositionStepRule position_rule_for(const config::DaemonConfig& cfg,
   return rule;
 }
 
+/// The axes' names of a device with several ([device] axis_names, else x,
+/// y, z, a, b, c); ConfigError when the names do not fit the device.
+std::vector<std::string> axis_names_for(const config::DeviceConfig& device, int axes) {
+  static const std::vector<std::string> defaults{"x", "y", "z", "a", "b", "c"};
+  if (device.axis_names.empty()) return {defaults.begin(), defaults.begin() + axes};
+  if (static_cast<int>(device.axis_names.size()) != axes) {
+    throw config::ConfigError(device.axis_names_where, "device.axis_names",
+                              "device.axis_names names " + std::to_string(device.axis_names.size()) +
+                                  " axes; the device (" + device.driver + ") has " + std::to_string(axes) +
+                                  "; accepted: " + std::to_string(axes) + " names");
+  }
+  return device.axis_names;
+}
+
+/// The channels a device with several axes adds before the scene's, in the
+/// engine's order (daemon/engine/task_axes.hpp): every position, every task
+/// force, every joint output.
+std::vector<world::ChannelDescription> axis_channels(const std::vector<std::string>& names, bool rotary) {
+  std::vector<world::ChannelDescription> out;
+  for (const auto& n : names) out.push_back({"position_" + n, rotary ? "rad" : "m"});
+  for (const auto& n : names) out.push_back({"force_" + n, rotary ? "N m" : "N"});
+  for (const auto& n : names) out.push_back({"output_" + n, rotary ? "N m" : "N"});
+  return out;
+}
+
 }  // namespace
 
 Service::Service(ServiceOptions options)
@@ -117,6 +142,7 @@ Service::Service(ServiceOptions options)
                         config::SourcePosition{cfg.device.model, 0, 0}),
         cfg.loop.period_s);
   }
+  resolve_axes();
   position_rule_ = position_rule_for(cfg, model_.info);
   // Whose origin a stored one must be, and what the state directory holds.
   const drivers::DeviceModel device_model = device_.device->model();
@@ -153,6 +179,17 @@ Service::Service(ServiceOptions options)
 
 Service::~Service() { shutdown(); }
 
+void Service::resolve_axes() {
+  const int axes = device_.device->axes();
+  if (axes == 1) return;
+  if (model_.info.axis_count() != axes) {
+    throw drivers::DeviceError(options_.config.device.driver + ": the device has " + std::to_string(axes) +
+                               " axes but its model describes " + std::to_string(model_.info.axis_count()) +
+                               "; each axis needs its mass and damping for the stability gate");
+  }
+  model_.axis_names = axis_names_for(options_.config.device, axes);
+}
+
 std::string Service::device_label() const {
   return options_.config.device.driver + " (" + model_.info.description + ")";
 }
@@ -178,6 +215,12 @@ std::string Service::describe() const {
                                   : stored.note);
   }
   if (cfg.device.require_calibration) out << "; required before any scene renders";
+  if (!model_.axis_names.empty()) {
+    out << "\naxes: " << options_.config.device.kinematics;
+    for (std::size_t i = 0; i < model_.axis_names.size(); ++i)
+      out << (i == 0 ? " " : ", ") << model_.axis_names[i] << " (" << model_.info.axes[i].mass << " kg, "
+          << model_.info.axes[i].damping << " N s/m)";
+  }
   return out.str();
 }
 
@@ -203,6 +246,11 @@ recorder::RecordingHeader Service::header_for(const CurrentScene& scene) const {
   h.clock = std::string(config::to_string(options_.config.loop.clock));
   h.device = device_label() + ", " + model_.describe();
   h.notes = scene.notes;
+  if (!model_.axis_names.empty()) {
+    h.notes.push_back("axes: " + std::to_string(model_.axis_names.size()) + ", " +
+                      options_.config.device.kinematics +
+                      " kinematics: each axis' position, task force (before the limit) and output (sent)");
+  }
   h.notes.push_back("stability: " + scene.stability.summary);
   if (scene.forced) h.notes.push_back("UNSTABLE parameters loaded with force=true");
   // A recording says the origin its positions are measured from (none when
@@ -220,12 +268,16 @@ recorder::RecordingHeader Service::header_for(const CurrentScene& scene) const {
   return h;
 }
 
-CurrentScene Service::scene_from(const PlannedScene& planned, const world::ParameterSet& requested) {
+CurrentScene Service::scene_from(const PlannedScene& planned, const world::ParameterSet& requested) const {
   CurrentScene next;
   next.name = planned.plan.scene;
   next.requested = requested;
   next.resolved = planned.plan.parameters;
   next.channels = planned.plan.channels;
+  if (!model_.axis_names.empty()) {
+    auto axes = axis_channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary);
+    next.channels.insert(next.channels.begin(), axes.begin(), axes.end());
+  }
   next.stability = planned.stability;
   next.forced = planned.forced;
   next.notes = planned.plan.notes;
@@ -235,6 +287,7 @@ CurrentScene Service::scene_from(const PlannedScene& planned, const world::Param
 std::uint64_t Service::publish(const PlannedScene& planned) {
   auto plan = std::make_unique<engine::LoopPlan>();
   plan->scene = planned.plan.scene_object;
+  plan->task_scene = planned.plan.task_object;
   plan->torque_limit = options_.config.device.torque_limit;
   plan->unstable_forced = planned.forced;
   return engine_->publish(std::move(plan)).seq;

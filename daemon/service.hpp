@@ -84,7 +84,11 @@ class Service {
   /// refuse (with the limit) or publish and wait until it is in effect.
   nlohmann::json plan_and_apply(const std::string& scene, const world::ParameterSet& requested, bool force);
   nlohmann::json apply(const PlannedScene& planned, const world::ParameterSet& requested);
-  static CurrentScene scene_from(const PlannedScene& planned, const world::ParameterSet& requested);
+  /// The scene's channels, after each axis' on a device with several.
+  CurrentScene scene_from(const PlannedScene& planned, const world::ParameterSet& requested) const;
+  /// A device with several axes: its model describes each, and the axes are
+  /// named (model_.axis_names); throws ConfigError or DeviceError otherwise.
+  void resolve_axes();
   std::uint64_t publish(const PlannedScene& planned);  ///< returns the publication's sequence number
   void adopt(CurrentScene next);
   CurrentScene current_scene() const;

@@ -13,7 +13,9 @@
 
 namespace hapticd::daemon {
 
-inline constexpr std::size_t max_telemetry_channels = 10;
+/// The scene's channels (10 at most), after three per axis on a device with
+/// several (position, task force, joint output: 18 for 6 axes).
+inline constexpr std::size_t max_telemetry_channels = 24;
 
 /// Bits in TelemetrySample::flags.
 enum TelemetryFlag : std::uint32_t {

@@ -20,8 +20,11 @@ std::string_view to_string(DeviceState state) noexcept {
 }
 
 Device::Device(std::string kind, std::unique_ptr<DeviceHooks> hooks)
-    : kind_(std::move(kind)), hooks_(std::move(hooks)) {
+    : kind_(std::move(kind)), hooks_(std::move(hooks)), axes_(hooks_ ? hooks_->axes() : 1) {
   if (!hooks_) throw std::invalid_argument(kind_ + ": a device needs its driver's hooks");
+  if (axes_ < 1 || axes_ > max_axes)
+    throw std::invalid_argument(kind_ + ": a device has 1 to " + std::to_string(max_axes) +
+                                " axes; its driver says " + std::to_string(axes_));
 }
 
 Device::~Device() { close(); }

@@ -44,7 +44,9 @@ struct DeviceStatus {
 
 class Device final {
  public:
-  /// `kind`: the driver's registry name, for messages ("canopen").
+  /// `kind`: the driver's registry name, for messages ("canopen"). Throws
+  /// std::invalid_argument for hooks that say fewer than 1 or more than
+  /// max_axes axes.
   Device(std::string kind, std::unique_ptr<DeviceHooks> hooks);
   ~Device();  ///< close()
   Device(const Device&) = delete;
@@ -63,13 +65,33 @@ class Device final {
   // refused calls return IoResult::error and are counted ----
 
   IoResult read(Reading& out) noexcept {
-    if (state_.load(std::memory_order_acquire) == Lifecycle::closed) return counted_read(IoResult::error);
+    if (state_.load(std::memory_order_acquire) == Lifecycle::closed || axes_ != 1)
+      return counted_read(IoResult::error);
     const IoResult r = hooks_->read(out);
     return r == IoResult::ok ? r : counted_read(r);
   }
   IoResult write(double force) noexcept {
-    if (state_.load(std::memory_order_acquire) != Lifecycle::enabled) return counted_write(IoResult::error);
+    if (state_.load(std::memory_order_acquire) != Lifecycle::enabled || axes_ != 1)
+      return counted_write(IoResult::error);
     const IoResult r = hooks_->write(force);
+    return r == IoResult::ok ? r : counted_write(r);
+  }
+
+  // ---- RT, several axes: every axis in one call, the same rules and
+  // counting as read()/write(); refused (counted) unless the span has one
+  // entry per axis. read()/write() are refused on a device with several ----
+
+  int axes() const noexcept { return axes_; }
+  IoResult read_axes(std::span<Reading> out) noexcept {
+    if (state_.load(std::memory_order_acquire) == Lifecycle::closed || std::ssize(out) != axes_)
+      return counted_read(IoResult::error);
+    const IoResult r = hooks_->read_axes(out);
+    return r == IoResult::ok ? r : counted_read(r);
+  }
+  IoResult write_axes(std::span<const double> forces) noexcept {
+    if (state_.load(std::memory_order_acquire) != Lifecycle::enabled || std::ssize(forces) != axes_)
+      return counted_write(IoResult::error);
+    const IoResult r = hooks_->write_axes(forces);
     return r == IoResult::ok ? r : counted_write(r);
   }
 
@@ -109,6 +131,7 @@ class Device final {
 
   const std::string kind_;
   const std::unique_ptr<DeviceHooks> hooks_;
+  const int axes_;  ///< hooks_->axes(), asked once
   std::atomic<Lifecycle> state_{Lifecycle::closed};
   std::atomic<bool> latched_{false};  ///< a fault since the last successful clear
   std::atomic<std::uint64_t> read_errors_{0}, write_errors_{0}, faults_{0};

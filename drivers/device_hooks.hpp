@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -46,6 +47,10 @@ enum class IoResult : std::uint8_t {
   error,  ///< transient: no valid value this period (counted; the loop zeroes the output)
   fault,  ///< device-side fault: the loop latches a fault and zeroes the output
 };
+
+/// The most axes a device reads and writes together (world::max_axes, the
+/// kinematics' fixed capacity: the engine checks they agree).
+inline constexpr int max_axes = 6;
 
 /// One sample read from the device.
 struct Reading {
@@ -79,6 +84,19 @@ struct DeviceModel {
   world::Sensor sensor = world::Sensor::motor;  ///< where the position comes from (with `plant`)
   std::string source = "config";                ///< "config", "device", "identified: <file>"
   std::string description;  ///< a few words, e.g. "rotary, two-mass" or "Copley Accelnet, node 3"
+  /// One axis of a device with several: what it moves and its damping to
+  /// ground, as effective_mass and viscous_damping say for one axis.
+  struct Axis {
+    double mass = 0.0;     ///< kg (kg m^2 for a rotary joint)
+    double damping = 0.0;  ///< N s/m (N m s/rad)
+  };
+  /// Each axis of a device with several (as many as DeviceHooks::axes());
+  /// empty for one axis, which the fields above describe. With several,
+  /// effective_mass and viscous_damping are the lightest axis' (what a
+  /// one-axis rule sees as the worst case).
+  std::vector<Axis> axes;
+  /// 1 for a one-axis model, else axes.size().
+  int axis_count() const noexcept { return axes.empty() ? 1 : static_cast<int>(axes.size()); }
 };
 
 /// A reference search the device ran itself before the loop (CiA 402
@@ -173,6 +191,22 @@ class DeviceHooks {
   virtual IoResult read(Reading& out) noexcept = 0;
   /// Commands a force or torque for the coming period.
   virtual IoResult write(double force) noexcept = 0;
+
+  // ---- several axes: read and written together, one sample instant for
+  // all, one call each per period. A one-axis driver writes none of this ----
+
+  /// 1 to max_axes; fixed from construction (the framework asks once).
+  virtual int axes() const noexcept { return 1; }
+  /// Every axis at once, out.size() == axes() (the framework checks it).
+  /// Default: read(), for a one-axis driver.
+  virtual IoResult read_axes(std::span<Reading> out) noexcept {
+    return out.size() == 1 ? read(out[0]) : IoResult::error;
+  }
+  /// Every axis' force or torque for the coming period, forces.size() ==
+  /// axes(). Default: write(), for a one-axis driver.
+  virtual IoResult write_axes(std::span<const double> forces) noexcept {
+    return forces.size() == 1 ? write(forces[0]) : IoResult::error;
+  }
 
   // ---- any non-RT thread ----
 

@@ -46,6 +46,49 @@ struct scene_variant<First, SceneList<Entries...>> {
 /// RT loop steps. FreeScene first, so that a default AnyScene outputs nothing.
 using AnyScene = detail::scene_variant<FreeScene, SceneRegistry>::type;
 
+namespace detail {
+/// An entry's task-space types (Entry::task_alternatives), none if it has none.
+template <class Entry>
+struct task_alternatives_of {
+  using type = std::tuple<>;
+};
+template <class Entry>
+requires requires { typename Entry::task_alternatives; }
+struct task_alternatives_of<Entry> {
+  using type = typename Entry::task_alternatives;
+};
+template <class First, class Registry>
+struct task_scene_variant;
+template <class First, class... Entries>
+struct task_scene_variant<First, SceneList<Entries...>> {
+  using type = typename variant_from<
+      First, decltype(std::tuple_cat(std::declval<typename task_alternatives_of<Entries>::type>()...))>::type;
+};
+}  // namespace detail
+
+/// Every registered task-space scene type (world/task_scenes.hpp), for a
+/// device with several axes: task position in, task force out.
+/// TaskFreeScene first, so that a default AnyTaskScene outputs nothing.
+using AnyTaskScene = detail::task_scene_variant<TaskFreeScene, SceneRegistry>::type;
+
+inline void reset(AnyTaskScene& scene, const AxisVector& x) noexcept {
+  std::visit([&x](auto& s) noexcept { s.reset(x); }, scene);
+}
+
+/// The task force at x, one entry per task axis.
+inline void step(AnyTaskScene& scene, const AxisVector& x, AxisVector& force) noexcept {
+  std::visit([&x, &force](auto& s) noexcept { s.step(x, force); }, scene);
+}
+
+inline std::size_t channel_count(const AnyTaskScene& scene) noexcept {
+  return std::visit([](const auto& s) noexcept { return std::remove_cvref_t<decltype(s)>::channel_count; },
+                    scene);
+}
+
+inline void channels(const AnyTaskScene& scene, std::span<double> out) noexcept {
+  std::visit([out](const auto& s) noexcept { s.channels(out); }, scene);
+}
+
 inline void reset(AnyScene& scene, double measured_position) noexcept {
   std::visit([measured_position](auto& s) noexcept { s.reset(measured_position); }, scene);
 }

@@ -11,6 +11,7 @@ namespace {
 
 void build_free(ScenePlan& plan, const SceneContext& context) {
   set_scene(plan, FreeScene{}, context.motion);
+  if (context.axes > 1) set_task_scene(plan, TaskFreeScene{});
 }
 
 }  // namespace
@@ -23,7 +24,8 @@ SceneDescription FreeEntry::describe() {
           .fixed_motion = std::nullopt,
           .stability = StabilityRule::none,
           .unstable_hint = {},
-          .build = build_free};
+          .build = build_free,
+          .space = SceneSpace::any};
 }
 
 }  // namespace hapticd::world

@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "world/scene.hpp"
+#include "world/task_scenes.hpp"
 
 namespace hapticd::world {
 
@@ -26,6 +27,8 @@ static_assert(Scene<FreeScene>);
 /// `free` in the scene registry (world/scene_registry.hpp); free_scene.cpp describes it.
 struct FreeEntry {
   using alternatives = std::tuple<FreeScene>;
+  /// On a device with several axes: zero force on every axis.
+  using task_alternatives = std::tuple<TaskFreeScene>;
   static SceneDescription describe();
 };
 

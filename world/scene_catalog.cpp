@@ -71,10 +71,27 @@ std::optional<ParameterValue> validate(const ParameterSpec& p, const ParameterVa
       }
       return std::nullopt;
     case ParameterType::text:
+      // The task scenes' vectors ("1,1"): the factory parses them, naming the parameter.
+      if (std::holds_alternative<std::string>(value)) return value;
+      return std::nullopt;
     case ParameterType::duration:
     case ParameterType::table:
       break;  // no scene takes these
   }
+  return std::nullopt;
+}
+
+/// A task-space scene on one axis, or a one-axis scene on several.
+std::optional<SceneError> wrong_space(const SceneDescription& scene, int axes) {
+  if (scene.space == SceneSpace::any) return std::nullopt;
+  if (scene.space == SceneSpace::task && axes == 1)
+    return SceneError{scene.name +
+                      " is a task-space scene for a device with several axes; this device has one "
+                      "axis; accepted: " +
+                      scene_names_for(1)};
+  if (scene.space == SceneSpace::one_axis && axes > 1)
+    return SceneError{scene.name + " renders on one axis; this device has " + std::to_string(axes) +
+                      " axes; accepted: " + scene_names_for(axes)};
   return std::nullopt;
 }
 
@@ -104,8 +121,22 @@ std::string_view to_string(StabilityRule rule) noexcept {
       return "linear";
     case StabilityRule::hulin_wall:
       return "hulin_wall";
+    case StabilityRule::task_wall:
+      return "task_wall";
   }
   return "none";
+}
+
+std::string_view to_string(SceneSpace space) noexcept {
+  switch (space) {
+    case SceneSpace::one_axis:
+      return "one-axis";
+    case SceneSpace::task:
+      return "task";
+    case SceneSpace::any:
+      return "any";
+  }
+  return "one-axis";
 }
 
 std::string_view scene_type_name(ParameterType type) noexcept {
@@ -127,6 +158,14 @@ const SceneDescription* find_scene(std::string_view name) noexcept {
 std::string scene_names() {
   std::vector<std::string> names;
   for (const auto& s : scene_catalog()) names.push_back(s.name);
+  return join(names);
+}
+
+std::string scene_names_for(int axes) {
+  std::vector<std::string> names;
+  for (const auto& s : scene_catalog()) {
+    if (s.space == SceneSpace::any || (s.space == SceneSpace::task) == (axes > 1)) names.push_back(s.name);
+  }
   return join(names);
 }
 
@@ -157,6 +196,7 @@ std::string accepted_text(const ParameterSpec& p, Motion motion) {
     case ParameterType::boolean:
       return "true or false";
     case ParameterType::text:
+      return "comma-separated numbers, one per axis" + (unit.empty() ? std::string() : " (" + unit + ")");
     case ParameterType::duration:
     case ParameterType::table:
       break;
@@ -194,15 +234,20 @@ std::vector<ChannelDescription> describe_channels(std::span<const std::string_vi
   return out;
 }
 
-PlanResult plan_scene(std::string_view name, const ParameterSet& given, double period_s, Motion motion) {
+PlanResult plan_scene(std::string_view name, const ParameterSet& given, double period_s, Motion motion,
+                      int axes) {
   const SceneDescription* description = find_scene(name);
   if (description == nullptr) {
-    return SceneError{"unknown scene '" + std::string(name) + "'; accepted: " + scene_names()};
+    return SceneError{"unknown scene '" + std::string(name) + "'; accepted: " + scene_names_for(axes)};
   }
   if (!(std::isfinite(period_s) && period_s > 0.0)) {
     return SceneError{"period: " + format_significant(period_s, digits) +
                       " is not accepted; a finite number > 0 (s)"};
   }
+  if (axes < 1 || axes > max_axes) {
+    return SceneError{"axes: " + std::to_string(axes) + " is not accepted; 1 to " + std::to_string(max_axes)};
+  }
+  if (auto error = wrong_space(*description, axes)) return *error;
   motion = description->fixed_motion.value_or(motion);
   if (auto error = unknown_parameter(*description, given)) return *error;
 
@@ -224,7 +269,7 @@ PlanResult plan_scene(std::string_view name, const ParameterSet& given, double p
   }
 
   try {
-    description->build(plan, {period_s, motion});
+    description->build(plan, {period_s, motion, axes});
   } catch (const std::exception& e) {
     return SceneError{plan.scene + ": " + e.what()};
   }

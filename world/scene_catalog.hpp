@@ -44,6 +44,11 @@ struct ScenePlan {
   const SceneDescription* description = nullptr;  ///< the catalog's entry (lives as long as the program)
   ParameterSet parameters;  ///< complete: defaults filled, enums canonical, damping "auto" resolved to T k
   AnyScene scene_object;
+  /// What a device with several axes runs (task-space scenes, and free):
+  /// world/task_scenes.hpp. Unused on one axis.
+  AnyTaskScene task_object;
+  /// A task-space wall: what the stability gate judges (StabilityRule::task_wall).
+  std::optional<TaskWallJudgement> task_wall;
   std::vector<ChannelDescription> channels;
   std::optional<DiscreteLinearScene> linear;  ///< spring scenes; wall: the in-contact law
   std::vector<std::string> notes;             ///< e.g. how damping=auto was resolved
@@ -56,8 +61,15 @@ using PlanResult = std::variant<ScenePlan, SceneError>;
 /// bool or "true"/"false". Unknown parameters are refused. Off the RT path.
 /// `motion` (the device's) chooses the units of a scene without a fixed
 /// motion (wall, relay); spring-wheel is always rotary, spring-mass linear.
+/// `axes` (the device's, 1 to max_axes) decides where the scene may run: a
+/// task-space scene needs several axes, a one-axis scene one (SceneSpace);
+/// either is refused otherwise, saying which scenes the device takes.
 PlanResult plan_scene(std::string_view name, const ParameterSet& given, double period_s,
-                      Motion motion = Motion::linear);
+                      Motion motion = Motion::linear, int axes = 1);
+
+/// The scenes a device with this many axes takes: "spring-wheel, ..." or
+/// "plane-wall, sphere, box, free".
+std::string scene_names_for(int axes);
 
 /// Every registered scene's description (world/scene_registry.hpp), in registry order.
 const std::vector<SceneDescription>& scene_catalog();
@@ -87,6 +99,14 @@ void set_scene(ScenePlan& plan, S scene, Motion motion) {
   if constexpr (requires { scene.linear_model(); }) plan.linear = scene.linear_model();
   plan.channels = describe_channels(S::channel_names, motion);
   plan.scene_object = std::move(scene);
+}
+
+/// For a task-space scene's factory: the plan runs `scene` on a device with
+/// several axes, with its telemetry channels (positions in m).
+template <class S>
+void set_task_scene(ScenePlan& plan, S scene) {
+  plan.channels = describe_channels(S::channel_names, Motion::linear);
+  plan.task_object = std::move(scene);
 }
 
 /// For a scene's factory with the passivity option (world/passivity_scene.hpp):

@@ -31,13 +31,23 @@ enum class StabilityRule {
   /// delay d): on a rigid, undamped device a refusal also says what Hulin's
   /// region (eq. 1) allows.
   hulin_wall,
+  /// A wall in task space (world/task_scenes.hpp): the factory sets the
+  /// plan's TaskWallJudgement, and the gate judges Hulin's one-axis wall
+  /// along each of its directions with the mass the device has there.
+  task_wall,
 };
-std::string_view to_string(StabilityRule rule) noexcept;  ///< "none", "linear", "hulin_wall"
+std::string_view to_string(StabilityRule rule) noexcept;  ///< "none", "linear", "hulin_wall", "task_wall"
+
+/// Where a scene lives: on one axis (position and force scalars), in task
+/// space (a device with several axes), or either (free).
+enum class SceneSpace { one_axis, task, any };
+std::string_view to_string(SceneSpace space) noexcept;  ///< "one-axis", "task", "any"
 
 /// What the factory is given besides the validated parameters.
 struct SceneContext {
   double period_s = 1e-3;
   Motion motion = Motion::linear;  ///< the scene's fixed motion, else the device's
+  int axes = 1;                    ///< the device's axes (task dimensions), 1 to max_axes
 };
 
 /// Builds the scene from plan.parameters (complete, canonical): sets
@@ -59,6 +69,7 @@ struct SceneDescription {
   /// The gate's advice when even a vanishing stiffness is unstable; "" none.
   std::string unstable_hint;
   SceneFactory build = nullptr;
+  SceneSpace space = SceneSpace::one_axis;
 };
 
 }  // namespace hapticd::world

@@ -11,6 +11,7 @@
 #include "world/free_scene.hpp"
 #include "world/relay_scene.hpp"
 #include "world/spring_scene.hpp"
+#include "world/task_scenes.hpp"
 #include "world/wall_scene.hpp"
 
 namespace hapticd::world {
@@ -18,7 +19,7 @@ namespace hapticd::world {
 template <class... Entries>
 struct SceneList {};
 
-using SceneRegistry =
-    SceneList<SpringWheelEntry, SpringMassEntry, WallEntry, RelayEntry, ChirpEntry, FreeEntry>;
+using SceneRegistry = SceneList<SpringWheelEntry, SpringMassEntry, WallEntry, RelayEntry, ChirpEntry,
+                                FreeEntry, PlaneWallEntry, SphereEntry, BoxEntry>;
 
 }  // namespace hapticd::world

@@ -3,6 +3,7 @@
 #include "drivers/registry.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -340,10 +341,43 @@ class Parser {
     return true;
   }
 
+  /// [device] axis_names: 1 to 6 distinct names of letters, digits and _.
+  std::vector<std::string> get_axis_names(const toml::node& node, const std::string& key) const {
+    const std::string accepted =
+        "an array of 1 to 6 distinct axis names of 1 to 16 letters, digits or _, e.g. [\"x\", \"y\"]";
+    const auto* array = node.as_array();
+    if (array == nullptr) wrong_type(node, key, accepted);
+    if (array->empty() || array->size() > 6) out_of_range(node, key, accepted);
+    std::vector<std::string> names;
+    for (const auto& entry : *array) {
+      const std::string name = get_string(entry, key, accepted);
+      const bool word =
+          !name.empty() && name.size() <= 16 &&
+          std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isalnum(c) || c == '_'; });
+      if (!word || std::find(names.begin(), names.end(), name) != names.end())
+        out_of_range(entry, key, accepted);
+      names.push_back(name);
+    }
+    return names;
+  }
+
+  /// [device] kinematics: "cartesian"; "pantograph" is not simulated yet.
+  std::string get_kinematics(const toml::node& node, const std::string& key) const {
+    const std::string value = get_string(node, key, "\"cartesian\"");
+    if (value == "pantograph")
+      fail(node.source(), key,
+           key +
+               " = \"pantograph\" is not simulated yet: the pantograph's kinematics exist "
+               "(world/kinematics.hpp, analysis/task_space.hpp) but no driver simulates its linkage; "
+               "accepted: \"cartesian\"");
+    if (value != "cartesian") out_of_range(node, key, "\"cartesian\"");
+    return value;
+  }
+
   void parse_device(const toml::table& table, DeviceConfig& device) const {
     static const std::string accepted =
-        "driver, torque_limit, max_velocity, model, encoder, origin, origin_file, require_calibration, and a "
-        "table [device.<driver>] for the selected driver";
+        "driver, torque_limit, max_velocity, model, axis_names, kinematics, encoder, origin, origin_file, "
+        "require_calibration, and a table [device.<driver>] for the selected driver";
     const std::string drivers = driver_list();
     // The driver first: the driver table's name is checked against it.
     if (const auto* node = table.get("driver")) {
@@ -376,6 +410,11 @@ class Parser {
         device.model_where = position(node->source());
       } else if (parse_calibration_key(name, *node, device)) {
         continue;
+      } else if (name == "axis_names") {
+        device.axis_names = get_axis_names(*node, dotted);
+        device.axis_names_where = position(node->source());
+      } else if (name == "kinematics") {
+        device.kinematics = get_kinematics(*node, dotted);
       } else if (const auto* sub = node->as_table(); sub && is_driver_kind(name)) {
         if (name != device.driver) {
           fail(key->source(), dotted,

@@ -91,6 +91,15 @@ struct DeviceConfig {
   /// velocity limit". nullopt: derived from the device (docs/config.md).
   std::optional<double> max_velocity;
   ParameterList parameters;  ///< the [device.<driver>] table, unvalidated
+  /// A device with several axes: each axis' name, in the driver's order
+  /// (checked against the device's axes at start-up). Empty: x, y, z, a,
+  /// b, c, as many as the device has.
+  std::vector<std::string> axis_names;
+  SourcePosition axis_names_where;  ///< position of device.axis_names' value
+  /// Joints to task space on several axes: "cartesian" (one task axis per
+  /// joint). The pantograph's kinematics exist (world/kinematics.hpp) but no
+  /// driver simulates one: refused.
+  std::string kinematics = "cartesian";
   /// A model file (`hapticctl identify --apply`) replacing the driver's model
   /// for the stability gate; resolved against the config file's directory. Empty: none.
   std::string model;

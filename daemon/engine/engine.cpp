@@ -17,7 +17,13 @@ Engine::Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock)
       clock_(clock),
       telemetry_(options_.telemetry_capacity),
       read_error_streak_(options_.read_error_limit),
-      position_guard_(options_.position_rule) {}
+      position_guard_(options_.position_rule) {
+  if (device_.axes() > 1) {
+    task_ = std::make_unique<TaskAxes>(
+        device_.axes(), options_.kinematics.value_or(world::CartesianKinematics(device_.axes())),
+        options_.position_rule);
+  }
+}
 
 Engine::~Engine() { stop(); }
 
@@ -99,6 +105,7 @@ void Engine::latch_jump(const PositionJump& jump) noexcept {
   rt::seq_store(jump_step_, jump.step);
   rt::seq_store(jump_limit_, jump.limit);
   rt::seq_store(jump_interval_s_, jump.interval_s);
+  rt::seq_store(jump_axis_, jump.axis);
   jump_version_.write_end();
   latch(FaultReason::encoder_jump);
 }
@@ -110,6 +117,7 @@ std::optional<PositionJump> Engine::position_jump() const {
     jump.step = rt::seq_load(jump_step_);
     jump.limit = rt::seq_load(jump_limit_);
     jump.interval_s = rt::seq_load(jump_interval_s_);
+    jump.axis = rt::seq_load(jump_axis_);
   });
   if (!consistent) return std::nullopt;
   return jump;
@@ -210,6 +218,10 @@ std::optional<OriginOutcome> Engine::zero_here(std::chrono::milliseconds valid_f
 }
 
 void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
+  if (task_) {
+    run_task_cycle(wake);  // several axes: task_cycle.cpp
+    return;
+  }
   cycle_.store(wake.cycle, std::memory_order_relaxed);
   TelemetrySample sample;
   sample.cycle = wake.cycle;
@@ -292,7 +304,9 @@ void Engine::finish_sample(const rt::WakeUp& wake, TelemetrySample& sample, bool
   if (plan_ != nullptr && plan_->unstable_forced) sample.flags |= flag_unstable_forced;
 
   sample.compute_s = std::chrono::duration<double>(clock_.now() - wake.woke).count();
-  if (plan_ != nullptr) {
+  if (task_) {
+    task_channels(sample);
+  } else if (plan_ != nullptr) {
     const std::size_t n = world::channel_count(scene_);
     sample.channel_count = static_cast<std::uint32_t>(n);
     world::channels(scene_, std::span<double>(sample.channels.data(), n));

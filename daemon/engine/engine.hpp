@@ -19,6 +19,7 @@
 #include "daemon/engine/loop_plan.hpp"
 #include "daemon/engine/origin.hpp"
 #include "daemon/engine/safety.hpp"
+#include "daemon/engine/task_axes.hpp"
 #include "daemon/system/rt_setup.hpp"
 #include "daemon/telemetry.hpp"
 #include "drivers/device.hpp"
@@ -43,6 +44,9 @@ struct EngineOptions {
   /// [device] require_calibration: the output stays zero (flag_uncalibrated)
   /// until an origin is in force (preset_origin() or a taken request).
   bool require_calibration = false;
+  /// A device with several axes: its kinematics (joints to task space);
+  /// nothing: Cartesian on the device's axes. Unused on one axis.
+  std::optional<world::Kinematics> kinematics;
   /// Virtual clock only: wait for ring space instead of dropping a sample.
   /// Simulated time is not real time, so a deterministic run that loses
   /// nothing is worth more than speed; never set with the real clock.
@@ -61,7 +65,9 @@ struct EngineCounters {
 
 class Engine {
  public:
-  /// The device and clock must outlive the engine. Allocates the ring.
+  /// The device and clock must outlive the engine. Allocates the ring (and
+  /// for a device with several axes their state; std::invalid_argument when
+  /// the kinematics' joints are not the device's axes).
   Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock);
   ~Engine();
   Engine(const Engine&) = delete;
@@ -153,6 +159,21 @@ class Engine {
   /// Statistics, flags, channels and the push of this cycle's sample.
   void finish_sample(const rt::WakeUp& wake, TelemetrySample& sample, bool output_latched) noexcept;
 
+  // A device with several axes (task_cycle.cpp): run_cycle hands over to
+  // these; the one-axis cycle above is untouched by them.
+  /// One period: read every axis, kinematics, the task scene's force,
+  /// tau = J^T F with one common saturation factor, write every axis.
+  void run_task_cycle(const rt::WakeUp& wake) noexcept;
+  /// Every axis' reading with the reading rules (fault, error streak, finite
+  /// values, a position guard per axis), then the kinematics; true when the
+  /// task position may be rendered.
+  bool read_task_position(const rt::WakeUp& wake, TelemetrySample& sample) noexcept;
+  /// The task force of this period and the joint outputs it makes.
+  void render_task_force(TelemetrySample& sample, bool position_valid, bool output_allowed,
+                         bool& output_latched) noexcept;
+  /// Each axis' position, task force and output, then the scene's channels.
+  void task_channels(TelemetrySample& sample) const noexcept;
+
   EngineOptions options_;
   drivers::Device& device_;
   rt::Clock& clock_;
@@ -172,6 +193,7 @@ class Engine {
   StreakCounter read_error_streak_;
   PositionStepGuard position_guard_;
   rt::Nanos t0_{0};
+  std::unique_ptr<TaskAxes> task_;  ///< a device with several axes; null for one
 
   std::atomic<std::uint64_t> cycle_{0};
   std::atomic<std::uint64_t> read_errors_{0};
@@ -186,6 +208,7 @@ class Engine {
   std::atomic<double> jump_step_{0.0};
   std::atomic<double> jump_limit_{0.0};
   std::atomic<double> jump_interval_s_{0.0};
+  std::atomic<int> jump_axis_{-1};
 
   // stats.reset: the control thread bumps `requested`; the RT thread resets
   // and copies it to `done` (release, after stats_since_cycle_).

@@ -14,7 +14,9 @@ namespace hapticd::daemon::engine {
 
 struct LoopPlan {
   world::AnyScene scene;
-  double torque_limit = 0.0;     ///< N or N m, applied after the scene, always
+  /// What a device with several axes runs (task position in, task force out).
+  world::AnyTaskScene task_scene;
+  double torque_limit = 0.0;     ///< N or N m, applied after the scene, always (each axis' on several)
   bool unstable_forced = false;  ///< loaded with force=true although analysis says unstable
 };
 

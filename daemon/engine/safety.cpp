@@ -25,6 +25,8 @@ std::string_view to_string(FaultReason reason) noexcept {
       return "overrun streak";
     case FaultReason::encoder_jump:
       return "encoder jump / velocity limit";
+    case FaultReason::kinematics:
+      return "kinematics: out of the workspace or at a singularity";
   }
   return "unknown";
 }
@@ -61,11 +63,13 @@ std::string describe(const PositionJump& jump, const PositionStepRule& rule) {
     std::snprintf(counts, sizeof counts, " (%+.10g counts)", jump.step / rule.resolution);
     std::snprintf(count, sizeof count, " + 1 count of %.6g %s", rule.resolution, unit);
   }
-  char text[384];
+  char axis[32] = "";
+  if (jump.axis >= 0) std::snprintf(axis, sizeof axis, " (axis %d)", jump.axis + 1);
+  char text[416];
   std::snprintf(text, sizeof text,
-                "%s: the position stepped %+.9g %s%s in %.6g ms, over the limit of %.6g %s (max_velocity "
+                "%s%s: the position stepped %+.9g %s%s in %.6g ms, over the limit of %.6g %s (max_velocity "
                 "%.6g %s/s x %.6g ms%s)",
-                std::string(to_string(FaultReason::encoder_jump)).c_str(), jump.step, unit, counts,
+                std::string(to_string(FaultReason::encoder_jump)).c_str(), axis, jump.step, unit, counts,
                 jump.interval_s * 1e3, jump.limit, unit, rule.max_velocity, unit, jump.interval_s * 1e3,
                 count);
   return text;

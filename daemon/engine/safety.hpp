@@ -25,6 +25,7 @@ enum class FaultReason : std::uint8_t {
   write_error,          ///< the driver could not apply the output
   overrun_streak,       ///< too many consecutive late cycles
   encoder_jump,         ///< the position stepped beyond max_velocity x interval + one count
+  kinematics,           ///< several axes: the joints are out of the workspace or at a singularity
 };
 
 std::string_view to_string(FaultReason reason) noexcept;
@@ -69,6 +70,7 @@ struct PositionJump {
   double step = 0.0;        ///< m or rad, new reading minus the previous one
   double limit = 0.0;       ///< m or rad, the rule's limit for this interval
   double interval_s = 0.0;  ///< between the two readings (at least one period)
+  int axis = -1;            ///< the axis (0-based) on a device with several; -1 on one
 };
 
 /// "encoder jump / velocity limit: the position stepped ... in ... ms ..."

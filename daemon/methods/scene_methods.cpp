@@ -17,7 +17,7 @@ void Service::register_scene_methods(control::ControlServer& server) {
   server.register_method(
       "scene.list",
       [this](const json&, const PeerInfo&) {
-        json scenes = scene_catalog_json(model_.motion());
+        json scenes = scene_catalog_json(model_.motion(), model_.info.axis_count());
         std::lock_guard lock(scene_mutex_);
         return json{{"scenes", scenes}, {"current", scene_.name}};
       },

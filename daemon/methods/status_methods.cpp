@@ -67,6 +67,8 @@ json Service::fault_detail() const {
            {"limit", jump->limit},
            {"max_velocity", rule.max_velocity},
            {"interval_s", jump->interval_s}};
+  if (jump->axis >= 0 && static_cast<std::size_t>(jump->axis) < model_.axis_names.size())
+    out["axis"] = model_.axis_names[static_cast<std::size_t>(jump->axis)];
   if (rule.resolution > 0.0) {
     out["resolution"] = rule.resolution;
     if (const double counts = jump->step / rule.resolution; std::abs(counts) < 9e18)
@@ -110,6 +112,16 @@ json Service::status() const {
         {"stability", to_json(scene.stability)},
         {"forced", scene.forced},
         {"effective_cycle", scene.effective_cycle}}}};
+  if (!model_.axis_names.empty()) {
+    // Several axes: each one's name, mass and damping (one axis: nothing new).
+    json axes = json::array();
+    for (std::size_t i = 0; i < model_.axis_names.size(); ++i)
+      axes.push_back({{"name", model_.axis_names[i]},
+                      {"mass", model_.info.axes[i].mass},
+                      {"damping", model_.info.axes[i].damping}});
+    out["device"]["axes"] = axes;
+    out["device"]["kinematics"] = cfg.device.kinematics;
+  }
   if (rt_report_ != nullptr) {
     out["realtime"] = {{"scheduler_set", rt_report_->scheduler_set},
                        {"priority", rt_report_->priority},

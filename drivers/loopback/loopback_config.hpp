@@ -33,6 +33,26 @@ LoopbackConfig loopback_config_from(const DriverParameters& parameters);
 /// ParameterError naming the key ("hand.amplitude").
 simulation::HandScript hand_script_from(const DriverParameters& parameters);
 
+/// A Cartesian stage of several axes ([device.loopback] axes = N, issue
+/// 22): one rigid, linear plant simulator per axis, each with its own mass,
+/// damping and scripted hand; the other keys (counts, max_force, coulomb,
+/// delay) are every axis'. One axis is exactly loopback_config_from and
+/// hand_script_from.
+struct LoopbackStage {
+  std::vector<LoopbackConfig> axes;           ///< 1 to max_axes
+  std::vector<simulation::HandScript> hands;  ///< one per axis
+};
+
+/// From checked parameters; throws ParameterError naming the key (axes,
+/// axis_mass, axis_damping, hands, or a key a stage cannot take).
+LoopbackStage loopback_stage_from(const DriverParameters& parameters);
+
+/// "0.1,0.3" -> {0.1, 0.3}: exactly `count` comma-separated finite numbers
+/// within [low, high]; throws ParameterError naming `key` and what is
+/// accepted. Parsed once, at configuration.
+std::vector<double> per_axis_numbers(std::string_view key, std::string_view text, int count, double low,
+                                     double high, std::string_view unit);
+
 /// From "key=value key=value ..." text (space separated), through the same
 /// typed parameters; for tests and tools. Throws ParameterError.
 LoopbackConfig parse_loopback_config(std::string_view text);

@@ -15,8 +15,18 @@ using nlohmann::json;
 using rpc::RpcError;
 namespace code = rpc::code;
 
-LoopbackDevice::LoopbackDevice(const LoopbackConfig& config, const HandScript& hand)
-    : simulator_(std::make_unique<simulation::PlantSimulator>(config, hand)) {}
+LoopbackDevice::LoopbackDevice(const LoopbackConfig& config, const HandScript& hand) {
+  simulators_.push_back(std::make_unique<simulation::PlantSimulator>(config, hand));
+}
+
+LoopbackDevice::LoopbackDevice(const LoopbackStage& stage) {
+  if (stage.axes.empty() || stage.axes.size() > static_cast<std::size_t>(max_axes) ||
+      stage.hands.size() != stage.axes.size())
+    throw std::invalid_argument("loopback: a stage has 1 to " + std::to_string(max_axes) +
+                                " axes, each with its hand");
+  for (std::size_t i = 0; i < stage.axes.size(); ++i)
+    simulators_.push_back(std::make_unique<simulation::PlantSimulator>(stage.axes[i], stage.hands[i]));
+}
 
 std::unique_ptr<Device> make_loopback_device(const LoopbackConfig& config, const HandScript& hand) {
   return std::make_unique<Device>("loopback", std::make_unique<LoopbackDevice>(config, hand));
@@ -26,53 +36,98 @@ void LoopbackDevice::configure(const LoopContext& loop) {
   if (!(loop.period_s > 0.0) || !std::isfinite(loop.period_s)) {
     throw DeviceError("loopback: the loop period must be > 0 s", "period");
   }
-  if (loop.period_s != simulator_->config().period_s) {
-    // The plant is discretized for one period: rebuild it for the loop's.
-    LoopbackConfig config = simulator_->config();
-    config.period_s = loop.period_s;
-    simulator_ = std::make_unique<simulation::PlantSimulator>(config, simulator_->hand());
+  for (auto& axis : simulators_) {
+    if (loop.period_s != axis->config().period_s) {
+      // The plant is discretized for one period: rebuild it for the loop's.
+      LoopbackConfig config = axis->config();
+      config.period_s = loop.period_s;
+      axis = std::make_unique<simulation::PlantSimulator>(config, axis->hand());
+    }
   }
 }
 
 void LoopbackDevice::enable() {
-  simulator_->reset_actuator();  // the amplifier comes on with zero output, nothing stale
+  // The amplifier comes on with zero output, nothing stale.
+  for (auto& axis : simulators_) axis->reset_actuator();
 }
 
 std::string LoopbackDevice::clear_fault() {
-  std::string cleared = simulator_->active_faults();
-  simulator_->clear_faults();
+  std::string cleared;
+  for (std::size_t i = 0; i < simulators_.size(); ++i) {
+    const std::string faults = simulators_[i]->active_faults();
+    simulators_[i]->clear_faults();
+    if (faults.empty()) continue;
+    if (!cleared.empty()) cleared += "; ";
+    cleared += simulators_.size() == 1 ? faults : "axis " + std::to_string(i + 1) + ": " + faults;
+  }
   return cleared;
 }
 
 void LoopbackDevice::disable() noexcept {
-  simulator_->reset_actuator();  // the amplifier is off: nothing is applied any more
+  // The amplifier is off: nothing is applied any more.
+  for (auto& axis : simulators_) axis->reset_actuator();
 }
 
-IoResult LoopbackDevice::read(Reading& out) noexcept { return simulator_->sense(out.position); }
+IoResult LoopbackDevice::read(Reading& out) noexcept { return simulator().sense(out.position); }
 
 /// The framework calls it only while enabled: disabled, the amplifier is
 /// off and the plant does not advance (enable() empties the delay line).
-IoResult LoopbackDevice::write(double force) noexcept { return simulator_->step(force); }
+IoResult LoopbackDevice::write(double force) noexcept { return simulator().step(force); }
+
+namespace {
+/// The worse of two results: a fault over an error over ok.
+IoResult worse(IoResult a, IoResult b) noexcept { return static_cast<int>(a) >= static_cast<int>(b) ? a : b; }
+}  // namespace
+
+IoResult LoopbackDevice::read_axes(std::span<Reading> out) noexcept {
+  IoResult result = IoResult::ok;
+  for (std::size_t i = 0; i < out.size() && i < simulators_.size(); ++i)
+    result = worse(result, simulators_[i]->sense(out[i].position));
+  return result;
+}
+
+IoResult LoopbackDevice::write_axes(std::span<const double> forces) noexcept {
+  IoResult result = IoResult::ok;
+  for (std::size_t i = 0; i < forces.size() && i < simulators_.size(); ++i)
+    result = worse(result, simulators_[i]->step(forces[i]));
+  return result;
+}
 
 DeviceModel LoopbackDevice::model() const {
-  const LoopbackConfig& c = simulator_->config();
+  const LoopbackConfig& c = simulator().config();
   DeviceModel m;
   m.motion = c.motion;
   m.effective_mass = c.total_mass();
   m.viscous_damping = c.total_damping();
   m.position_resolution = c.resolution();
   m.delay_periods = c.delay;
-  if (c.plant == PlantKind::two_mass) m.plant = simulator_->plant_model();
+  if (c.plant == PlantKind::two_mass) m.plant = simulator().plant_model();
   m.sensor = c.sensor;
   m.source = "config";
   m.description = std::string(to_string(c.motion)) + ", " + std::string(to_string(c.plant));
+  if (simulators_.size() == 1) return m;
+  // A stage: every axis, and the lightest one in the one-axis fields.
+  m.description = "linear, Cartesian stage of " + std::to_string(simulators_.size()) + " rigid axes";
+  for (const auto& axis : simulators_) {
+    m.axes.push_back({axis->config().mass, axis->config().damping});
+    if (axis->config().mass < m.effective_mass) {
+      m.effective_mass = axis->config().mass;
+      m.viscous_damping = axis->config().damping;
+    }
+  }
   return m;
 }
 
 DeviceHealth LoopbackDevice::health() const {
   DeviceHealth h;
-  h.faulted = simulator_->faulted();
-  h.last_error = simulator_->active_faults();
+  for (std::size_t i = 0; i < simulators_.size(); ++i) {
+    const auto& axis = *simulators_[i];
+    h.faulted = h.faulted || axis.faulted();
+    const std::string faults = axis.active_faults();
+    if (faults.empty()) continue;
+    if (!h.last_error.empty()) h.last_error += "; ";
+    h.last_error += simulators_.size() == 1 ? faults : "axis " + std::to_string(i + 1) + ": " + faults;
+  }
   if (h.faulted) h.fault_reason = "injected fault: the simulated amplifier is off";
   return h;
 }
@@ -150,20 +205,51 @@ std::int64_t fault_amount(Fault which, const json& params, std::int64_t offset_n
 
 }  // namespace
 
+namespace {
+
+/// The axes a method acts on, [first, last): the `axis` member (1-based; a
+/// stage only), else every axis.
+std::pair<std::size_t, std::size_t> target_axes(std::string_view method, const json& params,
+                                                std::size_t count) {
+  if (!params.contains("axis")) return {0, count};
+  const auto axis = static_cast<std::size_t>(rpc::integer_in(std::string(method), params, "axis", 1,
+                                                             static_cast<std::int64_t>(count),
+                                                             "an axis number, 1 to the device's axes"));
+  return {axis - 1, axis};
+}
+
+/// params without the `axis` member.
+json without_axis(json params) {
+  params.erase("axis");
+  return params;
+}
+
+}  // namespace
+
 std::vector<DeviceMethod> LoopbackDevice::methods() {
+  const bool stage = simulators_.size() > 1;
+  rpc::ParamMembers hand_keys = hand_members();
+  rpc::ParamMembers fault_keys{{"kind", rpc::ParamType::string}, {"amount", rpc::ParamType::number}};
+  if (stage) {
+    hand_keys.push_back({"axis", rpc::ParamType::number});
+    fault_keys.push_back({"axis", rpc::ParamType::number});
+  }
   DeviceMethod hand{"hand.set", true, "script the simulated hand (docs/protocol.md)",
-                    [this](const json& params) {
+                    [this, stage](const json& params) {
+                      const auto [first, last] = target_axes("hand.set", params, simulators_.size());
                       try {
-                        simulator_->set_hand(hand_text(params));
+                        const std::string text = hand_text(without_axis(params));
+                        for (std::size_t i = first; i < last; ++i) simulators_[i]->set_hand(text);
                       } catch (const std::invalid_argument& e) {
                         throw RpcError(code::invalid_params, e.what());
                       }
-                      return json{{"hand", simulator_->hand().to_text()}};
+                      if (!stage) return json{{"hand", simulator().hand().to_text()}};
+                      json hands = json::array();
+                      for (const auto& axis : simulators_) hands.push_back(axis->hand().to_text());
+                      return json{{"hands", hands}};
                     },
-                    hand_members()};
-  DeviceMethod fault{"fault.inject",
-                     true,
-                     "make the simulated device fail (docs/protocol.md)",
+                    hand_keys};
+  DeviceMethod fault{"fault.inject", true, "make the simulated device fail (docs/protocol.md)",
                      [this](const json& params) {
                        const std::string kind = params.value("kind", std::string());
                        const auto which = simulation::parse_fault(kind);
@@ -172,13 +258,17 @@ std::vector<DeviceMethod> LoopbackDevice::methods() {
                                         "fault.inject: unknown kind " + rpc::quoted_name(kind) +
                                             "; accepted: " + std::string(simulation::fault_names()));
                        }
-                       const std::int64_t amount = fault_amount(*which, params, simulator_->encoder_offset());
-                       simulator_->inject_fault(*which, amount);
+                       const auto [first, last] = target_axes("fault.inject", params, simulators_.size());
+                       std::int64_t amount = 0;
+                       for (std::size_t i = first; i < last; ++i)
+                         amount = fault_amount(*which, params, simulators_[i]->encoder_offset());
+                       for (std::size_t i = first; i < last; ++i)
+                         simulators_[i]->inject_fault(*which, amount);
                        return json{{"injected", kind}, {"amount", amount}};
                      },
                      // amount: any number here, so that fault_amount() names its own range
                      // for 2^64-1 or 1.5, not int64's
-                     {{"kind", rpc::ParamType::string}, {"amount", rpc::ParamType::number}}};
+                     fault_keys};
   return {std::move(hand), std::move(fault)};
 }
 

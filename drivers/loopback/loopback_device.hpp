@@ -33,6 +33,9 @@ class LoopbackDevice final : public DeviceHooks {
   /// simulator for config.period_s (configure() rebuilds it if the loop's
   /// period differs).
   explicit LoopbackDevice(const LoopbackConfig& config, const HandScript& hand = {});
+  /// A Cartesian stage: one simulator per axis (stage.axes.size() of them,
+  /// 1 to max_axes); one axis is the constructor above.
+  explicit LoopbackDevice(const LoopbackStage& stage);
 
   void configure(const LoopContext& loop) override;
   void enable() override;
@@ -40,33 +43,44 @@ class LoopbackDevice final : public DeviceHooks {
   void disable() noexcept override;
   IoResult read(Reading& out) noexcept override;
   IoResult write(double force) noexcept override;
+  int axes() const noexcept override { return static_cast<int>(simulators_.size()); }
+  /// Every axis' encoder at the same instant (before any axis steps).
+  IoResult read_axes(std::span<Reading> out) noexcept override;
+  /// Every axis' force, then each plant advances one period.
+  IoResult write_axes(std::span<const double> forces) noexcept override;
   DeviceModel model() const override;
   DeviceHealth health() const override;
   /// hand.set and fault.inject (docs/protocol.md).
   std::vector<DeviceMethod> methods() override;
 
-  simulation::PlantSimulator& simulator() noexcept { return *simulator_; }
-  const simulation::PlantSimulator& simulator() const noexcept { return *simulator_; }
+  /// The first axis' simulator (the only one of a one-axis loopback).
+  simulation::PlantSimulator& simulator() noexcept { return *simulators_.front(); }
+  const simulation::PlantSimulator& simulator() const noexcept { return *simulators_.front(); }
+  /// Axis `index`'s simulator, 0-based.
+  simulation::PlantSimulator& simulator(std::size_t index) { return *simulators_.at(index); }
 
   // The simulator's own calls, for tests and tools.
-  const LoopbackConfig& config() const noexcept { return simulator_->config(); }
-  const world::LinearPlant& plant_model() const noexcept { return simulator_->plant_model(); }
-  std::optional<world::TwoMassPlant> two_mass() const { return simulator_->two_mass(); }
-  void set_hand(const HandScript& script) { simulator_->set_hand(script); }
-  void set_hand(std::string_view text) { simulator_->set_hand(text); }
-  HandScript hand() const { return simulator_->hand(); }
+  const LoopbackConfig& config() const noexcept { return simulator().config(); }
+  const world::LinearPlant& plant_model() const noexcept { return simulator().plant_model(); }
+  std::optional<world::TwoMassPlant> two_mass() const { return simulator().two_mass(); }
+  void set_hand(const HandScript& script) { simulator().set_hand(script); }
+  void set_hand(std::string_view text) { simulator().set_hand(text); }
+  HandScript hand() const { return simulator().hand(); }
+  /// On every axis.
   void inject_fault(Fault fault, std::int64_t amount = -1) noexcept {
-    simulator_->inject_fault(fault, amount);
+    for (auto& axis : simulators_) axis->inject_fault(fault, amount);
   }
-  void clear_faults() noexcept { simulator_->clear_faults(); }
-  PlantSnapshot snapshot() const noexcept { return simulator_->snapshot(); }
+  void clear_faults() noexcept {
+    for (auto& axis : simulators_) axis->clear_faults();
+  }
+  PlantSnapshot snapshot() const noexcept { return simulator().snapshot(); }
   /// Only while the RT thread is not stepping the plant (disabled).
   void set_initial_state(double position, double velocity) {
-    simulator_->set_initial_state(position, velocity);
+    simulator().set_initial_state(position, velocity);
   }
 
  private:
-  std::unique_ptr<simulation::PlantSimulator> simulator_;
+  std::vector<std::unique_ptr<simulation::PlantSimulator>> simulators_;  ///< one per axis
 };
 
 /// The framework's Device around a loopback driver (tests, tools).

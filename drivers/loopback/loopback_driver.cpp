@@ -10,6 +10,29 @@ namespace {
 
 using P = ParameterSpec;
 
+/// A Cartesian stage's keys (LoopbackStage): how many axes, and what differs per axis.
+std::vector<ParameterSpec> stage_parameters() {
+  return {
+      P::integer("axes", "",
+                 "axes simulated together: 1 (today's loopback) or a Cartesian stage of 2 to 6 rigid, "
+                 "linear axes, one plant each, read and written at one sample instant")
+          .defaults_to(1.0)
+          .at_least(1.0)
+          .at_most(static_cast<double>(max_axes)),
+      P::text(
+          "axis_mass",
+          "axes > 1: each axis' moving mass in kg, comma-separated (\"0.1,0.3\"); unset: mass on every axis")
+          .defaults_to(""),
+      P::text("axis_damping",
+              "axes > 1: each axis' viscous damping in N s/m, comma-separated; unset: damping on every axis")
+          .defaults_to(""),
+      P::text("hands",
+              "axes > 1: one hand script per axis, separated by ';' (\"mode=hold trajectory=ramp to=0.01 "
+              "rate=0.01; mode=free\"); unset: the hand table on every axis")
+          .defaults_to(""),
+  };
+}
+
 std::vector<ParameterSpec> make_parameters() {
   // Ranges: world::parameter_range, as for the scenes (a value outside is a
   // typo, not a device); PlantConfig::validate() checks the same.
@@ -86,14 +109,18 @@ std::vector<ParameterSpec> make_parameters() {
 }  // namespace
 
 const std::vector<ParameterSpec>& loopback_parameters() {
-  static const std::vector<ParameterSpec> parameters = make_parameters();
+  static const std::vector<ParameterSpec> parameters = [] {
+    std::vector<ParameterSpec> all = make_parameters();
+    for (auto& key : stage_parameters()) all.push_back(std::move(key));
+    return all;
+  }();
   return parameters;
 }
 
 DriverDescription loopback_driver() {
   return {"loopback", "simulated plant (rigid or two-mass), scripted hand, fault injection: tests and demos",
           true, loopback_parameters(), [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
-            return std::make_unique<LoopbackDevice>(loopback_config_from(p), hand_script_from(p));
+            return std::make_unique<LoopbackDevice>(loopback_stage_from(p));
           }};
 }
 

@@ -257,12 +257,37 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
       "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
             "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, max_velocity, "
-            "model, encoder, origin, origin_file, require_calibration, and a table "
+            "model, axis_names, kinematics, encoder, origin, origin_file, require_calibration, and a table "
             "[device.<driver>] for the selected driver");
   EXPECT_EQ(error_of("[device.serial]\nx = 1"),
             "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, max_velocity, "
-            "model, encoder, origin, origin_file, require_calibration, and a table "
+            "model, axis_names, kinematics, encoder, origin, origin_file, require_calibration, and a table "
             "[device.<driver>] for the selected driver");
+}
+
+TEST(ConfigErrors, AxisNamesAndKinematicsNameTheKeyAndWhatIsAccepted) {
+  const std::string names =
+      "an array of 1 to 6 distinct axis names of 1 to 16 letters, digits or _, e.g. [\"x\", \"y\"]";
+  EXPECT_EQ(error_of("[device]\naxis_names = \"x,y\""),
+            "t.toml:2:14: device.axis_names = \"x,y\" has the wrong type; accepted: " + names);
+  EXPECT_EQ(error_of("[device]\naxis_names = []"),
+            "t.toml:2:14: device.axis_names = [...] is out of range; accepted: " + names);
+  EXPECT_EQ(error_of("[device]\naxis_names = [\"x\", \"x\"]"),
+            "t.toml:2:20: device.axis_names = \"x\" is out of range; accepted: " + names);
+  EXPECT_EQ(error_of("[device]\naxis_names = [\"x y\"]"),
+            "t.toml:2:15: device.axis_names = \"x y\" is out of range; accepted: " + names);
+  EXPECT_EQ(error_of("[device]\naxis_names = [\"a\",\"b\",\"c\",\"d\",\"e\",\"f\",\"g\"]"),
+            "t.toml:2:14: device.axis_names = [...] is out of range; accepted: " + names);
+  EXPECT_EQ(error_of("[device]\nkinematics = \"scara\""),
+            "t.toml:2:14: device.kinematics = \"scara\" is out of range; accepted: \"cartesian\"");
+  EXPECT_EQ(error_of("[device]\nkinematics = \"pantograph\"").substr(0, 74),
+            "t.toml:2:14: device.kinematics = \"pantograph\" is not simulated yet: the pa");
+  const auto config =
+      parse_config("[device]\naxis_names = [\"left\", \"up_2\"]\nkinematics = \"cartesian\"", "t.toml");
+  EXPECT_EQ(config.device.axis_names, (std::vector<std::string>{"left", "up_2"}));
+  EXPECT_EQ(config.device.axis_names_where.line, 2U);
+  EXPECT_EQ(config.device.kinematics, "cartesian");
+  EXPECT_TRUE(default_config().device.axis_names.empty()) << "the default: named by the device's count";
 }
 
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {

@@ -1,6 +1,7 @@
 // Proof that the RT cycle (Engine::run_cycle, including the plan hand-over)
 // allocates nothing, for every scene alternative, under faults, with a
-// scripted hand and with a full telemetry ring. The loop body is driven
+// scripted hand and with a full telemetry ring; on a six-axis stage, every
+// task-space scene alternative (the several-axis cycle). The loop body is driven
 // directly over a VirtualClock; hapticd_alloc_counter counts every operator
 // new on this thread while an AllocationGuard lives.
 
@@ -437,4 +438,111 @@ TEST(EngineAlloc, StatisticsResetHappensInTheNextCycleWithoutAllocating) {
   EXPECT_EQ(s.cycles, 10u);
   EXPECT_EQ(s.latency.count, 10u);
   EXPECT_EQ(s.compute.count, 10u);
+}
+
+// ---- a device with several axes (issue 22): the task-space cycle ----
+
+namespace {
+
+/// A six-axis Cartesian loopback stage, each axis held on its own sine
+/// through the scenes' surfaces (1 cm), its own mass.
+std::unique_ptr<hapticd::drivers::Device> six_axis_stage() {
+  loopback::LoopbackStage stage;
+  for (int i = 0; i < 6; ++i) {
+    auto axis = loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::linear);
+    axis.mass = 0.1 * (i + 1);
+    stage.axes.push_back(axis);
+    stage.hands.push_back(hapticd::drivers::simulation::parse_hand_script(
+        "mode=hold trajectory=sine amplitude=0.02 frequency=" + std::to_string(1 + i) +
+        " phase=" + std::to_string(0.5 * i)));
+  }
+  return std::make_unique<hapticd::drivers::Device>("loopback",
+                                                    std::make_unique<loopback::LoopbackDevice>(stage));
+}
+
+/// Every task-space alternative on six axes: each shape with and without
+/// damping and delay, and free.
+std::vector<NamedPlan> every_task_plan() {
+  std::vector<NamedPlan> out;
+  const auto add = [&](const std::string& scene, world::ParameterSet parameters, const std::string& label) {
+    auto outcome = world::plan_scene(scene, parameters, period_s, world::Motion::linear, 6);
+    if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
+      ADD_FAILURE() << scene << ": " << error->message;
+      return;
+    }
+    auto plan = std::make_unique<LoopPlan>();
+    plan->task_scene = std::get<world::ScenePlan>(outcome).task_object;
+    plan->torque_limit = 0.5;
+    out.push_back({label, std::move(plan)});
+  };
+  for (const double damping : {0.0, 20.0}) {
+    for (const double delay : {0.0, 2.0}) {
+      const world::ParameterSet law{{"stiffness", 500.0}, {"damping", damping}, {"delay", delay}};
+      const std::string tag = " B=" + std::to_string(damping) + " d=" + std::to_string(delay);
+      auto plane = law;
+      plane.emplace("normal", "1,1,1,1,1,1");
+      add("plane-wall", plane, "plane-wall" + tag);
+      auto sphere = law;
+      sphere.emplace("radius", 0.03);  // |x| of the six sines wanders about 3.5 cm
+      sphere.emplace("side", "inside");
+      add("sphere", sphere, "sphere" + tag);
+      auto box = law;
+      box.emplace("low", "-0.01,-0.01,-0.01,-0.01,-0.01,-0.01");
+      box.emplace("high", "0.01,0.01,0.01,0.01,0.01,0.01");
+      add("box", box, "box" + tag);
+    }
+  }
+  add("free", {}, "free");
+  return out;
+}
+
+}  // namespace
+
+TEST(EngineAlloc, SixAxesEveryTaskSceneFaultsAndClearsAllocateNothing) {
+  rt::VirtualClock clock;
+  auto device = six_axis_stage();
+  EngineOptions options = quiet_options(1u << 10);
+  options.position_rule.resolution = 3.14e-6;
+  Engine engine(options, *device, clock);
+  rt::PeriodicSchedule schedule(clock, rt::Nanos{1'000'000});
+  device->configure({period_s});
+  device->enable();
+  schedule.start();
+  auto& plant = device->hooks_as<loopback::LoopbackDevice>();
+  const auto guarded = [&](int n) {
+    AllocationGuard guard;
+    for (int i = 0; i < n; ++i) engine.run_cycle(schedule.wait_next());
+    return guard.count();
+  };
+  std::vector<TelemetrySample> buffer(4096);
+  auto plans = every_task_plan();
+  ASSERT_EQ(plans.size(), 13u);
+  std::set<std::size_t> alternatives;
+  for (auto& named : plans) alternatives.insert(named.plan->task_scene.index());
+  EXPECT_EQ(alternatives.size(), std::variant_size_v<world::AnyTaskScene>);
+  for (auto& named : plans) {
+    SCOPED_TRACE(named.label);
+    const bool is_free = named.label == "free";
+    engine.publish(std::move(named.plan));
+    EXPECT_EQ(guarded(1), 0u) << "the install";
+    EXPECT_EQ(guarded(2000), 0u);
+    // A fault on one axis, its latch and the clear, then a full ring (not drained).
+    plant.simulator(3).inject_fault(hapticd::drivers::simulation::Fault::nan, 1);
+    EXPECT_EQ(guarded(3), 0u);
+    EXPECT_EQ(engine.fault(), FaultReason::non_finite_position);
+    engine.clear_fault();
+    plant.simulator(5).inject_fault(hapticd::drivers::simulation::Fault::read_error, 3);
+    EXPECT_EQ(guarded(1500), 0u);
+    EXPECT_EQ(engine.fault(), FaultReason::none);
+    const DrainSummary s = drain_all(engine, buffer);
+    EXPECT_EQ(s.channel_counts, (std::set<std::uint32_t>{is_free ? 18u : 19u})) << "6 x 3 + the scene's";
+    if (is_free) {
+      EXPECT_EQ(s.nonzero_applied, 0u);
+    } else {
+      EXPECT_GT(s.nonzero_applied, 100u) << "the scene pushed while the hands crossed its surface";
+      EXPECT_GT(s.torque_limited, 0u) << "the common factor at the 0.5 N limit";
+    }
+  }
+  EXPECT_GT(engine.counters().telemetry_dropped, 0u) << "the ring filled and dropped";
+  device->disable();
 }

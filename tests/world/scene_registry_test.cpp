@@ -47,15 +47,19 @@ TEST(SceneRegistry, EveryScenesDescriptionIsComplete) {
 }
 
 // The gate checks a scene by its rule; the factory must give a rule other
-// than none the linear model it checks (and none no model to ignore).
+// than none the linear model it checks (and none no model to ignore); a
+// task-space wall (on two axes) what the gate judges along its directions.
 TEST(SceneRegistry, ALinearRuleComesWithALinearModel) {
   for (const auto& scene : scene_catalog()) {
+    const int axes = scene.space == SceneSpace::task ? 2 : 1;
     for (const Motion motion : {Motion::linear, Motion::rotary}) {
-      PlanResult result = plan_scene(scene.name, {}, 1e-3, motion);
+      PlanResult result = plan_scene(scene.name, {}, 1e-3, motion, axes);
       ASSERT_TRUE(std::holds_alternative<ScenePlan>(result)) << scene.name;
       const auto& plan = std::get<ScenePlan>(result);
       EXPECT_EQ(plan.description, &scene);
-      EXPECT_EQ(plan.linear.has_value(), scene.stability != StabilityRule::none) << scene.name;
+      const bool task_wall = scene.stability == StabilityRule::task_wall;
+      EXPECT_EQ(plan.linear.has_value(), scene.stability != StabilityRule::none && !task_wall) << scene.name;
+      EXPECT_EQ(plan.task_wall.has_value(), task_wall) << scene.name;
     }
   }
 }

@@ -1,0 +1,187 @@
+// The stability gate in task space (analysis/task_gate.hpp, issue 22): a
+// plane wall is judged along its normal with the device's m_n, so its limit
+// there is the one-axis Hulin limit with m_n (what `hapticctl analyze wall
+// --mass m_n` says), for several normals and masses; a sphere along the
+// lightest axis; a box on each face's axis; refusals name the direction or
+// axis and the limit; a device whose axes cannot be judged gets no verdict.
+
+#include "analysis/task_gate.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "analysis/wall_stability.hpp"
+
+namespace {
+
+using namespace hapticd::analysis;
+namespace world = hapticd::world;
+
+constexpr double period = 1e-3;
+
+GateDevice stage(std::vector<JointModel> axes, int delay = 0) {
+  GateDevice device =
+      rigid_device(axes.front().mass, axes.front().damping, period, delay, world::Motion::linear);
+  device.axes = std::move(axes);
+  const std::vector<std::string> names{"x", "y", "z", "a", "b", "c"};
+  device.axis_names.assign(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(device.axes.size()));
+  return device;
+}
+
+world::AxisVector direction(std::vector<double> v) {
+  world::AxisVector out(static_cast<Eigen::Index>(v.size()));
+  for (std::size_t i = 0; i < v.size(); ++i) out(static_cast<Eigen::Index>(i)) = v[i];
+  return out;
+}
+
+std::string text_of(const std::vector<double>& v) {
+  std::ostringstream out;
+  for (std::size_t i = 0; i < v.size(); ++i) out << (i > 0 ? "," : "") << v[i];
+  return out.str();
+}
+
+/// The plane wall's refusal, planned on `device` with K far above any limit.
+GateRefusal refused_plane(const GateDevice& device, const std::vector<double>& normal, double damping,
+                          int delay) {
+  const auto outcome = gate_scene("plane-wall",
+                                  {{"normal", text_of(normal)},
+                                   {"stiffness", 1e7},
+                                   {"damping", damping},
+                                   {"delay", static_cast<double>(delay)}},
+                                  device, false);
+  EXPECT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+  return std::holds_alternative<GateRefusal>(outcome) ? std::get<GateRefusal>(outcome) : GateRefusal{};
+}
+
+TEST(TaskGate, APlaneWallsLimitAlongItsNormalIsTheOneAxisHulinLimitWithMn) {
+  struct Case {
+    std::vector<JointModel> axes;
+    std::vector<double> normal;
+    int delay;
+  };
+  const std::vector<Case> cases{
+      {{{0.1, 0.0}, {0.3, 0.0}}, {1, 1}, 1},                  // the issue's: m_n = 0.15 kg
+      {{{0.1, 0.0}, {0.3, 0.0}}, {1, -2}, 0},                 // another normal
+      {{{0.5, 0.0}, {0.2, 0.0}}, {3, 1}, 2},                  // other masses
+      {{{0.05, 0.0}, {0.4, 0.0}, {1.0, 0.0}}, {1, 2, 3}, 1},  // three axes
+  };
+  for (const Case& c : cases) {
+    const GateDevice device = stage(c.axes);
+    const DirectionalModel along = cartesian_along(c.axes, direction(c.normal));
+    double inverse = 0.0;
+    const double norm2 = [&] {
+      double s = 0.0;
+      for (const double x : c.normal) s += x * x;
+      return s;
+    }();
+    for (std::size_t i = 0; i < c.axes.size(); ++i)
+      inverse += c.normal[i] * c.normal[i] / norm2 / c.axes[i].mass;
+    ASSERT_NEAR(along.mass, 1.0 / inverse, 1e-15);
+    const double b = 46.0;
+    const GateRefusal refusal = refused_plane(device, c.normal, b, c.delay);
+    SCOPED_TRACE(refusal.message);
+    // `hapticctl analyze wall --mass m_n --period 1ms --delay d --damping B`:
+    const WallVerdict one_axis = analyze_wall(along.mass, period, c.delay, 1e7, b);
+    ASSERT_TRUE(refusal.hulin.has_value()) << "an undamped rigid stage: Hulin's region is said";
+    // (the plan's normal is normalized once more by cartesian_along: m_n to the last bits)
+    EXPECT_NEAR(refusal.hulin->k_max / one_axis.k_max, 1.0, 1e-12) << "the largest K for any B, with m_n";
+    ASSERT_TRUE(refusal.stiffness_limit.has_value());
+    EXPECT_NEAR(*refusal.stiffness_limit / one_axis.k_max_for_damping, 1.0, 1e-5)
+        << "the largest K at this B";
+    EXPECT_NE(refusal.message.find("plane-wall along the normal ("), std::string::npos);
+    EXPECT_NE(refusal.message.find("exact"), std::string::npos) << "undamped: proportional (0 = 0 m)";
+    // Just under the limit is accepted, just over refused.
+    const auto at = [&](double k) {
+      return gate_scene("plane-wall",
+                        {{"normal", text_of(c.normal)},
+                         {"stiffness", k},
+                         {"damping", b},
+                         {"delay", static_cast<double>(c.delay)}},
+                        device, false);
+    };
+    EXPECT_TRUE(std::holds_alternative<GateAccepted>(at(0.999 * *refusal.stiffness_limit)));
+    EXPECT_TRUE(std::holds_alternative<GateRefusal>(at(1.001 * *refusal.stiffness_limit)));
+  }
+}
+
+TEST(TaskGate, TheIssuesNumbersAlongOneOne) {
+  const GateDevice device = stage({{0.1, 0.0}, {0.3, 0.0}});
+  const GateRefusal refusal = refused_plane(device, {1, 1}, 46.0, 1);
+  EXPECT_TRUE(
+      refusal.message.starts_with("plane-wall along the normal (0.7071, 0.7071) (m_n = 0.15 kg, damping 0 N "
+                                  "s/m, exact): unstable on this "
+                                  "device (m = 0.15 kg, T = 1 ms, d = 0): pole radius"))
+      << refusal.message;
+  // Hulin's d = 1 alpha_max = 0.144469 with m = 0.15 kg, T = 1 ms.
+  EXPECT_NEAR(refusal.hulin->k_max, 0.144469349226 * 0.15 / (period * period), 1e-3);
+}
+
+TEST(TaskGate, TheDeviceDelayAddsToTheWallsAlongTheNormalToo) {
+  const GateDevice device = stage({{0.1, 0.0}, {0.3, 0.0}}, 1);
+  const GateRefusal refusal = refused_plane(device, {1, 1}, 46.0, 0);
+  EXPECT_NEAR(refusal.hulin->k_max / analyze_wall(0.15, period, 1, 1e7, 46.0).k_max, 1.0, 1e-12);
+}
+
+TEST(TaskGate, DampingNotProportionalToTheMassIsABound) {
+  const GateDevice device = stage({{0.1, 1.0}, {0.3, 9.0}});  // 10 and 30 per kg
+  const auto outcome = gate_scene("plane-wall", {{"normal", "1,1"}, {"stiffness", 2000.0}}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateAccepted>(outcome));
+  const auto& accepted = std::get<GateAccepted>(outcome);
+  EXPECT_NE(accepted.stability.summary.find("damping 1.5 N s/m, a bound"), std::string::npos)
+      << accepted.stability.summary;
+  const GateDevice proportional = stage({{0.1, 1.0}, {0.3, 3.0}});
+  const auto exact =
+      gate_scene("plane-wall", {{"normal", "1,1"}, {"stiffness", 2000.0}}, proportional, false);
+  EXPECT_NE(std::get<GateAccepted>(exact).stability.summary.find("damping 1.5 N s/m, exact"),
+            std::string::npos)
+      << std::get<GateAccepted>(exact).stability.summary;
+}
+
+TEST(TaskGate, ASphereIsJudgedAlongTheLightestAxis) {
+  const GateDevice device = stage({{0.3, 0.0}, {0.1, 0.0}, {0.2, 0.0}});
+  const auto outcome = gate_scene("sphere", {{"stiffness", 1e7}}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+  const auto& refusal = std::get<GateRefusal>(outcome);
+  EXPECT_EQ(refusal.message.substr(0, 66),
+            "sphere along the worst direction (the lightest axis, y) (m_n = 0.1");
+  EXPECT_EQ(refusal.hulin->k_max, analyze_wall(0.1, period, 1, 1e7, 46.0).k_max);
+}
+
+TEST(TaskGate, ABoxIsJudgedOnEachAxisAndRefusedNamingTheWeakest) {
+  const GateDevice device = stage({{0.3, 0.0}, {0.1, 0.0}});
+  const double k_y = analyze_wall(0.1, period, 1, 1e7, 46.0).k_max_for_damping;
+  const double k_x = analyze_wall(0.3, period, 1, 1e7, 46.0).k_max_for_damping;
+  ASSERT_LT(k_y, k_x);
+  const auto between = gate_scene("box", {{"stiffness", 0.5 * (k_x + k_y)}}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(between));
+  const auto& refusal = std::get<GateRefusal>(between);
+  EXPECT_EQ(refusal.message.substr(0, 29), "box along axis y (m_n = 0.1 k") << refusal.message;
+  EXPECT_NEAR(*refusal.stiffness_limit / k_y, 1.0, 1e-5);
+  const auto under = gate_scene("box", {{"stiffness", 0.99 * k_y}}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateAccepted>(under));
+  EXPECT_NE(std::get<GateAccepted>(under).stability.summary.find("(the worst of 2 axes)"), std::string::npos);
+  const auto forced = gate_scene("box", {{"stiffness", 0.5 * (k_x + k_y)}}, device, true);
+  ASSERT_TRUE(std::holds_alternative<GateAccepted>(forced));
+  EXPECT_TRUE(std::get<GateAccepted>(forced).forced);
+}
+
+TEST(TaskGate, AxesThatCannotBeJudgedGiveNoVerdictEvenForced) {
+  for (const double mass : {0.0, std::nan(""), HUGE_VAL}) {
+    const GateDevice device = stage({{0.1, 0.0}, {mass, 0.0}});
+    const auto outcome = gate_scene("plane-wall", {{"normal", "1,1"}}, device, true);
+    ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome)) << mass;
+    const auto& refusal = std::get<GateRefusal>(outcome);
+    EXPECT_FALSE(refusal.assessed);
+    EXPECT_NE(refusal.message.find("cannot be assessed"), std::string::npos) << refusal.message;
+  }
+  GateDevice one_axis = rigid_device(0.1, 0.0, period, 0, world::Motion::linear);
+  const auto outcome = gate_scene("plane-wall", {}, one_axis, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+  EXPECT_TRUE(std::get<GateRefusal>(outcome).invalid) << "a one-axis device refuses a task scene";
+}
+
+}  // namespace
