@@ -150,7 +150,7 @@ Service::Service(ServiceOptions options)
                       std::string(config::to_string(cfg.device.encoder)),
                       std::string(drivers::to_string(device_model.motion)),
                       device_model.position_resolution > 0.0 ? device_model.position_resolution : 0.0};
-  if (cfg.device.origin_keeping() == config::OriginKeeping::persist) {
+  if (device_.device->axes() == 1 && cfg.device.origin_keeping() == config::OriginKeeping::persist) {
     const char* state_directory = std::getenv("STATE_DIRECTORY");  // NOLINT(concurrency-mt-unsafe): no setenv
     stored_origin_ =
         find_stored_origin(config::resolve_origin_file(cfg.device, state_directory), origin_identity_);
@@ -188,6 +188,18 @@ void Service::resolve_axes() {
                                "; each axis needs its mass and damping for the stability gate");
   }
   model_.axis_names = axis_names_for(options_.config.device, axes);
+  // The origin is one number for one axis (docs/config.md, "Calibration"):
+  // a stage's positions are its own; no origin is taken, kept or required.
+  const auto& device = options_.config.device;
+  const bool persist = device.origin == config::OriginKeeping::persist;
+  if (device.require_calibration || persist) {
+    const std::string setting = persist ? "device.origin = \"persist\"" : "device.require_calibration = true";
+    throw config::ConfigError(persist ? device.origin_where : config::SourcePosition{},
+                              persist ? "device.origin" : "device.require_calibration",
+                              setting + " is for a device with one axis; this one (" + device.driver + ") has " +
+                                  std::to_string(axes) + ", whose positions are the stage's own; accepted: " +
+                                  (persist ? "\"session\"" : "false"));
+  }
 }
 
 std::string Service::device_label() const {
@@ -205,9 +217,10 @@ std::string Service::describe() const {
   for (const auto& [k, v] : initial_.plan.parameters) out << " " << k << "=" << to_text(v);
   out << "\nstability: " << initial_.stability.summary;
   const Calibration stored = initial_calibration(std::nullopt, stored_origin_);
+  const bool one_axis = model_.axis_names.empty();
   out << "\ncalibration: encoder " << config::to_string(cfg.device.encoder) << ", origin "
-      << config::to_string(cfg.device.origin_keeping());
-  if (cfg.device.origin_keeping() == config::OriginKeeping::persist) {
+      << (one_axis ? config::to_string(cfg.device.origin_keeping()) : "none (several axes: the stage's own positions)");
+  if (one_axis && cfg.device.origin_keeping() == config::OriginKeeping::persist) {
     out << " (" << stored_origin_.file.string() << "): "
         << (stored.kind == CalibrationKind::restored
                 ? summary(stored, model_.info.motion == drivers::Motion::rotary, cfg.device.encoder)

@@ -90,6 +90,10 @@ json Service::calibration_json() const {
 json Service::zero_device() {
   settle_zero();
   if (engine_->finished()) throw RpcError(code::busy, "the RT loop has stopped; nothing can take effect");
+  if (const int axes = device_.device->axes(); axes != 1) {
+    throw RpcError(code::refused, "device.zero sets the origin of a device with one axis; this one has " +
+                                      std::to_string(axes) + ", whose positions are the stage's own");
+  }
   if (engine_->origin_request_pending())
     throw RpcError(code::busy, "an earlier device.zero is still waiting for the RT loop");
   const Calibration before = calibration();

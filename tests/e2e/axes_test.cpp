@@ -63,6 +63,13 @@ TEST(Axes, APlaneWallOnATwoAxisStageThroughTheDaemon) {
             std::string::npos)
       << one_axis.err;
 
+  // The origin is one number: a stage keeps its own positions.
+  const auto zero = daemon.ctl({"device", "zero"});
+  EXPECT_EQ(zero.exit_code, 1);
+  EXPECT_NE(zero.err.find("device.zero sets the origin of a device with one axis; this one has 2"),
+            std::string::npos)
+      << zero.err;
+
   // Refused along the normal, with the one-axis limit for m_n = 0.15 kg.
   const auto refused =
       daemon.ctl({"load", "plane-wall", "normal=1,1", "stiffness=1e6", "damping=46", "delay=1"});
@@ -146,6 +153,17 @@ TEST(Axes, TheConfigsAxisErrorsNameTheKey) {
   EXPECT_NE(pantograph.err.find("bad.toml:7:14: device.kinematics = \"pantograph\" is not simulated yet"),
             std::string::npos)
       << pantograph.err;
+  const auto required = check(stage_config("require_calibration = true\n"));
+  EXPECT_EQ(required.exit_code, 2);
+  EXPECT_NE(required.err.find("device.require_calibration = true is for a device with one axis; this one "
+                              "(loopback) has 2, whose positions are the stage's own; accepted: false"),
+            std::string::npos)
+      << required.err;
+  const auto persist = check(stage_config("origin = \"persist\"\n"));
+  EXPECT_EQ(persist.exit_code, 2);
+  EXPECT_NE(persist.err.find("bad.toml:7:10: device.origin = \"persist\" is for a device with one axis"),
+            std::string::npos)
+      << persist.err;
   const auto named = check(stage_config("axis_names = [\"left\", \"up\"]\n"));
   EXPECT_EQ(named.exit_code, 0) << named.err;
   EXPECT_NE(named.out.find("axes: cartesian left (0.1 kg, 0 N s/m), up (0.3 kg, 0 N s/m)"), std::string::npos)
