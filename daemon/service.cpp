@@ -194,11 +194,12 @@ void Service::resolve_axes() {
   const bool persist = device.origin == config::OriginKeeping::persist;
   if (device.require_calibration || persist) {
     const std::string setting = persist ? "device.origin = \"persist\"" : "device.require_calibration = true";
-    throw config::ConfigError(persist ? device.origin_where : config::SourcePosition{},
-                              persist ? "device.origin" : "device.require_calibration",
-                              setting + " is for a device with one axis; this one (" + device.driver + ") has " +
-                                  std::to_string(axes) + ", whose positions are the stage's own; accepted: " +
-                                  (persist ? "\"session\"" : "false"));
+    throw config::ConfigError(
+        persist ? device.origin_where : config::SourcePosition{},
+        persist ? "device.origin" : "device.require_calibration",
+        setting + " is for a device with one axis; this one (" + device.driver + ") has " +
+            std::to_string(axes) +
+            ", whose positions are the stage's own; accepted: " + (persist ? "\"session\"" : "false"));
   }
 }
 
@@ -219,7 +220,8 @@ std::string Service::describe() const {
   const Calibration stored = initial_calibration(std::nullopt, stored_origin_);
   const bool one_axis = model_.axis_names.empty();
   out << "\ncalibration: encoder " << config::to_string(cfg.device.encoder) << ", origin "
-      << (one_axis ? config::to_string(cfg.device.origin_keeping()) : "none (several axes: the stage's own positions)");
+      << (one_axis ? config::to_string(cfg.device.origin_keeping())
+                   : "none (several axes: the stage's own positions)");
   if (one_axis && cfg.device.origin_keeping() == config::OriginKeeping::persist) {
     out << " (" << stored_origin_.file.string() << "): "
         << (stored.kind == CalibrationKind::restored

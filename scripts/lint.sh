@@ -30,7 +30,8 @@ echo "clang-format: ${#files[@]} files clean"
 python3 scripts/long_functions.py
 echo "function length: none over 80 lines"
 
-mapfile -t sources < <(git ls-files '*.cpp' | grep -v '^tests/' | grep -v '^bench/')
+# Not tests: neither tests/ nor a driver's own tests/ (drivers/skeleton/tests).
+mapfile -t sources < <(git ls-files '*.cpp' | grep -v '^tests/\|/tests/' | grep -v '^bench/')
 tidy="${TIDY_BUILD:-build-tidy}"
 # Two configurations of one clang tree, neither built: the units, and each
 # source's own command for the runs over single files.
@@ -64,7 +65,7 @@ done
 # The project's own files, headers as well as sources (a unit's sources are
 # reported on through this filter as its headers are); not tests/, bench/ or
 # the build trees.
-filter="^$root/(world|analysis|rt|rpc|drivers|daemon|client|cli)/.*\\.(cpp|hpp)\$"
+filter="^$root/(world|analysis|rt|rpc|drivers|sim|daemon|client|cli)/.*\\.(cpp|hpp)\$"
 # Collect first, judge after: clang-tidy's own exit status (an error makes
 # xargs fail) must not hide the findings it printed.
 run() { # db clang-tidy-args...

@@ -192,11 +192,12 @@ class BoxWall {
   }
 
  private:
+  static constexpr std::size_t box_faces = 2 * static_cast<std::size_t>(max_axes);  ///< low and high per axis
   static std::size_t face(Eigen::Index axis, int high) noexcept {
     return static_cast<std::size_t>(2 * axis + high);
   }
-  static std::array<Face, 2 * max_axes> make_faces(const AxisVector& low, const AxisVector& high,
-                                                   const TaskWallLaw& law, double period_s) {
+  static std::array<Face, box_faces> make_faces(const AxisVector& low, const AxisVector& high,
+                                                const TaskWallLaw& law, double period_s) {
     if (low.size() != high.size() || low.size() < 1 || !low.allFinite() || !high.allFinite() ||
         !(low.array() < high.array()).all())
       throw std::invalid_argument(
@@ -208,10 +209,8 @@ class BoxWall {
       return f % 2 == 0 ? detail::coordinate_wall<Damping>(law, low(axis), WallSide::lower, period_s)
                         : detail::coordinate_wall<Damping>(law, high(axis), WallSide::upper, period_s);
     };
-    return [&]<std::size_t... f>(std::index_sequence<f...>) {
-      return std::array<Face, 2 * max_axes>{at(f)...};
-    }
-    (std::make_index_sequence<2 * max_axes>{});
+    return [&]<std::size_t... f>(std::index_sequence<f...>) { return std::array<Face, box_faces>{at(f)...}; }
+    (std::make_index_sequence<box_faces>{});
   }
   static auto make_delay(const TaskWallLaw& law, Eigen::Index n) {
     if constexpr (delayed) {
@@ -221,7 +220,7 @@ class BoxWall {
     }
   }
   Eigen::Index dimensions_;
-  std::array<Face, 2 * max_axes> faces_;
+  std::array<Face, box_faces> faces_;
   [[no_unique_address]] std::conditional_t<delayed, TaskForceDelay, detail::Absent<3>> delay_;
 };
 

@@ -12,6 +12,44 @@ namespace {
 
 using P = ParameterSpec;
 
+/// CiA 402 homing before the loop (0x6098, 0x607C, 0x6099, 0x609A).
+std::vector<ParameterSpec> homing_parameters() {
+  const CanopenConfig d;
+  return {
+      P::choice("homing", {"none", "cia402"},
+                "cia402: the drive homes (mode 6) before the loop, then cyclic synchronous torque; the "
+                "device counts as calibrated")
+          .defaults_to("none"),
+      P::integer("homing_method", "",
+                 "0x6098 homing method (37: on the current position; 17, 18: on a limit switch)")
+          .defaults_to(37.0)
+          .at_least(-128)
+          .at_most(127),
+      P::number(
+          "home_offset", "rad | m",
+          "0x607C: the zero lies this far past the home position (the home position reads -home_offset)")
+          .defaults_to(0.0)
+          .at_least(-1e6)
+          .at_most(1e6),
+      P::number("homing_speed_switch", "rad/s | m/s", "0x6099:1 speed while searching for the switch")
+          .defaults_to(0.0, "0: the drive's own")
+          .at_least(0.0)
+          .at_most(1e6),
+      P::number("homing_speed_zero", "rad/s | m/s", "0x6099:2 speed while searching for zero")
+          .defaults_to(0.0, "0: the drive's own")
+          .at_least(0.0)
+          .at_most(1e6),
+      P::number("homing_acceleration", "rad/s^2 | m/s^2", "0x609A homing acceleration")
+          .defaults_to(0.0, "0: the drive's own")
+          .at_least(0.0)
+          .at_most(1e9),
+      P::duration("homing_timeout", "from the start command to homing completed")
+          .defaults_to(d.homing_timeout)
+          .above(0.0)
+          .at_most(600.0),
+  };
+}
+
 std::vector<ParameterSpec> make_parameters() {
   const CanopenConfig d;
   return {
@@ -69,37 +107,6 @@ std::vector<ParameterSpec> make_parameters() {
           .at_most(127),
       P::boolean("velocity_pdo", "map 0x606C velocity actual in TPDO2 (one more frame per period)")
           .defaults_to(false),
-      P::choice("homing", {"none", "cia402"},
-                "cia402: the drive homes (mode 6) before the loop, then cyclic synchronous torque; the "
-                "device counts as calibrated")
-          .defaults_to("none"),
-      P::integer("homing_method", "",
-                 "0x6098 homing method (37: on the current position; 17, 18: on a limit switch)")
-          .defaults_to(37.0)
-          .at_least(-128)
-          .at_most(127),
-      P::number(
-          "home_offset", "rad | m",
-          "0x607C: the zero lies this far past the home position (the home position reads -home_offset)")
-          .defaults_to(0.0)
-          .at_least(-1e6)
-          .at_most(1e6),
-      P::number("homing_speed_switch", "rad/s | m/s", "0x6099:1 speed while searching for the switch")
-          .defaults_to(0.0, "0: the drive's own")
-          .at_least(0.0)
-          .at_most(1e6),
-      P::number("homing_speed_zero", "rad/s | m/s", "0x6099:2 speed while searching for zero")
-          .defaults_to(0.0, "0: the drive's own")
-          .at_least(0.0)
-          .at_most(1e6),
-      P::number("homing_acceleration", "rad/s^2 | m/s^2", "0x609A homing acceleration")
-          .defaults_to(0.0, "0: the drive's own")
-          .at_least(0.0)
-          .at_most(1e9),
-      P::duration("homing_timeout", "from the start command to homing completed")
-          .defaults_to(d.homing_timeout)
-          .above(0.0)
-          .at_most(600.0),
   };
 }
 
@@ -147,7 +154,11 @@ CanopenConfig canopen_config_from(const DriverParameters& p) {
 }
 
 DriverDescription canopen_driver() {
-  static const std::vector<ParameterSpec> parameters = make_parameters();
+  static const std::vector<ParameterSpec> parameters = [] {
+    std::vector<ParameterSpec> all = make_parameters();
+    for (auto& key : homing_parameters()) all.push_back(std::move(key));
+    return all;
+  }();
   return {"canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)", true,
           parameters, [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
             return std::make_unique<CanopenDevice>(canopen_config_from(p));

@@ -302,7 +302,7 @@ std::string UsbHidDevice::clear_fault() {
     throw DeviceError("the RT loop did not hand the board over within " + format_duration(handover_s) +
                       " (is it running?)");
   const LatchedFault before = session_.fault();
-  const std::string cleared = session_.describe(before);
+  std::string cleared = session_.describe(before);
   try {
     repair(before);
   } catch (...) {

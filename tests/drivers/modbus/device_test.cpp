@@ -334,6 +334,9 @@ TEST_P(DeviceTest, EachAmplifierSettingWorksWithTheDriversMatchingKeys) {
       (void)d.write(0.5);
       if (d.read(r) != IoResult::ok) break;
     }
+    // The amplifier's thread may still be stepping the plant for the last
+    // write: stopped (joined) before the plant is read.
+    server_->stop();
     double plant = 0.0;
     plant_.sense(plant);
     return std::pair{std::abs(r.position - plant), amplifier_->state().applied_torque};
