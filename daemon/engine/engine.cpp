@@ -130,9 +130,7 @@ std::string Engine::fault_description() const {
   return std::string(to_string(reason));
 }
 
-bool Engine::read_position(const rt::WakeUp& wake, TelemetrySample& sample, double& position) noexcept {
-  drivers::Reading reading;
-  const drivers::IoResult read = device_.read(reading);
+bool Engine::read_succeeded(drivers::IoResult read, TelemetrySample& sample) noexcept {
   if (read == drivers::IoResult::fault) {
     latch(FaultReason::device_fault);
     return false;
@@ -144,6 +142,19 @@ bool Engine::read_position(const rt::WakeUp& wake, TelemetrySample& sample, doub
     return false;
   }
   read_error_streak_.record(false);
+  return true;
+}
+
+void Engine::note_write(drivers::IoResult write, TelemetrySample& sample) noexcept {
+  if (write == drivers::IoResult::ok) return;
+  bump(write_errors_);
+  latch(write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error);
+  sample.flags |= flag_fault_latched;  // the output did not reach the device
+}
+
+bool Engine::read_position(const rt::WakeUp& wake, TelemetrySample& sample, double& position) noexcept {
+  drivers::Reading reading;
+  if (!read_succeeded(device_.read(reading), sample)) return false;
   if (reading.stale) sample.flags |= flag_stale_position;
   if (!std::isfinite(reading.position)) {
     latch(FaultReason::non_finite_position);
@@ -280,12 +291,7 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
       bump(torque_limited_);
     }
   }
-  const drivers::IoResult write = device_.write(applied);
-  if (write != drivers::IoResult::ok) {
-    bump(write_errors_);
-    latch(write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error);
-    sample.flags |= flag_fault_latched;  // the output did not reach the device
-  }
+  note_write(device_.write(applied), sample);
   sample.command = command;
   sample.applied = applied;
   finish_sample(wake, sample, output_latched);

@@ -149,6 +149,11 @@ class Engine {
   /// Reads the device and applies the reading rules (fault, error streak,
   /// finite value, position step); true when `position` may be rendered.
   bool read_position(const rt::WakeUp& wake, TelemetrySample& sample, double& position) noexcept;
+  /// A read's outcome on one axis or all: a fault latches, an error counts
+  /// toward the streak and flags the sample; true when the read was ok.
+  bool read_succeeded(drivers::IoResult read, TelemetrySample& sample) noexcept;
+  /// A write's outcome: anything but ok is counted and latches.
+  void note_write(drivers::IoResult write, TelemetrySample& sample) noexcept;
   /// Latches `reason` (counted when this call latched it).
   void latch(FaultReason reason) noexcept;
   /// Stores a refused step's figures for position_jump(), then latches.

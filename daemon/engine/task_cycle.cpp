@@ -35,18 +35,8 @@ TaskAxes::TaskAxes(int n, world::Kinematics k, PositionStepRule rule)
 bool Engine::read_task_position(const rt::WakeUp& wake, TelemetrySample& sample) noexcept {
   TaskAxes& a = *task_;
   const auto n = static_cast<std::size_t>(a.axes);
-  const drivers::IoResult read = device_.read_axes(std::span<drivers::Reading>(a.readings.data(), n));
-  if (read == drivers::IoResult::fault) {
-    latch(FaultReason::device_fault);
+  if (!read_succeeded(device_.read_axes(std::span<drivers::Reading>(a.readings.data(), n)), sample))
     return false;
-  }
-  if (read == drivers::IoResult::error) {
-    sample.flags |= flag_read_error;
-    bump_counter(read_errors_);
-    if (read_error_streak_.record(true)) latch(FaultReason::read_error_streak);
-    return false;
-  }
-  read_error_streak_.record(false);
   bool finite = true;
   for (std::size_t i = 0; i < n; ++i) {
     if (a.readings[i].stale) sample.flags |= flag_stale_position;
@@ -131,12 +121,7 @@ void Engine::run_task_cycle(const rt::WakeUp& wake) noexcept {
   bool output_latched = latched_before;
   render_task_force(sample, position_valid, output_allowed, output_latched);
   const auto n = static_cast<std::size_t>(a.axes);
-  const drivers::IoResult write = device_.write_axes(std::span<const double>(a.output.data(), n));
-  if (write != drivers::IoResult::ok) {
-    bump_counter(write_errors_);
-    latch(write == drivers::IoResult::fault ? FaultReason::device_fault : FaultReason::write_error);
-    sample.flags |= flag_fault_latched;
-  }
+  note_write(device_.write_axes(std::span<const double>(a.output.data(), n)), sample);
   // The first axis in the one-axis fields, for clients that read one.
   sample.position = a.joints(0);
   sample.command = a.force(0);
