@@ -110,6 +110,7 @@ std::vector<std::string> axis_names_for(const config::DeviceConfig& device, int 
 /// force, every joint output.
 std::vector<world::ChannelDescription> axis_channels(const std::vector<std::string>& names, bool rotary) {
   std::vector<world::ChannelDescription> out;
+  out.reserve(3 * names.size());
   for (const auto& n : names) out.push_back({"position_" + n, rotary ? "rad" : "m"});
   for (const auto& n : names) out.push_back({"force_" + n, rotary ? "N m" : "N"});
   for (const auto& n : names) out.push_back({"output_" + n, rotary ? "N m" : "N"});

@@ -22,7 +22,7 @@ AxisVector parse_axis_vector(std::string_view name, std::string_view text, int a
                                        : std::string("finite numbers")) +
                                 ", one per axis");
   };
-  if (text.find_first_not_of(" ") == std::string_view::npos) return empty;
+  if (text.find_first_not_of(' ') == std::string_view::npos) return empty;
   AxisVector out(axes);
   int count = 0;
   std::size_t begin = 0;

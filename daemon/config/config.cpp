@@ -363,7 +363,7 @@ class Parser {
 
   /// [device] kinematics: "cartesian"; "pantograph" is not simulated yet.
   std::string get_kinematics(const toml::node& node, const std::string& key) const {
-    const std::string value = get_string(node, key, "\"cartesian\"");
+    std::string value = get_string(node, key, "\"cartesian\"");
     if (value == "pantograph")
       fail(node.source(), key,
            key +

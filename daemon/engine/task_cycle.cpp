@@ -21,7 +21,7 @@ void bump_counter(std::atomic<std::uint64_t>& counter) noexcept {
 
 TaskAxes::TaskAxes(int n, world::Kinematics k, PositionStepRule rule)
     : axes(n),
-      kinematics(std::move(k)),
+      kinematics(k),
       joints(world::AxisVector::Zero(n)),
       force(world::AxisVector::Zero(world::task_dimensions(kinematics))),
       output(world::AxisVector::Zero(n)),

@@ -14,7 +14,7 @@ constexpr std::uint16_t bit(unsigned n) noexcept { return static_cast<std::uint1
 }  // namespace
 
 Amplifier::Amplifier(AmplifierSettings settings, AmplifierPlant& plant)
-    : settings_(std::move(settings)), plant_(plant) {}
+    : settings_(settings), plant_(plant) {}
 
 void Amplifier::bind(std::span<std::uint16_t> holding, std::span<std::uint16_t> input,
                      std::span<std::uint8_t> coils) {

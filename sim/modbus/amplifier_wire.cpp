@@ -38,7 +38,8 @@ std::uint8_t decode_write_single(std::span<const std::uint8_t> pdu, Request& out
 // that must be 2 x quantity, ending the PDU (AP 6.12, 6.17).
 std::uint8_t decode_values(std::span<const std::uint8_t> pdu, std::size_t count_at, std::uint16_t quantity,
                            Request& out) noexcept {
-  if (pdu.size() <= count_at || pdu[count_at] != 2u * quantity || pdu.size() != count_at + 1 + 2u * quantity)
+  if (pdu.size() <= count_at || pdu[count_at] != 2u * quantity ||
+      pdu.size() != count_at + 1 + std::size_t{2} * quantity)
     return exception::illegal_data_value;
   for (std::size_t i = 0; i < quantity; ++i) out.values[i] = big_endian(pdu, count_at + 1 + 2 * i);
   return exception::none;
