@@ -75,8 +75,11 @@ printf '%s\n' "${units[@]}" | run "$tidy"
 [ "${#alone[@]}" -eq 0 ] || printf '%s\n' "${alone[@]}" | run "$tidy-files"
 [ "${#with_using[@]}" -eq 0 ] || printf '%s\n' "${with_using[@]}" | run "$tidy-files" --checks='-*,misc-unused-using-decls'
 
-# Parsed alone above already: the sources in no unit and those with a using-declaration.
-parsed_alone="$(printf '%s\n' "${alone[@]}" "${with_using[@]}")"
+# Parsed alone above already: the sources in no unit, those with a
+# using-declaration, and the first source of each unit (nothing comes before
+# it in the unit, so the unit's own run parsed it as it stands alone).
+firsts="$(for u in "${units[@]}"; do sed -n 's|^#include "\(.*\)"$|\1|p' "$u" | head -n 1; done | sed "s|^$root/||")"
+parsed_alone="$(printf '%s\n' "${alone[@]}" "${with_using[@]}" "$firsts")"
 in_units=()
 for s in "${sources[@]}"; do grep -qxF "$s" <<<"$parsed_alone" || in_units+=("$s"); done
 alone_ok=0

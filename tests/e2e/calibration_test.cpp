@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -127,7 +128,11 @@ TEST(Calibration, ZeroShiftsEveryPositionWithoutATorqueStepAndARestartRestoresIt
   const std::size_t i = row_of_cycle(rec, at);
   ASSERT_GT(i, 0u);
   ASSERT_LT(i + 400, position.size());
-  EXPECT_GT(std::abs(applied[i - 1]), 0.05) << "torque flowed just before the zero";
+  // The 1 Hz wheel swings about its lag: device.zero may land near a zero
+  // crossing (it did under ASan), so "flowed" is judged over the 300 ms before.
+  double flowed = 0.0;
+  for (std::size_t k = i > 300 ? i - 300 : 0; k < i; ++k) flowed = std::max(flowed, std::abs(applied[k]));
+  EXPECT_GT(flowed, 0.05) << "torque flowed just before the zero";
   EXPECT_LT(std::abs(applied[i]), 1e-9) << "the scene restarted at equilibrium: no torque step";
   EXPECT_EQ(position[i], 0.0) << "the cycle it took effect in reads zero";
   for (std::size_t k = 0; k < i; ++k) EXPECT_NEAR(position[k], hand_at(cycles[k]), 2e-3) << "row " << k;
