@@ -228,39 +228,52 @@ std::optional<OriginOutcome> Engine::zero_here(std::chrono::milliseconds valid_f
   }
 }
 
-void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
-  if (task_) {
-    run_task_cycle(wake);  // several axes: task_cycle.cpp
-    return;
-  }
+TelemetrySample Engine::begin_sample(const rt::WakeUp& wake) noexcept {
   cycle_.store(wake.cycle, std::memory_order_relaxed);
   TelemetrySample sample;
   sample.cycle = wake.cycle;
   sample.time_s = std::chrono::duration<double>(wake.deadline - t0_).count();
   sample.latency_s = std::chrono::duration<double>(wake.latency).count();
+  return sample;
+}
 
-  // A new plan, or the end of a latched fault, restarts the scene at
-  // equilibrium at the position measured in this very cycle (below, before
-  // the first step): no torque step, even before the first valid reading or
-  // when the device moved since the last one.
-  if (const LoopPlan* plan = plans_.acquire(wake.cycle); plan != plan_) {
-    plan_ = plan;
-    scene_ = plan->scene;
-    reset_pending_ = true;
-  }
+bool Engine::latch_at_wake(const rt::WakeUp& wake, bool& cleared) noexcept {
   const bool latched_before = latch_.latched();
-  if (was_latched_ && !latched_before) {
-    // The scene restarts at equilibrium at the next valid reading, so a step
-    // across the clear cannot become torque: that reading is the new
-    // reference, unchecked (the device's own clear may have moved it).
-    reset_pending_ = true;
-    position_guard_.forget();
-  }
+  // The scene restarts at equilibrium at the next valid reading, so a step
+  // across the clear cannot become torque: that reading is the new
+  // reference, unchecked (the device's own clear may have moved it).
+  cleared = was_latched_ && !latched_before;
+  if (cleared) reset_pending_ = true;
   was_latched_ = latched_before;
   // An overrun streak is known at the wake-up: zero this period's output.
   if (options_.overrun_limit != 0 && wake.overrun && stats_.overrun_streak() + 1 >= options_.overrun_limit) {
     latch(FaultReason::overrun_streak);
   }
+  return latched_before;
+}
+
+bool Engine::take_plan(std::uint64_t cycle) noexcept {
+  const LoopPlan* plan = plans_.acquire(cycle);
+  if (plan == plan_) return false;
+  plan_ = plan;
+  reset_pending_ = true;
+  return true;
+}
+
+void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
+  if (task_) {
+    run_task_cycle(wake);  // several axes: task_cycle.cpp
+    return;
+  }
+  TelemetrySample sample = begin_sample(wake);
+  // A new plan, or the end of a latched fault, restarts the scene at
+  // equilibrium at the position measured in this very cycle (below, before
+  // the first step): no torque step, even before the first valid reading or
+  // when the device moved since the last one.
+  if (take_plan(wake.cycle)) scene_ = plan_->scene;
+  bool cleared = false;
+  const bool latched_before = latch_at_wake(wake, cleared);
+  if (cleared) position_guard_.forget();
 
   double position = 0.0;
   const bool position_valid = read_position(wake, sample, position);

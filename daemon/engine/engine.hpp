@@ -149,6 +149,15 @@ class Engine {
   /// Reads the device and applies the reading rules (fault, error streak,
   /// finite value, position step); true when `position` may be rendered.
   bool read_position(const rt::WakeUp& wake, TelemetrySample& sample, double& position) noexcept;
+  /// Publishes the cycle and starts its sample (cycle, time, latency).
+  TelemetrySample begin_sample(const rt::WakeUp& wake) noexcept;
+  /// The latch at the wake-up (returned); `cleared` when a fault was cleared
+  /// since the last period (the scene restarts: reset_pending_); an overrun
+  /// streak known at the wake-up latches now.
+  bool latch_at_wake(const rt::WakeUp& wake, bool& cleared) noexcept;
+  /// Takes the plan in force at `cycle`; true when it is new (the scene
+  /// restarts at equilibrium: reset_pending_).
+  bool take_plan(std::uint64_t cycle) noexcept;
   /// A read's outcome on one axis or all: a fault latches, an error counts
   /// toward the streak and flags the sample; true when the read was ok.
   bool read_succeeded(drivers::IoResult read, TelemetrySample& sample) noexcept;

@@ -97,24 +97,12 @@ void Engine::render_task_force(TelemetrySample& sample, bool position_valid, boo
 
 void Engine::run_task_cycle(const rt::WakeUp& wake) noexcept {
   TaskAxes& a = *task_;
-  cycle_.store(wake.cycle, std::memory_order_relaxed);
-  TelemetrySample sample;
-  sample.cycle = wake.cycle;
-  sample.time_s = std::chrono::duration<double>(wake.deadline - t0_).count();
-  sample.latency_s = std::chrono::duration<double>(wake.latency).count();
-  if (const LoopPlan* plan = plans_.acquire(wake.cycle); plan != plan_) {
-    plan_ = plan;
-    a.scene = plan->task_scene;
-    reset_pending_ = true;
-  }
-  const bool latched_before = latch_.latched();
-  if (was_latched_ && !latched_before) {
-    reset_pending_ = true;  // the first reading after a clear is the new reference
-    for (auto& guard : a.guards) guard.forget();
-  }
-  was_latched_ = latched_before;
-  if (options_.overrun_limit != 0 && wake.overrun && stats_.overrun_streak() + 1 >= options_.overrun_limit) {
-    latch(FaultReason::overrun_streak);
+  TelemetrySample sample = begin_sample(wake);
+  if (take_plan(wake.cycle)) a.scene = plan_->task_scene;
+  bool cleared = false;
+  const bool latched_before = latch_at_wake(wake, cleared);
+  if (cleared) {
+    for (auto& guard : a.guards) guard.forget();  // the first reading after a clear is the new reference
   }
   const bool position_valid = read_task_position(wake, sample);
   const bool output_allowed = !latched_before && !latch_.latched();
