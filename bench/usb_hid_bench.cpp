@@ -46,7 +46,7 @@ void BM_EncodeOut(benchmark::State& state) {
   r.deadman_us = 3000;
   for (auto _ : state) {
     ++r.sequence;
-    r.command = static_cast<std::int64_t>(r.sequence & 0x3FFFU);
+    r.command[0] = static_cast<std::int64_t>(r.sequence & 0x3FFFU);
     benchmark::DoNotOptimize(encode_out(r, layout, buffer));
     benchmark::ClobberMemory();
   }
@@ -78,11 +78,11 @@ void BM_SessionPeriod(benchmark::State& state) {
   for (auto _ : state) {
     ++board.sequence;
     board.ack = session.last_out_sequence();
-    board.position_counts += 3;
+    board.position_counts[0] += 3;
     encode_in(board, layout.in, in);
     session.on_in(TransferOutcome::completed, in, 0x81);
     benchmark::DoNotOptimize(session.end_read(latest));
-    benchmark::DoNotOptimize(session.make_out(latest.position_counts, true, 3000, out));
+    benchmark::DoNotOptimize(session.make_out(latest.position_counts[0], true, 3000, out));
   }
   state.counters["faulted"] = session.faulted() ? 1.0 : 0.0;
 }

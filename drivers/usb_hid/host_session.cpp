@@ -128,13 +128,14 @@ IoResult HostSession::end_read(InReport& latest) noexcept {
   return IoResult::ok;
 }
 
-std::size_t HostSession::make_out(std::int64_t command, bool enable, std::uint32_t deadman_us,
+std::size_t HostSession::make_out(std::span<const std::int64_t> commands, bool enable, std::uint32_t deadman_us,
                                   std::span<std::uint8_t> buffer) noexcept {
   out_sequence_ = next_sequence(out_sequence_, layout_.out.sequence);
   OutReport report;
   report.sequence = out_sequence_;
   const bool on = enable && !faulted() && !resetting_;
-  report.command = on ? command : 0;
+  for (std::size_t k = 0; k < commands.size() && k < report.command.size(); ++k)
+    report.command[k] = on ? commands[k] : 0;
   report.enable = on;
   report.reset = resetting_;
   report.deadman_us = deadman_us;

@@ -89,8 +89,15 @@ class HostSession {
   // ---- write side, once per period ----
   /// Builds the next OUT report (sequence + 1). Enable is forced off while a
   /// fault is latched; reset is set while a reset is in progress.
-  std::size_t make_out(std::int64_t command, bool enable, std::uint32_t deadman_us,
+  /// `commands`: one per axis of the layout (missing axes get 0), all zero
+  /// while the output is off.
+  std::size_t make_out(std::span<const std::int64_t> commands, bool enable, std::uint32_t deadman_us,
                        std::span<std::uint8_t> buffer) noexcept;
+  /// One axis.
+  std::size_t make_out(std::int64_t command, bool enable, std::uint32_t deadman_us,
+                       std::span<std::uint8_t> buffer) noexcept {
+    return make_out(std::span<const std::int64_t>(&command, 1), enable, deadman_us, buffer);
+  }
   /// How the last OUT transfer ended (or its submission: no_device / stall).
   void on_out(TransferOutcome outcome, std::uint8_t endpoint) noexcept;
 

@@ -49,6 +49,21 @@ std::uint32_t IntegerField::mask() const noexcept {
   return size >= 4 ? 0xFFFFFFFFU : static_cast<std::uint32_t>((1U << bits()) - 1U);
 }
 
+std::size_t axis_count(const AxisFields& fields) noexcept {
+  std::size_t n = 0;
+  while (n < fields.size() && fields[n].present()) ++n;
+  return n;
+}
+
+AxisFields consecutive_fields(const IntegerField& first, std::size_t axes) noexcept {
+  AxisFields out{};
+  for (std::size_t k = 0; k < axes && k < out.size(); ++k) {
+    out[k] = first;
+    out[k].offset = first.offset + k * first.size;
+  }
+  return out;
+}
+
 IntegerField parse_integer_field(std::string_view text) {
   if (text == "none") return IntegerField{};
   const auto colon = text.find(':');
@@ -127,30 +142,33 @@ class Occupancy {
  public:
   Occupancy(std::string_view report, std::size_t size) : report_(report), size_(size), owner_(size * 8) {}
 
-  void claim_bytes(const std::string& key, std::size_t offset, std::size_t count) {
+  /// `label` names the field in the words ("in_position (axis 2)"), `key` is the config key.
+  void claim_bytes(const std::string& key, std::size_t offset, std::size_t count,
+                   const std::string& label = {}) {
+    const std::string& name = label.empty() ? key : label;
     if (offset + count > size_)
-      throw LayoutError(key, key + " needs bytes " + std::to_string(offset) + ".." +
+      throw LayoutError(key, name + " needs bytes " + std::to_string(offset) + ".." +
                                  std::to_string(offset + count - 1) + " but the " + std::string(report_) +
                                  " report has " + std::to_string(size_) + " bytes");
-    for (std::size_t bit = offset * 8; bit < (offset + count) * 8; ++bit) claim_bit(key, bit);
+    for (std::size_t bit = offset * 8; bit < (offset + count) * 8; ++bit) claim_bit(key, name, bit);
   }
-  void claim(const std::string& key, const IntegerField& f) {
-    if (f.present()) claim_bytes(key, f.offset, f.size);
+  void claim(const std::string& key, const IntegerField& f, const std::string& label = {}) {
+    if (f.present()) claim_bytes(key, f.offset, f.size, label);
   }
   void claim(const std::string& key, const BitField& b) {
     if (!b.present) return;
     if (b.offset >= size_)
       throw LayoutError(key, key + " is in byte " + std::to_string(b.offset) + " but the " +
                                  std::string(report_) + " report has " + std::to_string(size_) + " bytes");
-    claim_bit(key, b.offset * 8 + b.bit);
+    claim_bit(key, key, b.offset * 8 + b.bit);
   }
 
  private:
-  void claim_bit(const std::string& key, std::size_t bit) {
-    if (!owner_[bit].empty() && owner_[bit] != key)
-      throw LayoutError(key, key + " overlaps " + owner_[bit] + " (byte " + std::to_string(bit / 8) +
+  void claim_bit(const std::string& key, const std::string& name, std::size_t bit) {
+    if (!owner_[bit].empty() && owner_[bit] != name)
+      throw LayoutError(key, name + " overlaps " + owner_[bit] + " (byte " + std::to_string(bit / 8) +
                                  ", bit " + std::to_string(bit % 8) + ")");
-    owner_[bit] = key;
+    owner_[bit] = name;
   }
   std::string_view report_;
   std::size_t size_;
@@ -181,20 +199,53 @@ void require_unsigned(const std::string& key, const IntegerField& f) {
     throw LayoutError(key, key + " = \"" + to_string(f) + "\" must be unsigned (u8, u16le/be, u32le/be)");
 }
 
+/// The present fields lead (no axis given after a missing one); returns how many.
+std::size_t check_axis_fields(const std::string& key, const AxisFields& fields) {
+  const std::size_t n = axis_count(fields);
+  for (std::size_t k = n; k < fields.size(); ++k)
+    if (fields[k].present())
+      throw LayoutError(key, key + " gives axis " + std::to_string(k + 1) + " but not axis " +
+                                 std::to_string(n + 1) + "; accepted: 1 to " + std::to_string(max_report_axes) +
+                                 " fields, one per axis, axis 1 first");
+  return n;
+}
+
+/// "in_position" for one axis (the words of a one-axis layout stay as they
+/// were), "in_position (axis 2)" with several.
+std::string axis_label(const std::string& key, std::size_t axis, std::size_t axes) {
+  return axes == 1 ? key : key + " (axis " + std::to_string(axis + 1) + ")";
+}
+
+void check_commands(const OutLayout& out, std::size_t axes) {
+  const std::size_t commands = check_axis_fields("out_command", out.command);
+  for (std::size_t k = 0; k < commands; ++k)
+    if (!out.command[k].is_signed)
+      throw LayoutError("out_command",
+                        axis_label("out_command", k, commands) + " = \"" + to_string(out.command[k]) +
+                            "\" must be signed (i8, i16le/be, i32le/be): the command is a signed "
+                            "duty or torque");
+  if (commands != axes)
+    throw LayoutError("out_command", "out_command has " + std::to_string(commands) + " field" +
+                                         (commands == 1 ? "" : "s") + " but in_position has " +
+                                         std::to_string(axes) + "; accepted: one command per axis");
+}
+
 }  // namespace
 
 void validate(const ReportLayout& layout) {
   const InLayout& in = layout.in;
   check_size("in_report_size", in.size);
   require("in_sequence", in.sequence.present(), "stale reports are detected by it");
-  require("in_position", in.position.present(), "the encoder count");
+  require("in_position", in.position[0].present(), "the encoder count");
+  const std::size_t axes = check_axis_fields("in_position", in.position);
   require_unsigned("in_sequence", in.sequence);
   require_unsigned("in_ack", in.ack);
   Occupancy in_bits("IN", in.size);
   check_report_id("in_report_id", in.report_id, in_bits);
   in_bits.claim("in_sequence", in.sequence);
   in_bits.claim("in_ack", in.ack);
-  in_bits.claim("in_position", in.position);
+  for (std::size_t k = 0; k < axes; ++k)
+    in_bits.claim("in_position", in.position[k], axis_label("in_position", k, axes));
   in_bits.claim("in_enabled_bit", in.enabled);
   in_bits.claim("in_fault_bit", in.fault);
   in_bits.claim("in_watchdog_bit", in.watchdog);
@@ -203,19 +254,16 @@ void validate(const ReportLayout& layout) {
   const OutLayout& out = layout.out;
   check_size("out_report_size", out.size);
   require("out_sequence", out.sequence.present(), "the board's dead-man watches it");
-  require("out_command", out.command.present(), "the signed duty or torque");
+  require("out_command", out.command[0].present(), "the signed duty or torque");
   require("out_enable_bit", out.enable.present, "the power stage is off unless it is set");
   require_unsigned("out_sequence", out.sequence);
   require_unsigned("out_deadman", out.deadman);
-  if (!out.command.is_signed)
-    throw LayoutError("out_command",
-                      "out_command = \"" + to_string(out.command) +
-                          "\" must be signed (i8, i16le/be, i32le/be): the command is a signed "
-                          "duty or torque");
+  check_commands(out, axes);
   Occupancy out_bits("OUT", out.size);
   check_report_id("out_report_id", out.report_id, out_bits);
   out_bits.claim("out_sequence", out.sequence);
-  out_bits.claim("out_command", out.command);
+  for (std::size_t k = 0; k < axes; ++k)
+    out_bits.claim("out_command", out.command[k], axis_label("out_command", k, axes));
   out_bits.claim("out_enable_bit", out.enable);
   out_bits.claim("out_reset_bit", out.reset);
   out_bits.claim("out_deadman", out.deadman);
@@ -227,7 +275,8 @@ DecodeStatus decode_in(std::span<const std::uint8_t> bytes, const InLayout& layo
   out = InReport{};
   out.sequence = static_cast<std::uint32_t>(read_field(bytes, layout.sequence));
   if (layout.ack.present()) out.ack = static_cast<std::uint32_t>(read_field(bytes, layout.ack));
-  out.position_counts = read_field(bytes, layout.position);
+  for (std::size_t k = 0; k < layout.position.size() && layout.position[k].present(); ++k)
+    out.position_counts[k] = read_field(bytes, layout.position[k]);
   if (layout.enabled.present) out.enabled = read_bit(bytes, layout.enabled);
   if (layout.fault.present) out.fault = read_bit(bytes, layout.fault);
   if (layout.watchdog.present) out.watchdog = read_bit(bytes, layout.watchdog);
@@ -243,7 +292,8 @@ std::size_t encode_out(const OutReport& report, const OutLayout& layout,
   for (std::uint8_t& b : bytes) b = 0;
   if (layout.report_id != no_report_id) bytes[0] = static_cast<std::uint8_t>(layout.report_id);
   write_field(bytes, layout.sequence, report.sequence);
-  write_field(bytes, layout.command, report.command);
+  for (std::size_t k = 0; k < layout.command.size() && layout.command[k].present(); ++k)
+    write_field(bytes, layout.command[k], report.command[k]);
   write_bit(bytes, layout.enable, report.enable);
   if (layout.reset.present) write_bit(bytes, layout.reset, report.reset);
   if (layout.deadman.present()) write_field(bytes, layout.deadman, report.deadman_us);
@@ -256,7 +306,8 @@ DecodeStatus decode_out(std::span<const std::uint8_t> bytes, const OutLayout& la
   if (layout.report_id != no_report_id && bytes[0] != layout.report_id) return DecodeStatus::wrong_report_id;
   out = OutReport{};
   out.sequence = static_cast<std::uint32_t>(read_field(bytes, layout.sequence));
-  out.command = read_field(bytes, layout.command);
+  for (std::size_t k = 0; k < layout.command.size() && layout.command[k].present(); ++k)
+    out.command[k] = read_field(bytes, layout.command[k]);
   out.enable = read_bit(bytes, layout.enable);
   if (layout.reset.present) out.reset = read_bit(bytes, layout.reset);
   if (layout.deadman.present())
@@ -272,7 +323,8 @@ std::size_t encode_in(const InReport& report, const InLayout& layout,
   if (layout.report_id != no_report_id) bytes[0] = static_cast<std::uint8_t>(layout.report_id);
   write_field(bytes, layout.sequence, report.sequence);
   if (layout.ack.present()) write_field(bytes, layout.ack, report.ack);
-  write_field(bytes, layout.position, report.position_counts);
+  for (std::size_t k = 0; k < layout.position.size() && layout.position[k].present(); ++k)
+    write_field(bytes, layout.position[k], report.position_counts[k]);
   if (layout.enabled.present) write_bit(bytes, layout.enabled, report.enabled);
   if (layout.fault.present) write_bit(bytes, layout.fault, report.fault);
   if (layout.watchdog.present) write_bit(bytes, layout.watchdog, report.watchdog);

@@ -13,6 +13,7 @@
 /// USB itself sends multi-byte descriptor fields little-endian (USB 2.0
 /// 8.1); a report's payload is the firmware's choice, hence the byte order.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -74,6 +75,16 @@ void write_bit(std::span<std::uint8_t> report, const BitField& b, bool value) no
 inline constexpr std::size_t max_report_size = 64;
 /// report_id = no_report_id: the report has no ID byte.
 inline constexpr int no_report_id = -1;
+/// A board with several axes carries one encoder field and one command
+/// field per axis (1 to 6: drivers::max_axes, checked in usb_hid_config.cpp).
+inline constexpr std::size_t max_report_axes = 6;
+/// One field per axis, axis 1 first; the present ones lead, the rest are absent.
+using AxisFields = std::array<IntegerField, max_report_axes>;
+/// How many leading fields are present (the axes the layout carries).
+std::size_t axis_count(const AxisFields& fields) noexcept;
+/// `first` for axis 1 and the next axes right after it, same type
+/// (offset + k x size): the consecutive fields of `axes = N`.
+AxisFields consecutive_fields(const IntegerField& first, std::size_t axes) noexcept;
 
 /// Board -> host (interrupt IN). Defaults: README.md "IN report".
 struct InLayout {
@@ -81,7 +92,7 @@ struct InLayout {
   int report_id = no_report_id;  ///< 0..255: byte 0 carries it
   IntegerField sequence = field(0, 2, false);
   IntegerField ack = field(2, 2, false);  ///< sequence of the last OUT report applied (optional)
-  IntegerField position = field(4, 4, true);
+  AxisFields position{field(4, 4, true)};  ///< each axis' encoder count (axis 1 at 4:i32le)
   BitField enabled = bit_at(8, 0);               ///< power stage on (optional)
   BitField fault = bit_at(8, 1);                 ///< board fault latched (optional)
   BitField watchdog = bit_at(8, 2);              ///< dead-man tripped (optional)
@@ -93,7 +104,7 @@ struct OutLayout {
   std::size_t size = 8;
   int report_id = no_report_id;
   IntegerField sequence = field(0, 2, false);
-  IntegerField command = field(2, 2, true);  ///< signed duty or torque, full scale = largest()
+  AxisFields command{field(2, 2, true)};  ///< each axis' signed duty or torque, full scale = largest()
   BitField enable = bit_at(4, 0);
   BitField reset = bit_at(4, 1);              ///< fault reset request (optional)
   IntegerField deadman = field(6, 2, false);  ///< dead-man timeout in microseconds (optional)
@@ -102,6 +113,9 @@ struct OutLayout {
 struct ReportLayout {
   InLayout in;
   OutLayout out;
+  /// The axes it carries: axis_count(in.position) (validate() checks the
+  /// OUT report carries as many commands).
+  std::size_t axes() const noexcept { return axis_count(in.position); }
 };
 
 /// A layout that does not fit together. `key` is the config key to blame.
@@ -117,14 +131,16 @@ class LayoutError : public std::invalid_argument {
 
 /// Every field inside its report, no two fields sharing a bit, the report
 /// ID byte free, the required fields present (sequence, position, command,
-/// enable), sequences unsigned, the command signed. Throws LayoutError.
+/// enable), sequences unsigned, the commands signed, as many commands as
+/// positions (1 to max_report_axes, no gaps). Throws LayoutError naming the
+/// key (`in_position` for any axis' encoder field, the message says which).
 void validate(const ReportLayout& layout);
 
 /// One decoded IN report.
 struct InReport {
   std::uint32_t sequence = 0;
   std::uint32_t ack = 0;  ///< 0 when the layout has no ack field
-  std::int64_t position_counts = 0;
+  std::array<std::int64_t, max_report_axes> position_counts{};  ///< per axis; 0 past the layout's axes
   bool enabled = false;
   bool fault = false;
   bool watchdog = false;
@@ -135,7 +151,7 @@ struct InReport {
 /// One OUT report.
 struct OutReport {
   std::uint32_t sequence = 0;
-  std::int64_t command = 0;
+  std::array<std::int64_t, max_report_axes> command{};  ///< per axis; unused past the layout's axes
   bool enable = false;
   bool reset = false;
   std::uint32_t deadman_us = 0;

@@ -41,6 +41,11 @@ double UsbHidConfig::position_per_count() const noexcept {
   return (inverted ? -unit : unit) / counts_per_unit;
 }
 
+double UsbHidConfig::position_per_count(std::size_t k) const noexcept {
+  if (axes.empty()) return position_per_count();
+  return (inverted ? -1.0 : 1.0) / axes[k].counts_per_unit;  // linear: m per count
+}
+
 std::uint32_t UsbHidConfig::deadman_us(double period_s) const noexcept {
   return static_cast<std::uint32_t>(std::llround(deadman_periods * period_s * 1e6));
 }
@@ -54,6 +59,11 @@ void UsbHidConfig::validate(double period_s) const {
   } catch (const LayoutError& e) {
     throw DeviceError(e.what(), e.key());
   }
+  static_assert(max_report_axes == static_cast<std::size_t>(max_axes), "one axis capacity");
+  if (layout.axes() != axis_count())
+    throw DeviceError("the report layout carries " + std::to_string(layout.axes()) + " axes but axes = " +
+                          std::to_string(axis_count()) + "; accepted: one in_position and one out_command per axis",
+                      "axes");
   if (layout.out.deadman.present()) {
     const auto largest = static_cast<std::uint64_t>(layout.out.deadman.largest());
     if (deadman_us(period_s) > largest)

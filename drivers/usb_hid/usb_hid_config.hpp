@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "drivers/device_hooks.hpp"
 #include "drivers/parameter.hpp"
@@ -15,6 +16,15 @@
 #include "drivers/usb_hid/usb_transport.hpp"
 
 namespace hapticd::drivers::usb_hid {
+
+/// One axis of a board with several: its encoder and amplifier scales and
+/// the mass and damping the stability gate judges it with.
+struct UsbHidAxis {
+  double counts_per_unit = 16384.0;   ///< counts per metre (a stage's axes are linear)
+  double command_full_scale = 1.0;    ///< N at the largest command
+  double mass = 0.01;                 ///< kg
+  double damping = 0.0;               ///< N s/m
+};
 
 struct UsbHidConfig {
   UsbSelector selector;  ///< vendor_id, product_id (required), serial, path, interface, endpoints
@@ -34,9 +44,21 @@ struct UsbHidConfig {
   double mass = 0.01;      ///< kg m^2 (rotary) or kg (linear)
   double damping = 0.0;    ///< N m s/rad or N s/m
   int delay_periods = -1;  ///< -1: from the endpoints' polling intervals (link_delay_periods)
+  /// A board with several axes (`axes` = 2 to 6, as many as layout.axes()):
+  /// each axis' scales and model. Empty for one axis, which the fields above
+  /// describe.
+  std::vector<UsbHidAxis> axes;
 
+  /// The axes the board carries: 1, or axes.size().
+  std::size_t axis_count() const noexcept { return axes.empty() ? 1 : axes.size(); }
   /// rad or m per count (2 pi / counts or 1 / counts), with the direction's sign.
   double position_per_count() const noexcept;
+  /// Axis `k`'s (0-based) m per count; axis 0 of one axis is position_per_count().
+  double position_per_count(std::size_t k) const noexcept;
+  /// Axis `k`'s force at the largest command.
+  double command_full_scale_of(std::size_t k) const noexcept {
+    return axes.empty() ? command_full_scale : axes[k].command_full_scale;
+  }
   /// The OUT report's dead-man field for this period, in microseconds.
   std::uint32_t deadman_us(double period_s) const noexcept;
   /// Everything that can be checked without the board, at this period.

@@ -47,9 +47,8 @@ void UsbHidDevice::configure(const LoopContext& loop) {
   deadman_us_ = config_.layout.out.deadman.present() ? config_.deadman_us(period_s_) : 0;
   session_ = HostSession(config_.layout, limits_for(config_, period_s_));
   open_board();
-  Reading first;
   // A tripped dead-man is what a previous hapticd leaves: enable() resets it.
-  if (exchange_read(first) == IoResult::fault && session_.fault().reason != LinkFault::board_watchdog)
+  if (exchange_read() == IoResult::fault && session_.fault().reason != LinkFault::board_watchdog)
     throw DeviceError("the board (" + board_.description +
                       ") is in fault at start-up: " + session_.describe(session_.fault()));
 }
@@ -110,8 +109,7 @@ bool UsbHidDevice::run_reset_handshake(int periods) {
   for (int p = 0; p < periods && !stop_.stop_requested(); ++p) {
     exchange_write(0.0);
     std::this_thread::sleep_for(period);
-    Reading r;
-    exchange_read(r);
+    exchange_read();
     if (session_.reset_done()) return !session_.faulted();
   }
   return false;
@@ -125,8 +123,7 @@ void UsbHidDevice::disable() noexcept {
   exchange_write(0.0);
   for (int p = 0; p < 3; ++p) {
     std::this_thread::sleep_for(std::chrono::duration<double>(period_s_));
-    Reading r;
-    exchange_read(r);
+    exchange_read();
   }
 }
 
@@ -143,24 +140,44 @@ void UsbHidDevice::close() noexcept {
 // and the control side requests before it looks at in_rt_: with sequentially
 // consistent stores and loads at least one of them sees the other (Dekker),
 // so the RT side never touches the transport while the control side has it.
-IoResult UsbHidDevice::read(Reading& out) noexcept {
+template <class Exchange>
+IoResult UsbHidDevice::rt_call(Exchange exchange) noexcept {
   in_rt_.store(true, std::memory_order_seq_cst);
-  rt_calls_.fetch_add(1, std::memory_order_relaxed);
-  const IoResult result =
-      park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange_read(out);
+  const IoResult result = park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange();
   in_rt_.store(false, std::memory_order_release);
   return result;
+}
+
+IoResult UsbHidDevice::read(Reading& out) noexcept {
+  rt_calls_.fetch_add(1, std::memory_order_relaxed);
+  return rt_call([&]() noexcept {
+    const IoResult result = exchange_read();
+    if (result == IoResult::ok) out.position = positions_[0];
+    return result;
+  });
 }
 
 IoResult UsbHidDevice::write(double force) noexcept {
-  in_rt_.store(true, std::memory_order_seq_cst);
-  const IoResult result =
-      park_requested_.load(std::memory_order_seq_cst) ? IoResult::fault : exchange_write(force);
-  in_rt_.store(false, std::memory_order_release);
-  return result;
+  return rt_call([&]() noexcept { return exchange_write(force); });
 }
 
-IoResult UsbHidDevice::exchange_read(Reading& out) noexcept {
+IoResult UsbHidDevice::read_axes(std::span<Reading> out) noexcept {
+  rt_calls_.fetch_add(1, std::memory_order_relaxed);
+  if (out.size() != config_.axis_count()) return IoResult::error;
+  return rt_call([&]() noexcept {
+    const IoResult result = exchange_read();
+    if (result == IoResult::ok)
+      for (std::size_t k = 0; k < out.size(); ++k) out[k].position = positions_[k];
+    return result;
+  });
+}
+
+IoResult UsbHidDevice::write_axes(std::span<const double> forces) noexcept {
+  if (forces.size() != config_.axis_count()) return IoResult::error;
+  return rt_call([&]() noexcept { return exchange_write(forces); });
+}
+
+IoResult UsbHidDevice::exchange_read() noexcept {
   transport_->poll();
   InCompletion in;
   while (transport_->pop_in(in)) session_.on_in(in.outcome, {in.bytes, in.length}, board_.in.address);
@@ -169,17 +186,21 @@ IoResult UsbHidDevice::exchange_read(Reading& out) noexcept {
   InReport latest;
   const IoResult result = session_.end_read(latest);
   if (result == IoResult::ok)
-    out.position = static_cast<double>(latest.position_counts) * config_.position_per_count();
+    for (std::size_t k = 0; k < config_.axis_count(); ++k)
+      positions_[k] = static_cast<double>(latest.position_counts[k]) * config_.position_per_count(k);
   publish();
   return result;
 }
 
-IoResult UsbHidDevice::exchange_write(double force) noexcept {
-  const double signed_force = config_.inverted ? -force : force;
-  const std::int64_t counts =
-      command_counts(signed_force, config_.command_full_scale, config_.layout.out.command);
-  const std::size_t n =
-      session_.make_out(counts, enabled_.load(std::memory_order_relaxed), deadman_us_, out_buffer_);
+IoResult UsbHidDevice::exchange_write(std::span<const double> forces) noexcept {
+  const std::size_t axes = config_.axis_count();
+  for (std::size_t k = 0; k < axes; ++k) {
+    const double force = k < forces.size() ? forces[k] : 0.0;
+    commands_[k] = command_counts(config_.inverted ? -force : force, config_.command_full_scale_of(k),
+                                  config_.layout.out.command[k]);
+  }
+  const std::size_t n = session_.make_out(std::span<const std::int64_t>(commands_.data(), axes),
+                                          enabled_.load(std::memory_order_relaxed), deadman_us_, out_buffer_);
   switch (transport_->submit_out({out_buffer_, n})) {
     case SubmitResult::queued:
       break;
@@ -356,6 +377,20 @@ DeviceModel UsbHidDevice::model() const {
                                                : 0;
   m.source = "config";
   m.description = "usb-hid board " + board_.description;
+  if (config_.axes.empty()) return m;
+  // A stage: every axis, and the lightest one in the one-axis fields.
+  m.description += ", Cartesian stage of " + std::to_string(config_.axes.size()) + " linear axes";
+  m.effective_mass = config_.axes[0].mass;
+  m.viscous_damping = config_.axes[0].damping;
+  for (std::size_t k = 0; k < config_.axes.size(); ++k) {
+    const UsbHidAxis& axis = config_.axes[k];
+    m.axes.push_back({axis.mass, axis.damping});
+    m.position_resolution = std::max(m.position_resolution, std::abs(config_.position_per_count(k)));
+    if (axis.mass < m.effective_mass) {
+      m.effective_mass = axis.mass;
+      m.viscous_damping = axis.damping;
+    }
+  }
   return m;
 }
 

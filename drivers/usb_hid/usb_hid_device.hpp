@@ -16,10 +16,12 @@
 /// (atomics published by the RT side). The rest: only while the RT thread
 /// is not calling read()/write().
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 
 #include "drivers/device_hooks.hpp"
@@ -67,6 +69,12 @@ class UsbHidDevice final : public DeviceHooks {
 
   IoResult read(Reading& out) noexcept override;
   IoResult write(double force) noexcept override;
+  /// A board with several axes: every encoder field of one IN report (one
+  /// sample instant), every command field of one OUT report. A bad report
+  /// (short, wrong ID, a transfer error) is no reading for any axis.
+  int axes() const noexcept override { return static_cast<int>(config_.axis_count()); }
+  IoResult read_axes(std::span<Reading> out) noexcept override;
+  IoResult write_axes(std::span<const double> forces) noexcept override;
 
   DeviceModel model() const override;
   DeviceHealth health() const override;
@@ -78,8 +86,14 @@ class UsbHidDevice final : public DeviceHooks {
   void open_board();
   void reopen_checks();
   void reopen();
-  IoResult exchange_read(Reading& out) noexcept;
-  IoResult exchange_write(double force) noexcept;
+  /// One IN exchange: every axis' position into positions_ when ok.
+  IoResult exchange_read() noexcept;
+  /// One OUT report with `forces` (axes past its size get 0).
+  IoResult exchange_write(std::span<const double> forces) noexcept;
+  IoResult exchange_write(double force) noexcept { return exchange_write(std::span<const double>(&force, 1)); }
+  /// The park handshake around one RT call (see read()).
+  template <class Exchange>
+  IoResult rt_call(Exchange exchange) noexcept;
   void publish() noexcept;
   bool park(double timeout_s);
   void unpark() noexcept;
@@ -106,6 +120,8 @@ class UsbHidDevice final : public DeviceHooks {
   std::string description_;  ///< board_.description for link_status() (any thread)
   std::atomic<bool> enabled_{false};
   std::uint8_t out_buffer_[max_report_size]{};
+  std::array<double, max_report_axes> positions_{};       ///< the last good reading, per axis (RT thread)
+  std::array<std::int64_t, max_report_axes> commands_{};  ///< this period's command counts (RT thread)
 
   // RT -> others (relaxed counters, release/acquire on the fault).
   std::atomic<std::uint32_t> fault_reason_{0}, fault_detail_{0};

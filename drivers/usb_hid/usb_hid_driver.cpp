@@ -1,6 +1,8 @@
 // The usb-hid driver's description (drivers/driver_description.hpp): its
 // typed parameters, each key converted once into UsbHidConfig, and the
 // factory of its hooks.
+#include <charconv>
+#include <cmath>
 #include <stdexcept>
 
 #include "drivers/driver_description.hpp"
@@ -23,10 +25,31 @@ P layout_bit(const char* name, const char* help, const BitField& default_bit) {
   return P::text(name, std::string(help) + " (OFFSET.BIT, or none)").defaults_to(to_string(default_bit));
 }
 
+/// A board with several axes (issue 22): how many, and what differs per axis.
+std::vector<ParameterSpec> axes_parameters() {
+  const auto per_axis = [](const char* name, const char* what, const char* fallback) {
+    return P::text(name, std::string("axes > 1: each axis' ") + what + ", comma-separated (\"16384,20000\"); unset: " +
+                             fallback + " on every axis")
+        .defaults_to("");
+  };
+  return {
+      P::integer("axes", "",
+                 "axes on the board: 1, or a Cartesian stage of 2 to 6 linear axes whose encoder and "
+                 "command fields share one IN and one OUT report")
+          .defaults_to(1.0)
+          .at_least(1.0)
+          .at_most(static_cast<double>(max_axes)),
+      per_axis("axis_counts_per_unit", "encoder counts per metre", "counts_per_unit"),
+      per_axis("axis_command_full_scale", "force in N at the largest command", "command_full_scale"),
+      per_axis("axis_mass", "moving mass in kg, for the stability gate", "mass"),
+      per_axis("axis_damping", "viscous damping in N s/m, for the stability gate", "damping"),
+  };
+}
+
 std::vector<ParameterSpec> usb_hid_parameters() {
   const ReportLayout d;
   const UsbHidConfig c;
-  return {
+  std::vector<ParameterSpec> out = {
       motion_parameter("rotary (rad, N m) or linear (m, N)"),
       mass_parameter("moving inertia or mass, for the stability gate").defaults_to(c.mass),
       damping_parameter("viscous damping to ground, for the stability gate"),
@@ -83,7 +106,10 @@ std::vector<ParameterSpec> usb_hid_parameters() {
           .at_most(255),
       layout_field("in_sequence", "the board's IN report counter", to_string(d.in.sequence)),
       layout_field("in_ack", "last OUT sequence the board applied", to_string(d.in.ack)),
-      layout_field("in_position", "encoder count", to_string(d.in.position)),
+      layout_field("in_position",
+                   "encoder count; axes > 1: one field per axis, comma-separated, or axis 1's with the "
+                   "next axes right after it",
+                   to_string(d.in.position[0])),
       layout_bit("in_enabled_bit", "power stage on", d.in.enabled),
       layout_bit("in_fault_bit", "board fault latched", d.in.fault),
       layout_bit("in_watchdog_bit", "dead-man tripped", d.in.watchdog),
@@ -97,11 +123,16 @@ std::vector<ParameterSpec> usb_hid_parameters() {
           .at_least(-1)
           .at_most(255),
       layout_field("out_sequence", "OUT report counter", to_string(d.out.sequence)),
-      layout_field("out_command", "signed duty or torque", to_string(d.out.command)),
+      layout_field("out_command",
+                   "signed duty or torque; axes > 1: one field per axis, comma-separated, or axis 1's "
+                   "with the next axes right after it",
+                   to_string(d.out.command[0])),
       layout_bit("out_enable_bit", "power stage on", d.out.enable),
       layout_bit("out_reset_bit", "fault reset request", d.out.reset),
       layout_field("out_deadman", "dead-man timeout in microseconds", to_string(d.out.deadman)),
   };
+  for (auto& p : axes_parameters()) out.push_back(std::move(p));
+  return out;
 }
 
 /// A text key parsed once: its notation's errors name the key.
@@ -118,13 +149,69 @@ auto parsed(const DriverParameters& p, const char* key, Parse parse) {
 std::uint8_t in_endpoint(std::string_view text) { return parse_endpoint_address(text, true); }
 std::uint8_t out_endpoint(std::string_view text) { return parse_endpoint_address(text, false); }
 
+std::string_view trimmed(std::string_view text) {
+  while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+  while (!text.empty() && text.back() == ' ') text.remove_suffix(1);
+  return text;
+}
+
+std::vector<std::string_view> comma_items(std::string_view text) {
+  std::vector<std::string_view> items;
+  std::size_t begin = 0;
+  while (begin <= text.size()) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    items.push_back(trimmed(text.substr(begin, end - begin)));
+    begin = end + 1;
+  }
+  return items;
+}
+
+/// in_position / out_command: one field (axis 1, the next axes right after
+/// it) or one per axis.
+AxisFields axis_fields(const DriverParameters& p, const char* key, std::size_t axes) {
+  const std::vector<std::string_view> items = comma_items(p.text(key));
+  if (items.size() != 1 && items.size() != axes)
+    throw ParameterError(key, std::string("device.usb-hid.") + key + " has " + std::to_string(items.size()) +
+                                  " fields for axes = " + std::to_string(axes) +
+                                  "; accepted: one field (axis 1, the next axes right after it) or " +
+                                  std::to_string(axes) + " comma-separated fields, one per axis");
+  AxisFields fields{};
+  for (std::size_t k = 0; k < items.size(); ++k)
+    fields[k] = parsed(p, key, [&](std::string_view) { return parse_integer_field(items[k]); });
+  return items.size() == 1 ? consecutive_fields(fields[0], axes) : fields;
+}
+
+/// axis_mass and the other per-axis numbers: `axes` comma-separated numbers
+/// (> 0, or >= 0 for damping); unset: `fallback` on every axis.
+std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std::size_t axes, double fallback,
+                                 bool zero_allowed, const char* unit) {
+  if (!p.given(key)) return std::vector<double>(axes, fallback);
+  const std::string& text = p.text(key);
+  const std::vector<std::string_view> items = comma_items(text);
+  std::vector<double> out;
+  for (const std::string_view item : items) {
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
+    const bool ok = !item.empty() && ec == std::errc{} && end == item.data() + item.size() && std::isfinite(v) &&
+                    (zero_allowed ? v >= 0.0 : v > 0.0);
+    if (!ok) break;
+    out.push_back(v);
+  }
+  if (out.size() != axes || items.size() != axes)
+    throw ParameterError(key, std::string("device.usb-hid.") + key + " = \"" + text + "\" is not accepted; accepted: " +
+                                  std::to_string(axes) + " comma-separated numbers " +
+                                  (zero_allowed ? ">= 0" : "> 0") + " (" + unit + "), one per axis");
+  return out;
+}
+
 ReportLayout layout_from(const DriverParameters& p) {
   ReportLayout l;
   l.in.size = static_cast<std::size_t>(p.integer("in_report_size"));
   l.in.report_id = static_cast<int>(p.integer("in_report_id"));
   l.in.sequence = parsed(p, "in_sequence", parse_integer_field);
   l.in.ack = parsed(p, "in_ack", parse_integer_field);
-  l.in.position = parsed(p, "in_position", parse_integer_field);
+  const auto axes = static_cast<std::size_t>(p.integer("axes"));
+  l.in.position = axis_fields(p, "in_position", axes);
   l.in.enabled = parsed(p, "in_enabled_bit", parse_bit_field);
   l.in.fault = parsed(p, "in_fault_bit", parse_bit_field);
   l.in.watchdog = parsed(p, "in_watchdog_bit", parse_bit_field);
@@ -132,7 +219,7 @@ ReportLayout layout_from(const DriverParameters& p) {
   l.out.size = static_cast<std::size_t>(p.integer("out_report_size"));
   l.out.report_id = static_cast<int>(p.integer("out_report_id"));
   l.out.sequence = parsed(p, "out_sequence", parse_integer_field);
-  l.out.command = parsed(p, "out_command", parse_integer_field);
+  l.out.command = axis_fields(p, "out_command", axes);
   l.out.enable = parsed(p, "out_enable_bit", parse_bit_field);
   l.out.reset = parsed(p, "out_reset_bit", parse_bit_field);
   l.out.deadman = parsed(p, "out_deadman", parse_integer_field);
@@ -142,6 +229,31 @@ ReportLayout layout_from(const DriverParameters& p) {
     throw ParameterError(e.key(), std::string("device.usb-hid.") + e.what());
   }
   return l;
+}
+
+/// The per-axis scales and model of a board with several axes (empty for one).
+std::vector<UsbHidAxis> stage_axes(const DriverParameters& p, const UsbHidConfig& c) {
+  const auto axes = static_cast<std::size_t>(p.integer("axes"));
+  const char* keys[] = {"axis_counts_per_unit", "axis_command_full_scale", "axis_mass", "axis_damping"};
+  if (axes == 1) {
+    for (const char* key : keys)
+      if (p.given(key))
+        throw ParameterError(key, std::string("device.usb-hid.") + key +
+                                      " is for a board with several axes; accepted with axes = 2 to " +
+                                      std::to_string(max_axes) + " (one axis: " + (key + 5) + ")");
+    return {};
+  }
+  if (p.given("motion") && p.text("motion") != "linear")
+    throw ParameterError("motion", "device.usb-hid.motion = \"" + p.text("motion") +
+                                       "\" is not accepted with axes = " + std::to_string(axes) +
+                                       "; accepted: \"linear\" (a Cartesian stage of linear axes, m and N)");
+  const auto counts = axis_numbers(p, "axis_counts_per_unit", axes, c.counts_per_unit, false, "counts per metre");
+  const auto scales = axis_numbers(p, "axis_command_full_scale", axes, c.command_full_scale, false, "N");
+  const auto masses = axis_numbers(p, "axis_mass", axes, c.mass, false, "kg");
+  const auto dampings = axis_numbers(p, "axis_damping", axes, c.damping, true, "N s/m");
+  std::vector<UsbHidAxis> out(axes);
+  for (std::size_t k = 0; k < axes; ++k) out[k] = {counts[k], scales[k], masses[k], dampings[k]};
+  return out;
 }
 
 }  // namespace
@@ -168,6 +280,8 @@ UsbHidConfig usb_hid_config_from(const DriverParameters& p) {
   c.events = p.text("events") == "thread" ? EventHandling::thread : EventHandling::loop;
   c.delay_periods = static_cast<int>(p.integer("delay_periods"));
   c.layout = layout_from(p);
+  c.axes = stage_axes(p, c);
+  if (!c.axes.empty()) c.motion = Motion::linear;
   return c;
 }
 

@@ -4,7 +4,7 @@ namespace hapticd::drivers::usb_hid::sim {
 
 bool BoardFirmware::on_out_report(std::span<const std::uint8_t> bytes, std::uint64_t now_us) noexcept {
   BoardCommand report;
-  if (!read_out_report(bytes, report)) {
+  if (!read_out_report(bytes, report, axes_)) {
     ++counters_.bad_reports;
     return false;
   }
@@ -36,13 +36,14 @@ void BoardFirmware::on_tick(std::uint64_t now_us) noexcept {
   }
 }
 
-std::size_t BoardFirmware::make_in_report(std::int64_t encoder_counts,
+std::size_t BoardFirmware::make_in_report(std::span<const std::int64_t> encoder_counts,
                                           std::span<std::uint8_t> buffer) noexcept {
   ++in_sequence_;  // u16: wraps as the protocol's sequence does
   BoardStatus report;
   report.sequence = in_sequence_;
   report.ack = have_sequence_ ? last_sequence_ : 0;
-  report.position = static_cast<std::int32_t>(static_cast<std::uint32_t>(encoder_counts));
+  for (std::size_t k = 0; k < axes_ && k < encoder_counts.size(); ++k)  // the 32-bit counter wraps
+    report.position[k] = static_cast<std::int32_t>(static_cast<std::uint32_t>(encoder_counts[k]));
   report.enabled = output_on();
   report.fault = fault_code_ != 0;
   report.watchdog = watchdog_;
@@ -50,7 +51,7 @@ std::size_t BoardFirmware::make_in_report(std::int64_t encoder_counts,
                       : watchdog_      ? static_cast<std::uint8_t>(FaultCode::watchdog)
                                        : std::uint8_t{0};
   ++counters_.in_reports;
-  return write_in_report(report, buffer);
+  return write_in_report(report, buffer, axes_);
 }
 
 void BoardFirmware::raise_fault(FaultCode code, bool cause_present) noexcept {

@@ -12,6 +12,7 @@
 /// The reports are read and written with the board's own decoder
 /// (board_reports.hpp, the README's default layout), not the driver's codec.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -35,7 +36,10 @@ struct FirmwareCounters {
 
 class BoardFirmware {
  public:
-  BoardFirmware() = default;
+  /// `axes`: 1 to max_board_axes encoder/command pairs in the reports
+  /// (board_reports.hpp); the enable, fault and dead-man are the board's,
+  /// for every axis at once.
+  explicit BoardFirmware(std::size_t axes = 1) noexcept : axes_(axes) {}
 
   /// One OUT report arrived at `now_us`. Returns true if it was new (applied).
   bool on_out_report(std::span<const std::uint8_t> bytes, std::uint64_t now_us) noexcept;
@@ -44,7 +48,11 @@ class BoardFirmware {
   void on_tick(std::uint64_t now_us) noexcept;
   /// Builds the next IN report (sequence + 1) with this encoder count.
   /// The count is the board's 32-bit encoder counter (it wraps).
-  std::size_t make_in_report(std::int64_t encoder_counts, std::span<std::uint8_t> buffer) noexcept;
+  std::size_t make_in_report(std::int64_t encoder_counts, std::span<std::uint8_t> buffer) noexcept {
+    return make_in_report(std::span<const std::int64_t>(&encoder_counts, 1), buffer);
+  }
+  /// Every axis' count (encoder_counts.size() == axes()).
+  std::size_t make_in_report(std::span<const std::int64_t> encoder_counts, std::span<std::uint8_t> buffer) noexcept;
 
   /// Hardware fault detected (over-current, ...): output off, latched.
   /// `cause_present` keeps a reset from clearing it until clear_cause().
@@ -52,7 +60,10 @@ class BoardFirmware {
   void clear_cause() noexcept { cause_present_ = false; }
 
   /// The amplifier's command in counts of the OUT command field (0 when off).
-  std::int16_t output() const noexcept { return output_on() ? command_ : std::int16_t{0}; }
+  std::int16_t output(std::size_t axis = 0) const noexcept {
+    return output_on() ? command_[axis] : std::int16_t{0};
+  }
+  std::size_t axes() const noexcept { return axes_; }
   bool output_on() const noexcept { return enable_ && fault_code_ == 0 && !watchdog_; }
   bool watchdog_tripped() const noexcept { return watchdog_; }
   std::uint32_t fault_code() const noexcept { return fault_code_; }
@@ -60,12 +71,13 @@ class BoardFirmware {
   const FirmwareCounters& counters() const noexcept { return counters_; }
 
  private:
+  std::size_t axes_ = 1;
   FirmwareCounters counters_;
   bool have_sequence_ = false;
   std::uint16_t last_sequence_ = 0;
   std::uint16_t in_sequence_ = 0;
   std::uint64_t deadline_us_ = 0;
-  std::int16_t command_ = 0;
+  std::array<std::int16_t, max_board_axes> command_{};
   bool enable_ = false;
   bool watchdog_ = false;
   std::uint8_t fault_code_ = 0;

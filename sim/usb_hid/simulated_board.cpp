@@ -2,11 +2,21 @@
 
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 namespace hapticd::drivers::usb_hid::sim {
 
 SimulatedBoard::SimulatedBoard(const BoardScaling& scaling, BoardPlant& plant, BoardClock clock)
-    : scaling_(scaling), plant_(plant), clock_(clock) {
+    : SimulatedBoard({BoardAxis{&plant, scaling.position_per_count, scaling.command_full_scale}}, scaling.period_s,
+                     clock) {}
+
+SimulatedBoard::SimulatedBoard(const std::vector<BoardAxis>& axes, double period_s, BoardClock clock)
+    : axes_(axes), period_s_(period_s), clock_(clock), firmware_(axes.size()) {
+  if (axes_.empty() || axes_.size() > max_board_axes)
+    throw std::invalid_argument("a simulated board has 1 to " + std::to_string(max_board_axes) + " axes");
+  for (const BoardAxis& a : axes_)
+    if (a.plant == nullptr) throw std::invalid_argument("a simulated board's axis needs its plant");
   power_on();
 }
 
@@ -18,22 +28,32 @@ std::uint64_t SimulatedBoard::now_us_locked() const {
 }
 
 void SimulatedBoard::make_report_locked() {
-  double position = 0.0;
-  // An encoder read error leaves the count where it was (the board has no
-  // better value); the plant simulator's faults show up this way.
-  static_cast<void>(plant_.sense(position));
-  const auto counts = static_cast<std::int64_t>(std::llround(position / scaling_.position_per_count));
-  pending_length_ = firmware_.make_in_report(counts, pending_);
+  std::array<std::int64_t, max_board_axes> counts{};
+  for (std::size_t k = 0; k < axes_.size(); ++k) {
+    double position = 0.0;
+    // An encoder read error leaves the count where it was (the board has no
+    // better value); the plant simulator's faults show up this way.
+    static_cast<void>(axes_[k].plant->sense(position));
+    counts[k] = static_cast<std::int64_t>(std::llround(position / axes_[k].position_per_count)) +
+                encoder_offsets_[k];
+  }
+  pending_length_ = firmware_.make_in_report(std::span<const std::int64_t>(counts.data(), axes_.size()), pending_);
+  if (truncate_next_ && pending_length_ > 0) {
+    --pending_length_;
+    truncate_next_ = false;
+  }
 }
 
 void SimulatedBoard::on_out_report(std::span<const std::uint8_t> bytes) {
   const std::lock_guard lock(mutex_);
   firmware_.on_tick(now_us_locked());
   if (!firmware_.on_out_report(bytes, now_us_locked())) return;
-  applied_force_ = command_to_force(firmware_.output(), scaling_.command_full_scale);
-  static_cast<void>(plant_.step(applied_force_));
+  for (std::size_t k = 0; k < axes_.size(); ++k) {
+    applied_forces_[k] = command_to_force(firmware_.output(k), axes_[k].command_full_scale);
+    static_cast<void>(axes_[k].plant->step(applied_forces_[k]));
+  }
   ++steps_;
-  deterministic_us_ += static_cast<std::uint64_t>(std::llround(scaling_.period_s * 1e6));
+  deterministic_us_ += static_cast<std::uint64_t>(std::llround(period_s_ * 1e6));
   make_report_locked();
 }
 
@@ -53,9 +73,9 @@ void SimulatedBoard::refresh_report() {
 
 void SimulatedBoard::power_on() {
   const std::lock_guard lock(mutex_);
-  firmware_ = BoardFirmware();
+  firmware_ = BoardFirmware(axes_.size());
   powered_at_ = std::chrono::steady_clock::now();
-  applied_force_ = 0.0;
+  applied_forces_.fill(0.0);
   make_report_locked();
 }
 
@@ -80,12 +100,24 @@ void SimulatedBoard::clear_cause() {
   firmware_.clear_cause();
 }
 
+void SimulatedBoard::truncate_next_report() {
+  const std::lock_guard lock(mutex_);
+  truncate_next_ = true;
+}
+
+void SimulatedBoard::offset_encoder(std::size_t axis, std::int64_t counts) {
+  const std::lock_guard lock(mutex_);
+  if (axis < axes_.size()) encoder_offsets_[axis] += counts;
+}
+
 BoardSnapshot SimulatedBoard::snapshot() const {
   const std::lock_guard lock(mutex_);
   BoardSnapshot s;
   s.firmware = firmware_.counters();
   s.output_counts = firmware_.output();
-  s.applied_force = applied_force_;
+  s.applied_force = applied_forces_[0];
+  for (std::size_t k = 0; k < axes_.size(); ++k) s.outputs[k] = firmware_.output(k);
+  s.applied_forces = applied_forces_;
   s.output_on = firmware_.output_on();
   s.watchdog_tripped = firmware_.watchdog_tripped();
   s.fault_code = firmware_.fault_code();

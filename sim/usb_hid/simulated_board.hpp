@@ -11,6 +11,7 @@
 /// Threads: every member may be called from any thread (one mutex: this is
 /// the peer, not the RT path).
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -18,6 +19,7 @@
 #include <mutex>
 #include <span>
 #include <thread>
+#include <vector>
 
 #include "drivers/device_hooks.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
@@ -54,6 +56,13 @@ struct BoardScaling {
   double period_s = 1e-3;  ///< plant step per OUT report (deterministic clock)
 };
 
+/// One axis of a board with several: its plant and its scales.
+struct BoardAxis {
+  BoardPlant* plant = nullptr;
+  double position_per_count = 1.0 / 16384.0;  ///< m per encoder count
+  double command_full_scale = 1.0;            ///< N at the largest command
+};
+
 /// Where the board's microsecond clock comes from.
 enum class BoardClock {
   deterministic,  ///< + period per new OUT report, + advance_time(): repeatable runs
@@ -69,11 +78,18 @@ struct BoardSnapshot {
   std::uint32_t fault_code = 0;
   std::uint64_t steps = 0;  ///< plant periods
   std::uint64_t now_us = 0;
+  /// Every axis' (output_counts and applied_force are axis 1's).
+  std::array<std::int64_t, max_board_axes> outputs{};
+  std::array<double, max_board_axes> applied_forces{};
 };
 
 class SimulatedBoard {
  public:
   SimulatedBoard(const BoardScaling& scaling, BoardPlant& plant,
+                 BoardClock clock = BoardClock::deterministic);
+  /// A board with several axes (1 to max_board_axes), each with its plant
+  /// (every plant steps once per new OUT report) and its scales.
+  SimulatedBoard(const std::vector<BoardAxis>& axes, double period_s,
                  BoardClock clock = BoardClock::deterministic);
 
   // ---- the USB side (the emulated endpoints) ----
@@ -98,14 +114,22 @@ class SimulatedBoard {
   void tick();
   void raise_fault(FaultCode code, bool cause_present = true);
   void clear_cause();
+  /// The next IN report goes out one byte short (a firmware or bus fault).
+  void truncate_next_report();
+  /// Axis `axis`'s encoder reads `counts` more from now on (a glitch).
+  void offset_encoder(std::size_t axis, std::int64_t counts);
+  std::size_t axes() const noexcept { return axes_.size(); }
+  /// The IN and OUT report sizes this board speaks.
+  std::size_t in_report_size() const noexcept { return in_report_bytes_for(axes_.size()); }
+  std::size_t out_report_size() const noexcept { return out_report_bytes_for(axes_.size()); }
   BoardSnapshot snapshot() const;
 
  private:
   std::uint64_t now_us_locked() const;
   void make_report_locked();
 
-  const BoardScaling scaling_;
-  BoardPlant& plant_;
+  const std::vector<BoardAxis> axes_;
+  const double period_s_;
   const BoardClock clock_;
 
   mutable std::mutex mutex_;
@@ -113,8 +137,10 @@ class SimulatedBoard {
   std::chrono::steady_clock::time_point powered_at_;
   std::uint64_t deterministic_us_ = 0;
   std::uint64_t steps_ = 0;
-  double applied_force_ = 0.0;
-  std::uint8_t pending_[in_report_bytes]{};
+  std::array<double, max_board_axes> applied_forces_{};
+  std::array<std::int64_t, max_board_axes> encoder_offsets_{};
+  bool truncate_next_ = false;
+  std::uint8_t pending_[max_in_report_bytes]{};
   std::size_t pending_length_ = 0;  ///< 0: no report waiting
 };
 

@@ -166,7 +166,7 @@ struct UmockdevUsbBoard::State {
   }
 
   void add_board() {
-    const std::vector<std::uint8_t> hid = report_descriptor(in_report_bytes, out_report_bytes);
+    const std::vector<std::uint8_t> hid = report_descriptor(board.in_report_size(), board.out_report_size());
     const std::vector<std::uint8_t> descriptors = board_descriptors(id, hid.size());
     char head[1024];
     std::snprintf(head, sizeof head,

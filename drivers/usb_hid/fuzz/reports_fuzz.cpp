@@ -46,7 +46,7 @@ std::optional<usb::ReportLayout> layout_from(std::string_view& rest) {
   usb::ReportLayout layout;
   const auto position = parsed<usb::IntegerField>(next_line(rest), usb::parse_integer_field);
   const auto fault = parsed<usb::BitField>(next_line(rest), usb::parse_bit_field);
-  if (position) layout.in.position = *position;
+  if (position) layout.in.position[0] = *position;
   if (fault) layout.in.fault = *fault;
   try {
     usb::validate(layout);

@@ -146,7 +146,7 @@ TEST(BoardFirmware, SequencesWrapAtSixteenBits) {
 TEST(BoardReports, TheDriversCodecAndTheBoardsAgreeOnTheDefaultLayout) {
   OutReport sent;
   sent.sequence = 0xBEEF;
-  sent.command = -12345;
+  sent.command[0] = -12345;
   sent.enable = true;
   sent.reset = true;
   sent.deadman_us = 3000;
@@ -155,7 +155,7 @@ TEST(BoardReports, TheDriversCodecAndTheBoardsAgreeOnTheDefaultLayout) {
   BoardCommand got;
   ASSERT_TRUE(read_out_report(out, got));
   EXPECT_EQ(got.sequence, 0xBEEF);
-  EXPECT_EQ(got.command, -12345);
+  EXPECT_EQ(got.command[0], -12345);
   EXPECT_TRUE(got.enable);
   EXPECT_TRUE(got.reset);
   EXPECT_EQ(got.deadman_us, 3000);
@@ -163,7 +163,7 @@ TEST(BoardReports, TheDriversCodecAndTheBoardsAgreeOnTheDefaultLayout) {
   BoardStatus status;
   status.sequence = 0x1234;
   status.ack = 0xBEEF;
-  status.position = -100000;
+  status.position[0] = -100000;
   status.enabled = false;
   status.fault = true;
   status.watchdog = true;
@@ -174,7 +174,7 @@ TEST(BoardReports, TheDriversCodecAndTheBoardsAgreeOnTheDefaultLayout) {
   ASSERT_EQ(decode_in(in, InLayout{}, read), DecodeStatus::ok);
   EXPECT_EQ(read.sequence, 0x1234U);
   EXPECT_EQ(read.ack, 0xBEEFU);
-  EXPECT_EQ(read.position_counts, -100000);
+  EXPECT_EQ(read.position_counts[0], -100000);
   EXPECT_FALSE(read.enabled);
   EXPECT_TRUE(read.fault);
   EXPECT_TRUE(read.watchdog);
@@ -184,7 +184,7 @@ TEST(BoardReports, TheDriversCodecAndTheBoardsAgreeOnTheDefaultLayout) {
   // Full scale both ways: +-32767 counts is +-full scale; -32768 saturates.
   EXPECT_DOUBLE_EQ(command_to_force(32767, 2.0), 2.0);
   EXPECT_DOUBLE_EQ(command_to_force(-32768, 2.0), -2.0);
-  const IntegerField command = OutLayout{}.command;
+  const IntegerField command = OutLayout{}.command[0];
   EXPECT_EQ(command_counts(2.0, 2.0, command), 32767);
   EXPECT_DOUBLE_EQ(command_to_force(static_cast<std::int16_t>(command_counts(-0.5, 2.0, command)), 2.0),
                    command_force(command_counts(-0.5, 2.0, command), 2.0, command));

@@ -33,7 +33,7 @@ class Session : public ::testing::Test {
   InReport report(std::uint32_t sequence, std::int64_t position = 0, std::uint32_t ack = 0) {
     InReport r;
     r.sequence = sequence;
-    r.position_counts = position;
+    r.position_counts[0] = position;
     r.ack = ack;
     r.enabled = true;
     return r;
@@ -57,14 +57,14 @@ TEST_F(Session, NothingYetIsAnError) { EXPECT_EQ(period(latest), IoResult::error
 TEST_F(Session, NewReportsThenHeldThenTimeout) {
   board_sends(report(7, 100));
   EXPECT_EQ(period(latest), IoResult::ok);
-  EXPECT_EQ(latest.position_counts, 100);
+  EXPECT_EQ(latest.position_counts[0], 100);
   board_sends(report(8, 101));
   EXPECT_EQ(period(latest), IoResult::ok);
-  EXPECT_EQ(latest.position_counts, 101);
+  EXPECT_EQ(latest.position_counts[0], 101);
   // A period without a report holds the last position (a full-speed board
   // polled every 1 ms drifts against a 1 ms loop: some periods get none).
   EXPECT_EQ(period(latest), IoResult::ok);
-  EXPECT_EQ(latest.position_counts, 101);
+  EXPECT_EQ(latest.position_counts[0], 101);
   EXPECT_EQ(period(latest), IoResult::ok);
   EXPECT_EQ(session.counters().held_periods, 2U);
   EXPECT_EQ(period(latest), IoResult::fault) << "third period without a report";
@@ -96,7 +96,7 @@ TEST_F(Session, GapsAreCountedNewestWins) {
   board_sends(report(4, 40));
   board_sends(report(5, 50));
   EXPECT_EQ(period(latest), IoResult::ok);
-  EXPECT_EQ(latest.position_counts, 50);
+  EXPECT_EQ(latest.position_counts[0], 50);
   EXPECT_EQ(session.counters().missed_reports, 2U);
   EXPECT_EQ(session.counters().in_reports, 3U);
 }
@@ -106,7 +106,7 @@ TEST_F(Session, SequenceWrapsAround) {
   EXPECT_EQ(period(latest), IoResult::ok);
   board_sends(report(0, 2));
   EXPECT_EQ(period(latest), IoResult::ok);
-  EXPECT_EQ(latest.position_counts, 2);
+  EXPECT_EQ(latest.position_counts[0], 2);
   EXPECT_EQ(session.counters().stale_reports, 0U);
 }
 
@@ -160,7 +160,7 @@ TEST_F(Session, OutSequenceContinuesFromTheBoardsAck) {
   EXPECT_EQ(period(latest), IoResult::ok);
   const OutReport first = send(123);
   EXPECT_EQ(first.sequence, 4712U);
-  EXPECT_EQ(first.command, 123);
+  EXPECT_EQ(first.command[0], 123);
   EXPECT_TRUE(first.enable);
   EXPECT_FALSE(first.reset);
   EXPECT_EQ(first.deadman_us, 3000U);
@@ -182,7 +182,7 @@ TEST_F(Session, FaultedSessionSendsOutputOff) {
   session.latch(LinkFault::in_timeout, 3);
   const OutReport out = send(500);
   EXPECT_FALSE(out.enable);
-  EXPECT_EQ(out.command, 0);
+  EXPECT_EQ(out.command[0], 0);
 }
 
 TEST_F(Session, ResetIsDecidedByTheFirstReportAfterTheBoardSawIt) {
@@ -197,7 +197,7 @@ TEST_F(Session, ResetIsDecidedByTheFirstReportAfterTheBoardSawIt) {
   const OutReport reset = send(300);
   EXPECT_TRUE(reset.reset);
   EXPECT_FALSE(reset.enable) << "output stays off until the reset is decided";
-  EXPECT_EQ(reset.command, 0);
+  EXPECT_EQ(reset.command[0], 0);
   // A report the board sent before it saw the reset still has the fault: not held against it.
   r.sequence = 2;
   board_sends(r);
@@ -236,7 +236,7 @@ TEST_F(Session, RestartResyncsToTheNewBoard) {
   EXPECT_EQ(period(latest), IoResult::error) << "no position until the new board reports";
   board_sends(report(1, 6, 0));
   EXPECT_EQ(period(latest), IoResult::ok);
-  EXPECT_EQ(latest.position_counts, 6);
+  EXPECT_EQ(latest.position_counts[0], 6);
   EXPECT_EQ(send().sequence, 1U);
   EXPECT_EQ(session.counters().stale_reports, 0U);
 }

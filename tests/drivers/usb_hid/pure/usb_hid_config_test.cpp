@@ -56,7 +56,7 @@ TEST(UsbHidConfig, KeysSetTheirFields) {
   EXPECT_EQ(c.selector.in_endpoint, 0x83);
   EXPECT_EQ(c.selector.out_endpoint, 0x02);
   EXPECT_EQ(c.events, EventHandling::thread);
-  EXPECT_EQ(c.layout.in.position, field(1, 4, true, ByteOrder::big));
+  EXPECT_EQ(c.layout.in.position[0], field(1, 4, true, ByteOrder::big));
   EXPECT_EQ(c.layout.in.sequence, field(14, 2, false));
   EXPECT_FALSE(c.layout.in.ack.present());
   EXPECT_FALSE(c.layout.out.reset.present);
@@ -65,9 +65,9 @@ TEST(UsbHidConfig, KeysSetTheirFields) {
 TEST(UsbHidConfig, DefaultsAreTheReadmesLayout) {
   const UsbHidConfig c = board();
   const ReportLayout d;
-  EXPECT_EQ(c.layout.in.position, d.in.position);
+  EXPECT_EQ(c.layout.in.position[0], d.in.position[0]);
   EXPECT_EQ(c.layout.in.fault_code, d.in.fault_code);
-  EXPECT_EQ(c.layout.out.command, d.out.command);
+  EXPECT_EQ(c.layout.out.command[0], d.out.command[0]);
   EXPECT_EQ(c.layout.out.deadman, d.out.deadman);
   EXPECT_EQ(c.selector.in_endpoint, 0);  // auto
   EXPECT_FALSE(c.inverted);

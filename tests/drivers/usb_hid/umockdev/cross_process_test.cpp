@@ -77,7 +77,7 @@ TEST_F(EmulatedBoardTest, AnotherProcessExchangesTwoHundredReports) {
   ASSERT_EQ(plant->forces().size(), 200U);
   for (std::size_t p = 0; p < 200; ++p)
     EXPECT_DOUBLE_EQ(plant->forces()[p], command_force(static_cast<std::int64_t>(p),
-                                                       scaling.command_full_scale, OutLayout{}.command))
+                                                       scaling.command_full_scale, OutLayout{}.command[0]))
         << p;
   const auto c = testbed->counters();
   EXPECT_FALSE(c.claimed) << "released when the child closed";
