@@ -97,6 +97,7 @@ struct InLayout {
   BitField fault = bit_at(8, 1);                 ///< board fault latched (optional)
   BitField watchdog = bit_at(8, 2);              ///< dead-man tripped (optional)
   IntegerField fault_code = field(9, 1, false);  ///< why (optional), table in fault_code_text()
+  friend bool operator==(const InLayout&, const InLayout&) = default;
 };
 
 /// Host -> board (interrupt OUT). Defaults: README.md "OUT report".
@@ -108,6 +109,7 @@ struct OutLayout {
   BitField enable = bit_at(4, 0);
   BitField reset = bit_at(4, 1);              ///< fault reset request (optional)
   IntegerField deadman = field(6, 2, false);  ///< dead-man timeout in microseconds (optional)
+  friend bool operator==(const OutLayout&, const OutLayout&) = default;
 };
 
 struct ReportLayout {
@@ -116,6 +118,7 @@ struct ReportLayout {
   /// The axes it carries: axis_count(in.position) (validate() checks the
   /// OUT report carries as many commands).
   std::size_t axes() const noexcept { return axis_count(in.position); }
+  friend bool operator==(const ReportLayout&, const ReportLayout&) = default;
 };
 
 /// A layout that does not fit together. `key` is the config key to blame.
