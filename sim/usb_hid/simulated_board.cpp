@@ -38,10 +38,7 @@ void SimulatedBoard::make_report_locked() {
                 encoder_offsets_[k];
   }
   pending_length_ = firmware_.make_in_report(std::span<const std::int64_t>(counts.data(), axes_.size()), pending_);
-  if (truncate_next_ && pending_length_ > 0) {
-    --pending_length_;
-    truncate_next_ = false;
-  }
+  if (pending_length_ > 0 && truncate_next_.exchange(false, std::memory_order_acq_rel)) --pending_length_;
 }
 
 void SimulatedBoard::on_out_report(std::span<const std::uint8_t> bytes) {
@@ -98,11 +95,6 @@ void SimulatedBoard::raise_fault(FaultCode code, bool cause_present) {
 void SimulatedBoard::clear_cause() {
   const std::lock_guard lock(mutex_);
   firmware_.clear_cause();
-}
-
-void SimulatedBoard::truncate_next_report() {
-  const std::lock_guard lock(mutex_);
-  truncate_next_ = true;
 }
 
 void SimulatedBoard::offset_encoder(std::size_t axis, std::int64_t counts) {

@@ -115,7 +115,8 @@ class SimulatedBoard {
   void raise_fault(FaultCode code, bool cause_present = true);
   void clear_cause();
   /// The next IN report goes out one byte short (a firmware or bus fault).
-  void truncate_next_report();
+  /// Lock-free: a BoardPlant may call it from step() (a scheduled glitch).
+  void truncate_next_report() noexcept { truncate_next_.store(true, std::memory_order_release); }
   /// Axis `axis`'s encoder reads `counts` more from now on (a glitch).
   void offset_encoder(std::size_t axis, std::int64_t counts);
   std::size_t axes() const noexcept { return axes_.size(); }
@@ -139,7 +140,7 @@ class SimulatedBoard {
   std::uint64_t steps_ = 0;
   std::array<double, max_board_axes> applied_forces_{};
   std::array<std::int64_t, max_board_axes> encoder_offsets_{};
-  bool truncate_next_ = false;
+  std::atomic<bool> truncate_next_{false};
   std::uint8_t pending_[max_in_report_bytes]{};
   std::size_t pending_length_ = 0;  ///< 0: no report waiting
 };
