@@ -11,6 +11,7 @@
 #include <cmath>
 #include <memory>
 #include <thread>
+#include <vector>
 
 #include "drivers/device.hpp"
 #include "drivers/usb_hid/usb_hid_device.hpp"
@@ -176,6 +177,76 @@ TEST_F(TwoAxisBoardTest, ReadAxesWriteAxesAllocateNothing) {
   EXPECT_EQ(allocations, 0U);
   EXPECT_EQ(not_ok, 0);
   EXPECT_EQ(device.status().read_errors + device.status().write_errors, 0U);
+}
+
+// Six axes, the most a device has: a 30-byte IN and an 18-byte OUT report,
+// each axis' command reaching its own plant, and still nothing allocates.
+TEST(SixAxisBoard, EveryAxisInOneReportAndNothingAllocates) {
+  if (!sim::UmockdevUsbBoard::preload_active()) GTEST_FAIL() << "libumockdev-preload is not loaded";
+  constexpr std::size_t n = 6;
+  std::vector<std::unique_ptr<RampPlant>> plants;
+  std::vector<sim::BoardAxis> axes;
+  UsbHidConfig c;
+  c.selector.vendor_id = 0x1209;
+  c.selector.product_id = 0x0001;
+  c.motion = Motion::linear;
+  for (std::size_t k = 0; k < n; ++k) {
+    plants.push_back(std::make_unique<RampPlant>(1e-3));
+    const double counts = 10000.0 * static_cast<double>(k + 1);
+    const double scale = 1.0 + static_cast<double>(k);
+    axes.push_back({plants.back().get(), 1.0 / counts, scale});
+    c.axes.push_back({counts, scale, 0.1, 0.0});
+  }
+  sim::SimulatedBoard board(axes, 1e-3);
+  sim::UmockdevUsbBoard testbed(sim::EmulatedUsbIdentity{}, board);
+  ReportLayout& l = c.layout;
+  l.in.size = board.in_report_size();
+  l.in.position = consecutive_fields(field(4, 4, true), n);
+  l.in.enabled = bit_at(28, 0);
+  l.in.fault = bit_at(28, 1);
+  l.in.watchdog = bit_at(28, 2);
+  l.in.fault_code = field(29, 1, false);
+  l.out.size = board.out_report_size();
+  l.out.command = consecutive_fields(field(2, 2, true), n);
+  l.out.enable = bit_at(14, 0);
+  l.out.reset = bit_at(14, 1);
+  l.out.deadman = field(16, 2, false);
+  ASSERT_EQ(l.in.size, 30U);
+  ASSERT_EQ(l.out.size, 18U);
+
+  Device device("usb-hid", std::make_unique<UsbHidDevice>(c));
+  device.configure({1e-3});
+  ASSERT_EQ(device.axes(), 6);
+  device.enable();
+  std::array<Reading, n> r{};
+  std::array<double, n> forces{};
+  for (std::size_t k = 0; k < n; ++k) forces[k] = 0.25 * static_cast<double>(k + 1) * (k % 2 == 0 ? 1 : -1);
+  ASSERT_EQ(device.read_axes(r), IoResult::ok);
+  ASSERT_EQ(device.write_axes(forces), IoResult::ok);
+  std::size_t allocations = 0;
+  int not_ok = 0;
+  {
+    hapticd::testing::AllocationGuard guard;
+    for (int p = 0; p < 500; ++p) {
+      not_ok += device.read_axes(r) != IoResult::ok;
+      not_ok += device.write_axes(forces) != IoResult::ok;
+    }
+    allocations = guard.count();
+  }
+  EXPECT_EQ(allocations, 0U);
+  EXPECT_EQ(not_ok, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // the report of the last OUT report
+  ASSERT_EQ(device.read_axes(r), IoResult::ok);
+  const sim::BoardSnapshot s = board.snapshot();
+  for (std::size_t k = 0; k < n; ++k) {
+    // round(F / full scale x 32767) per axis, each with its own scale.
+    const auto expected = std::llround(forces[k] / (1.0 + static_cast<double>(k)) * 32767.0);
+    EXPECT_EQ(s.outputs[k], expected) << "axis " << k + 1;
+    EXPECT_NEAR(r[k].position, plants[k]->position(), 0.5 / (10000.0 * static_cast<double>(k + 1)) + 1e-12)
+        << "axis " << k + 1;
+    EXPECT_EQ(r[k].position > 0.0, forces[k] > 0.0) << "axis " << k + 1;
+  }
+  device.close();
 }
 
 TEST_F(TwoAxisBoardTest, OneAxisCallsOnATwoAxisBoardAreRefused) {
