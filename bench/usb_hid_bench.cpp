@@ -88,6 +88,52 @@ void BM_SessionPeriod(benchmark::State& state) {
 }
 BENCHMARK(BM_SessionPeriod);
 
+/// A board with `n` axes: consecutive i32 counts from byte 4 and i16
+/// commands from byte 2, the other fields after them (the simulated board's
+/// layout, drivers/usb_hid/README.md "Several axes").
+ReportLayout axes_layout(std::size_t n) {
+  ReportLayout l;
+  l.in.size = std::max<std::size_t>(16, 6 + 4 * n);
+  l.in.position = consecutive_fields(field(4, 4, true), n);
+  l.in.enabled = bit_at(4 + 4 * n, 0);
+  l.in.fault = bit_at(4 + 4 * n, 1);
+  l.in.watchdog = bit_at(4 + 4 * n, 2);
+  l.in.fault_code = field(5 + 4 * n, 1, false);
+  l.out.size = 6 + 2 * n;
+  l.out.command = consecutive_fields(field(2, 2, true), n);
+  l.out.enable = bit_at(2 + 2 * n, 0);
+  l.out.reset = bit_at(2 + 2 * n, 1);
+  l.out.deadman = field(4 + 2 * n, 2, false);
+  return l;
+}
+
+/// One period of the host protocol with N axes (Arg): the IN report with N
+/// counts in, the read closed, the OUT report with N commands built.
+void BM_SessionPeriodAxes(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  const ReportLayout layout = axes_layout(n);
+  validate(layout);
+  HostSession session(layout, SessionLimits{});
+  std::array<std::uint8_t, max_report_size> in{};
+  std::array<std::uint8_t, max_report_size> out{};
+  InReport board;
+  board.enabled = true;
+  InReport latest;
+  std::array<std::int64_t, max_report_axes> commands{};
+  for (auto _ : state) {
+    ++board.sequence;
+    board.ack = session.last_out_sequence();
+    for (std::size_t k = 0; k < n; ++k) board.position_counts[k] += static_cast<std::int64_t>(k + 1);
+    encode_in(board, layout.in, in);
+    session.on_in(TransferOutcome::completed, std::span(in).first(layout.in.size), 0x81);
+    benchmark::DoNotOptimize(session.end_read(latest));
+    for (std::size_t k = 0; k < n; ++k) commands[k] = latest.position_counts[k] & 0x3FFF;
+    benchmark::DoNotOptimize(session.make_out(std::span<const std::int64_t>(commands.data(), n), true, 3000, out));
+  }
+  state.counters["faulted"] = session.faulted() ? 1.0 : 0.0;
+}
+BENCHMARK(BM_SessionPeriodAxes)->Arg(1)->Arg(2)->Arg(6);
+
 void BM_LoopModeIdlePoll(benchmark::State& state) {
   libusb_context* ctx = nullptr;
   if (libusb_init(&ctx) != 0) {
