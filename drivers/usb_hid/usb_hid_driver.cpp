@@ -27,9 +27,9 @@ P layout_bit(const char* name, const char* help, const BitField& default_bit) {
 
 /// A board with several axes (issue 22): how many, and what differs per axis.
 std::vector<ParameterSpec> axes_parameters() {
-  const auto per_axis = [](const char* name, const char* what, const char* fallback) {
-    return P::text(name, std::string("axes > 1: each axis' ") + what + ", comma-separated (\"16384,20000\"); unset: " +
-                             fallback + " on every axis")
+  const auto per_axis = [](const char* name, const char* what, const char* example, const char* fallback) {
+    return P::text(name, std::string("axes > 1: each axis' ") + what + ", comma-separated (\"" + example +
+                             "\"); unset: " + fallback + " on every axis")
         .defaults_to("");
   };
   return {
@@ -39,10 +39,10 @@ std::vector<ParameterSpec> axes_parameters() {
           .defaults_to(1.0)
           .at_least(1.0)
           .at_most(static_cast<double>(max_axes)),
-      per_axis("axis_counts_per_unit", "encoder counts per metre", "counts_per_unit"),
-      per_axis("axis_command_full_scale", "force in N at the largest command", "command_full_scale"),
-      per_axis("axis_mass", "moving mass in kg, for the stability gate", "mass"),
-      per_axis("axis_damping", "viscous damping in N s/m, for the stability gate", "damping"),
+      per_axis("axis_counts_per_unit", "encoder counts per metre", "20000,50000", "counts_per_unit"),
+      per_axis("axis_command_full_scale", "force in N at the largest command", "2,5", "command_full_scale"),
+      per_axis("axis_mass", "moving mass in kg, for the stability gate", "0.1,0.3", "mass"),
+      per_axis("axis_damping", "viscous damping in N s/m, for the stability gate", "0,2", "damping"),
   };
 }
 
@@ -240,7 +240,7 @@ std::vector<UsbHidAxis> stage_axes(const DriverParameters& p, const UsbHidConfig
       if (p.given(key))
         throw ParameterError(key, std::string("device.usb-hid.") + key +
                                       " is for a board with several axes; accepted with axes = 2 to " +
-                                      std::to_string(max_axes) + " (one axis: " + (key + 5) + ")");
+                                      std::to_string(max_axes) + " (one axis: " + std::string(key).substr(5) + ")");
     return {};
   }
   if (p.given("motion") && p.text("motion") != "linear")
