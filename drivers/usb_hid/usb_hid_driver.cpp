@@ -181,10 +181,19 @@ AxisFields axis_fields(const DriverParameters& p, const char* key, std::size_t a
   return items.size() == 1 ? consecutive_fields(fields[0], axes) : fields;
 }
 
+/// What a per-axis key accepts: numbers in [low, high] (above low when
+/// low_exclusive), in `unit`.
+struct AxisRange {
+  double low = 0.0;
+  bool low_exclusive = false;
+  double high = 0.0;
+  const char* unit = "";
+};
+
 /// axis_mass and the other per-axis numbers: `axes` comma-separated numbers
-/// (> 0, or >= 0 for damping); unset: `fallback` on every axis.
+/// in the key's range; unset: `fallback` on every axis.
 std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std::size_t axes, double fallback,
-                                 bool zero_allowed, const char* unit) {
+                                 const AxisRange& range) {
   if (!p.given(key)) return std::vector<double>(axes, fallback);
   const std::string& text = p.text(key);
   const std::vector<std::string_view> items = comma_items(text);
@@ -192,15 +201,18 @@ std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std
   for (const std::string_view item : items) {
     double v = 0.0;
     const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
-    const bool ok = !item.empty() && ec == std::errc{} && end == item.data() + item.size() && std::isfinite(v) &&
-                    (zero_allowed ? v >= 0.0 : v > 0.0);
-    if (!ok) break;
+    const bool above = range.low_exclusive ? v > range.low : v >= range.low;
+    if (item.empty() || ec != std::errc{} || end != item.data() + item.size() || !std::isfinite(v) || !above ||
+        v > range.high)
+      break;
     out.push_back(v);
   }
   if (out.size() != axes || items.size() != axes)
-    throw ParameterError(key, std::string("device.usb-hid.") + key + " = \"" + text + "\" is not accepted; accepted: " +
-                                  std::to_string(axes) + " comma-separated numbers " +
-                                  (zero_allowed ? ">= 0" : "> 0") + " (" + unit + "), one per axis");
+    throw ParameterError(key, std::string("device.usb-hid.") + key + " = \"" + text +
+                                  "\" is not accepted; accepted: " + std::to_string(axes) +
+                                  " comma-separated numbers in " + (range.low_exclusive ? "(" : "[") +
+                                  to_text(ParameterValue(range.low)) + ", " + to_text(ParameterValue(range.high)) +
+                                  "] " + range.unit + ", one per axis");
   return out;
 }
 
@@ -232,7 +244,7 @@ ReportLayout layout_from(const DriverParameters& p) {
 }
 
 /// The per-axis scales and model of a board with several axes (empty for one).
-std::vector<UsbHidAxis> stage_axes(const DriverParameters& p, const UsbHidConfig& c) {
+std::vector<UsbHidAxis> stage_axes(const DriverParameters& p) {
   const auto axes = static_cast<std::size_t>(p.integer("axes"));
   const char* keys[] = {"axis_counts_per_unit", "axis_command_full_scale", "axis_mass", "axis_damping"};
   if (axes == 1) {
@@ -247,10 +259,15 @@ std::vector<UsbHidAxis> stage_axes(const DriverParameters& p, const UsbHidConfig
     throw ParameterError("motion", "device.usb-hid.motion = \"" + p.text("motion") +
                                        "\" is not accepted with axes = " + std::to_string(axes) +
                                        "; accepted: \"linear\" (a Cartesian stage of linear axes, m and N)");
-  const auto counts = axis_numbers(p, "axis_counts_per_unit", axes, c.counts_per_unit, false, "counts per metre");
-  const auto scales = axis_numbers(p, "axis_command_full_scale", axes, c.command_full_scale, false, "N");
-  const auto masses = axis_numbers(p, "axis_mass", axes, c.mass, false, "kg");
-  const auto dampings = axis_numbers(p, "axis_damping", axes, c.damping, true, "N s/m");
+  namespace r = world::parameter_range;
+  constexpr double max_counts_per_metre = 1e12;  // a picometre encoder, as the loopback's `counts`
+  const auto counts = axis_numbers(p, "axis_counts_per_unit", axes, p.number("counts_per_unit"),
+                                   {0.0, true, max_counts_per_metre, "counts per metre"});
+  const auto scales = axis_numbers(p, "axis_command_full_scale", axes, p.number("command_full_scale"),
+                                   {0.0, true, r::max_force, "N"});
+  const auto masses = axis_numbers(p, "axis_mass", axes, p.number("mass"), {r::min_mass, false, r::max_mass, "kg"});
+  const auto dampings =
+      axis_numbers(p, "axis_damping", axes, p.number("damping"), {0.0, false, r::max_damping, "N s/m"});
   std::vector<UsbHidAxis> out(axes);
   for (std::size_t k = 0; k < axes; ++k) out[k] = {counts[k], scales[k], masses[k], dampings[k]};
   return out;
@@ -280,7 +297,7 @@ UsbHidConfig usb_hid_config_from(const DriverParameters& p) {
   c.events = p.text("events") == "thread" ? EventHandling::thread : EventHandling::loop;
   c.delay_periods = static_cast<int>(p.integer("delay_periods"));
   c.layout = layout_from(p);
-  c.axes = stage_axes(p, c);
+  c.axes = stage_axes(p);
   if (!c.axes.empty()) c.motion = Motion::linear;
   return c;
 }

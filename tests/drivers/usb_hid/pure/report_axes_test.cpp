@@ -276,8 +276,8 @@ TEST(UsbHidAxes, ConfigRefusalsNameTheKeyAndWhatIsAccepted) {
   g = two_axis_keys();
   g["axis_mass"] = std::string("0.1");
   EXPECT_EQ(config_refusal(g, key),
-            "device.usb-hid.axis_mass = \"0.1\" is not accepted; accepted: 2 comma-separated numbers > 0 (kg), "
-            "one per axis");
+            "device.usb-hid.axis_mass = \"0.1\" is not accepted; accepted: 2 comma-separated numbers in [1e-09, "
+            "1e+06] kg, one per axis");
   EXPECT_EQ(key, "axis_mass");
   g = two_axis_keys();
   g["axis_counts_per_unit"] = std::string("16384,-1");
