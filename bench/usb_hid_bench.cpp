@@ -128,7 +128,8 @@ void BM_SessionPeriodAxes(benchmark::State& state) {
     session.on_in(TransferOutcome::completed, std::span(in).first(layout.in.size), 0x81);
     benchmark::DoNotOptimize(session.end_read(latest));
     for (std::size_t k = 0; k < n; ++k) commands[k] = latest.position_counts[k] & 0x3FFF;
-    benchmark::DoNotOptimize(session.make_out(std::span<const std::int64_t>(commands.data(), n), true, 3000, out));
+    benchmark::DoNotOptimize(
+        session.make_out(std::span<const std::int64_t>(commands.data(), n), true, 3000, out));
   }
   state.counters["faulted"] = session.faulted() ? 1.0 : 0.0;
 }

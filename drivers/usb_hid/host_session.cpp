@@ -128,8 +128,8 @@ IoResult HostSession::end_read(InReport& latest) noexcept {
   return IoResult::ok;
 }
 
-std::size_t HostSession::make_out(std::span<const std::int64_t> commands, bool enable, std::uint32_t deadman_us,
-                                  std::span<std::uint8_t> buffer) noexcept {
+std::size_t HostSession::make_out(std::span<const std::int64_t> commands, bool enable,
+                                  std::uint32_t deadman_us, std::span<std::uint8_t> buffer) noexcept {
   out_sequence_ = next_sequence(out_sequence_, layout_.out.sequence);
   OutReport report;
   report.sequence = out_sequence_;

@@ -205,8 +205,8 @@ std::size_t check_axis_fields(const std::string& key, const AxisFields& fields) 
   for (std::size_t k = n; k < fields.size(); ++k)
     if (fields[k].present())
       throw LayoutError(key, key + " gives axis " + std::to_string(k + 1) + " but not axis " +
-                                 std::to_string(n + 1) + "; accepted: 1 to " + std::to_string(max_report_axes) +
-                                 " fields, one per axis, axis 1 first");
+                                 std::to_string(n + 1) + "; accepted: 1 to " +
+                                 std::to_string(max_report_axes) + " fields, one per axis, axis 1 first");
   return n;
 }
 

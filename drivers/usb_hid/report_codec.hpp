@@ -91,8 +91,8 @@ struct InLayout {
   std::size_t size = 16;
   int report_id = no_report_id;  ///< 0..255: byte 0 carries it
   IntegerField sequence = field(0, 2, false);
-  IntegerField ack = field(2, 2, false);  ///< sequence of the last OUT report applied (optional)
-  AxisFields position{field(4, 4, true)};  ///< each axis' encoder count (axis 1 at 4:i32le)
+  IntegerField ack = field(2, 2, false);         ///< sequence of the last OUT report applied (optional)
+  AxisFields position{field(4, 4, true)};        ///< each axis' encoder count (axis 1 at 4:i32le)
   BitField enabled = bit_at(8, 0);               ///< power stage on (optional)
   BitField fault = bit_at(8, 1);                 ///< board fault latched (optional)
   BitField watchdog = bit_at(8, 2);              ///< dead-man tripped (optional)
@@ -142,7 +142,7 @@ void validate(const ReportLayout& layout);
 /// One decoded IN report.
 struct InReport {
   std::uint32_t sequence = 0;
-  std::uint32_t ack = 0;  ///< 0 when the layout has no ack field
+  std::uint32_t ack = 0;                                        ///< 0 when the layout has no ack field
   std::array<std::int64_t, max_report_axes> position_counts{};  ///< per axis; 0 past the layout's axes
   bool enabled = false;
   bool fault = false;

@@ -61,8 +61,9 @@ void UsbHidConfig::validate(double period_s) const {
   }
   static_assert(max_report_axes == static_cast<std::size_t>(max_axes), "one axis capacity");
   if (layout.axes() != axis_count())
-    throw DeviceError("the report layout carries " + std::to_string(layout.axes()) + " axes but axes = " +
-                          std::to_string(axis_count()) + "; accepted: one in_position and one out_command per axis",
+    throw DeviceError("the report layout carries " + std::to_string(layout.axes()) +
+                          " axes but axes = " + std::to_string(axis_count()) +
+                          "; accepted: one in_position and one out_command per axis",
                       "axes");
   if (layout.out.deadman.present()) {
     const auto largest = static_cast<std::uint64_t>(layout.out.deadman.largest());

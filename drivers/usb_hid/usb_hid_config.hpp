@@ -20,10 +20,10 @@ namespace hapticd::drivers::usb_hid {
 /// One axis of a board with several: its encoder and amplifier scales and
 /// the mass and damping the stability gate judges it with.
 struct UsbHidAxis {
-  double counts_per_unit = 16384.0;   ///< counts per metre (a stage's axes are linear)
-  double command_full_scale = 1.0;    ///< N at the largest command
-  double mass = 0.01;                 ///< kg
-  double damping = 0.0;               ///< N s/m
+  double counts_per_unit = 16384.0;  ///< counts per metre (a stage's axes are linear)
+  double command_full_scale = 1.0;   ///< N at the largest command
+  double mass = 0.01;                ///< kg
+  double damping = 0.0;              ///< N s/m
 };
 
 struct UsbHidConfig {

@@ -90,7 +90,9 @@ class UsbHidDevice final : public DeviceHooks {
   IoResult exchange_read() noexcept;
   /// One OUT report with `forces` (axes past its size get 0).
   IoResult exchange_write(std::span<const double> forces) noexcept;
-  IoResult exchange_write(double force) noexcept { return exchange_write(std::span<const double>(&force, 1)); }
+  IoResult exchange_write(double force) noexcept {
+    return exchange_write(std::span<const double>(&force, 1));
+  }
   /// The park handshake around one RT call (see read()).
   template <class Exchange>
   IoResult rt_call(Exchange exchange) noexcept;

@@ -46,8 +46,9 @@ std::vector<ParameterSpec> axes_parameters() {
   };
 }
 
+std::vector<ParameterSpec> layout_parameters();
+
 std::vector<ParameterSpec> usb_hid_parameters() {
-  const ReportLayout d;
   const UsbHidConfig c;
   std::vector<ParameterSpec> out = {
       motion_parameter("rotary (rad, N m) or linear (m, N)"),
@@ -96,6 +97,16 @@ std::vector<ParameterSpec> usb_hid_parameters() {
           .defaults_to(-1.0)
           .at_least(-1)
           .at_most(64),
+  };
+  for (auto& p : layout_parameters()) out.push_back(std::move(p));
+  for (auto& p : axes_parameters()) out.push_back(std::move(p));
+  return out;
+}
+
+/// The report layout keys (README.md "Reports"), in the order of the reports.
+std::vector<ParameterSpec> layout_parameters() {
+  const ReportLayout d;
+  return {
       P::integer("in_report_size", "bytes", "IN report size")
           .defaults_to(static_cast<double>(d.in.size))
           .at_least(1)
@@ -131,8 +142,6 @@ std::vector<ParameterSpec> usb_hid_parameters() {
       layout_bit("out_reset_bit", "fault reset request", d.out.reset),
       layout_field("out_deadman", "dead-man timeout in microseconds", to_string(d.out.deadman)),
   };
-  for (auto& p : axes_parameters()) out.push_back(std::move(p));
-  return out;
 }
 
 /// A text key parsed once: its notation's errors name the key.
@@ -192,8 +201,8 @@ struct AxisRange {
 
 /// axis_mass and the other per-axis numbers: `axes` comma-separated numbers
 /// in the key's range; unset: `fallback` on every axis.
-std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std::size_t axes, double fallback,
-                                 const AxisRange& range) {
+std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std::size_t axes,
+                                 double fallback, const AxisRange& range) {
   if (!p.given(key)) return std::vector<double>(axes, fallback);
   const std::string& text = p.text(key);
   const std::vector<std::string_view> items = comma_items(text);
@@ -202,8 +211,8 @@ std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std
     double v = 0.0;
     const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
     const bool above = range.low_exclusive ? v > range.low : v >= range.low;
-    if (item.empty() || ec != std::errc{} || end != item.data() + item.size() || !std::isfinite(v) || !above ||
-        v > range.high)
+    if (item.empty() || ec != std::errc{} || end != item.data() + item.size() || !std::isfinite(v) ||
+        !above || v > range.high)
       break;
     out.push_back(v);
   }
@@ -211,8 +220,8 @@ std::vector<double> axis_numbers(const DriverParameters& p, const char* key, std
     throw ParameterError(key, std::string("device.usb-hid.") + key + " = \"" + text +
                                   "\" is not accepted; accepted: " + std::to_string(axes) +
                                   " comma-separated numbers in " + (range.low_exclusive ? "(" : "[") +
-                                  to_text(ParameterValue(range.low)) + ", " + to_text(ParameterValue(range.high)) +
-                                  "] " + range.unit + ", one per axis");
+                                  to_text(ParameterValue(range.low)) + ", " +
+                                  to_text(ParameterValue(range.high)) + "] " + range.unit + ", one per axis");
   return out;
 }
 
@@ -252,7 +261,8 @@ std::vector<UsbHidAxis> stage_axes(const DriverParameters& p) {
       if (p.given(key))
         throw ParameterError(key, std::string("device.usb-hid.") + key +
                                       " is for a board with several axes; accepted with axes = 2 to " +
-                                      std::to_string(max_axes) + " (one axis: " + std::string(key).substr(5) + ")");
+                                      std::to_string(max_axes) + " (one axis: " + std::string(key).substr(5) +
+                                      ")");
     return {};
   }
   if (p.given("motion") && p.text("motion") != "linear")
@@ -265,7 +275,8 @@ std::vector<UsbHidAxis> stage_axes(const DriverParameters& p) {
                                    {0.0, true, max_counts_per_metre, "counts per metre"});
   const auto scales = axis_numbers(p, "axis_command_full_scale", axes, p.number("command_full_scale"),
                                    {0.0, true, r::max_force, "N"});
-  const auto masses = axis_numbers(p, "axis_mass", axes, p.number("mass"), {r::min_mass, false, r::max_mass, "kg"});
+  const auto masses =
+      axis_numbers(p, "axis_mass", axes, p.number("mass"), {r::min_mass, false, r::max_mass, "kg"});
   const auto dampings =
       axis_numbers(p, "axis_damping", axes, p.number("damping"), {0.0, false, r::max_damping, "N s/m"});
   std::vector<UsbHidAxis> out(axes);

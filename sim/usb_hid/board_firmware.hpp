@@ -52,7 +52,8 @@ class BoardFirmware {
     return make_in_report(std::span<const std::int64_t>(&encoder_counts, 1), buffer);
   }
   /// Every axis' count (encoder_counts.size() == axes()).
-  std::size_t make_in_report(std::span<const std::int64_t> encoder_counts, std::span<std::uint8_t> buffer) noexcept;
+  std::size_t make_in_report(std::span<const std::int64_t> encoder_counts,
+                             std::span<std::uint8_t> buffer) noexcept;
 
   /// Hardware fault detected (over-current, ...): output off, latched.
   /// `cause_present` keeps a reset from clearing it until clear_cause().

@@ -43,11 +43,13 @@ struct Options {
 /// The [device.usb-hid] keys of the board's N-axis layout (board_reports.hpp).
 std::string layout_keys(std::size_t n) {
   const std::string status = std::to_string(4 + 4 * n), tail = std::to_string(2 + 2 * n);
-  return "axes = " + std::to_string(n) + ", motion = \"linear\", in_report_size = " +
-         std::to_string(in_report_bytes_for(n)) + ", in_enabled_bit = \"" + status + ".0\", in_fault_bit = \"" +
-         status + ".1\", in_watchdog_bit = \"" + status + ".2\", in_fault_code = \"" + std::to_string(5 + 4 * n) +
-         ":u8\", out_report_size = " + std::to_string(out_report_bytes_for(n)) + ", out_enable_bit = \"" + tail +
-         ".0\", out_reset_bit = \"" + tail + ".1\", out_deadman = \"" + std::to_string(4 + 2 * n) + ":u16le\"";
+  return "axes = " + std::to_string(n) +
+         ", motion = \"linear\", in_report_size = " + std::to_string(in_report_bytes_for(n)) +
+         ", in_enabled_bit = \"" + status + ".0\", in_fault_bit = \"" + status +
+         ".1\", in_watchdog_bit = \"" + status + ".2\", in_fault_code = \"" + std::to_string(5 + 4 * n) +
+         ":u8\", out_report_size = " + std::to_string(out_report_bytes_for(n)) + ", out_enable_bit = \"" +
+         tail + ".0\", out_reset_bit = \"" + tail + ".1\", out_deadman = \"" + std::to_string(4 + 2 * n) +
+         ":u16le\"";
 }
 
 int serve(const Options& o) {
@@ -98,8 +100,9 @@ devsim::SimulatedPeer usb_hid_peer() {
     auto options = std::make_shared<Options>();
     devsim::add_plant_option(*command, options->plant);
     command->add_option("--full-scale", options->full_scale, "N m or N at the largest command (default 1)");
-    command->add_option("--axes", options->axes,
-                        "encoder/motor pairs on the board, one plant each (2 to 6: a linear stage; default 1)")
+    command
+        ->add_option("--axes", options->axes,
+                     "encoder/motor pairs on the board, one plant each (2 to 6: a linear stage; default 1)")
         ->check(CLI::Range(1, static_cast<int>(max_board_axes)));
     command->add_flag("--wall-clock", options->wall_clock,
                       "the board's dead-man runs on the wall clock (as a real board's would)");

@@ -8,8 +8,8 @@
 namespace hapticd::drivers::usb_hid::sim {
 
 SimulatedBoard::SimulatedBoard(const BoardScaling& scaling, BoardPlant& plant, BoardClock clock)
-    : SimulatedBoard({BoardAxis{&plant, scaling.position_per_count, scaling.command_full_scale}}, scaling.period_s,
-                     clock) {}
+    : SimulatedBoard({BoardAxis{&plant, scaling.position_per_count, scaling.command_full_scale}},
+                     scaling.period_s, clock) {}
 
 SimulatedBoard::SimulatedBoard(const std::vector<BoardAxis>& axes, double period_s, BoardClock clock)
     : axes_(axes), period_s_(period_s), clock_(clock), firmware_(axes.size()) {
@@ -34,10 +34,11 @@ void SimulatedBoard::make_report_locked() {
     // An encoder read error leaves the count where it was (the board has no
     // better value); the plant simulator's faults show up this way.
     static_cast<void>(axes_[k].plant->sense(position));
-    counts[k] = static_cast<std::int64_t>(std::llround(position / axes_[k].position_per_count)) +
-                encoder_offsets_[k];
+    counts[k] =
+        static_cast<std::int64_t>(std::llround(position / axes_[k].position_per_count)) + encoder_offsets_[k];
   }
-  pending_length_ = firmware_.make_in_report(std::span<const std::int64_t>(counts.data(), axes_.size()), pending_);
+  pending_length_ =
+      firmware_.make_in_report(std::span<const std::int64_t>(counts.data(), axes_.size()), pending_);
   if (pending_length_ > 0 && truncate_next_.exchange(false, std::memory_order_acq_rel)) --pending_length_;
 }
 

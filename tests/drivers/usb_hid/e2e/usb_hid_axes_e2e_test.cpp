@@ -2,8 +2,8 @@
 // two-axis USB board (one plant simulator per axis, both encoders in one IN
 // report, both commands in one OUT report), virtual clock.
 //  - plane-wall n = (1, 1)/sqrt 2 with the hand moving x through the wall
-//    and y pushed by the wall against the hand's spring: every row's forces and outputs on both axes agree with the
-//    loopback stage's run of the same plants (within 1 % of the peak);
+//    and y pushed by the wall against the hand's spring: every row's forces and outputs on both axes agree
+//    with the loopback stage's run of the same plants (within 1 % of the peak);
 //  - a short IN report and an encoder glitch on axis 2 each zero both axes:
 //    the short report for its period, the glitch from then on (latched).
 
@@ -63,8 +63,7 @@ std::string scene_and_loop(const std::string& duration) {
 std::string loopback_stage(const std::string& hands) {
   return "[device]\ndriver = \"loopback\"\ntorque_limit = 10.0\n[device.loopback]\naxes = 2\naxis_mass = "
          "\"0.1,0.3\"\naxis_damping = \"0,2\"\ncounts = " +
-         exact(counts_per_metre) + "\nhands = \"" +
-         hands + "\"\n";
+         exact(counts_per_metre) + "\nhands = \"" + hands + "\"\n";
 }
 
 /// The board's two-axis reports (sim/usb_hid/board_reports.hpp) as layout keys.
@@ -75,7 +74,8 @@ std::string usb_stage() {
          exact(c.counts) + "\ncommand_full_scale = " + exact(c.max_force) +
          "\naxis_mass = \"0.1,0.3\"\naxis_damping = \"0,2\"\ndelay_periods = 0\n"
          "in_enabled_bit = \"12.0\"\nin_fault_bit = \"12.1\"\nin_watchdog_bit = \"12.2\"\n"
-         "in_fault_code = \"13:u8\"\nout_report_size = 10\nout_enable_bit = \"6.0\"\nout_reset_bit = \"6.1\"\n"
+         "in_fault_code = \"13:u8\"\nout_report_size = 10\nout_enable_bit = \"6.0\"\nout_reset_bit = "
+         "\"6.1\"\n"
          "out_deadman = \"8:u16le\"\n";
 }
 
@@ -128,20 +128,23 @@ struct TwoAxisBoard {
   sim::UmockdevUsbBoard testbed;
 };
 
-Recording run_virtual(const TempDir& dir, const std::string& config, const std::vector<std::string>& launcher) {
+Recording run_virtual(const TempDir& dir, const std::string& config,
+                      const std::vector<std::string>& launcher) {
   Daemon daemon(dir, config, {"--record", "run.csv"}, launcher);
   EXPECT_EQ(daemon.wait(std::chrono::seconds(300)), 0) << daemon.log();
   return read_recording(dir.path / "run.csv");
 }
 
-const char* const hand_x_through_wall = "mode=hold trajectory=sine amplitude=0.005 frequency=1 phase=1.5707963";
+const char* const hand_x_through_wall =
+    "mode=hold trajectory=sine amplitude=0.005 frequency=1 phase=1.5707963";
 /// y is free to move under the wall's force, held back by the hand's spring.
 const std::string hand_y = "mode=impedance stiffness=500 damping=5 position=0";
 
 TEST(UsbHidAxesEndToEnd, PlaneWallOnTwoAxesMatchesTheLoopbackStage) {
   TempDir loopback_dir;
   const Recording loopback = run_virtual(
-      loopback_dir, loopback_stage(std::string(hand_x_through_wall) + "; " + hand_y) + scene_and_loop("2s"), {});
+      loopback_dir, loopback_stage(std::string(hand_x_through_wall) + "; " + hand_y) + scene_and_loop("2s"),
+      {});
   TwoAxisBoard board(hand_x_through_wall, hand_y);
   TempDir usb_dir;
   const Recording usb = run_virtual(usb_dir, usb_stage() + scene_and_loop("2s"), preload);
@@ -169,9 +172,10 @@ TEST(UsbHidAxesEndToEnd, PlaneWallOnTwoAxesMatchesTheLoopbackStage) {
   EXPECT_GT(pushing, 400) << "rows with a wall force on an axis";
   EXPECT_LE(worst, 0.01 * peak) << "largest force difference " << worst << " N, peak " << peak;
   ::testing::Test::RecordProperty("largest_force_difference_n", std::to_string(worst));
-  std::printf("usb-hid 2 axes vs loopback stage: %zu rows, peak %.6f N, largest force difference %.3g N "
-              "(%.3g %% of peak), largest position difference %.3g m\n",
-              flags.size(), peak, worst, 100.0 * worst / peak, worst_position);
+  std::printf(
+      "usb-hid 2 axes vs loopback stage: %zu rows, peak %.6f N, largest force difference %.3g N "
+      "(%.3g %% of peak), largest position difference %.3g m\n",
+      flags.size(), peak, worst, 100.0 * worst / peak, worst_position);
   const auto snapshot = board.board.snapshot();
   // One OUT report per cycle for both axes, and the output-off report of disable() at exit.
   EXPECT_EQ(snapshot.firmware.out_reports, flags.size() + 1);

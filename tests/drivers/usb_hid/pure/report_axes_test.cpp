@@ -269,28 +269,33 @@ TEST(UsbHidAxes, ConfigRefusalsNameTheKeyAndWhatIsAccepted) {
   std::string key;
   Given g = two_axis_keys();
   g["in_position"] = std::string("4:i32le,8:i32le,16:i32le");
-  EXPECT_EQ(config_refusal(g, key),
-            "device.usb-hid.in_position has 3 fields for axes = 2; accepted: one field (axis 1, the next axes "
-            "right after it) or 2 comma-separated fields, one per axis");
+  EXPECT_EQ(
+      config_refusal(g, key),
+      "device.usb-hid.in_position has 3 fields for axes = 2; accepted: one field (axis 1, the next axes "
+      "right after it) or 2 comma-separated fields, one per axis");
   EXPECT_EQ(key, "in_position");
   g = two_axis_keys();
   g["axis_mass"] = std::string("0.1");
-  EXPECT_EQ(config_refusal(g, key),
-            "device.usb-hid.axis_mass = \"0.1\" is not accepted; accepted: 2 comma-separated numbers in [1e-09, "
-            "1e+06] kg, one per axis");
+  EXPECT_EQ(
+      config_refusal(g, key),
+      "device.usb-hid.axis_mass = \"0.1\" is not accepted; accepted: 2 comma-separated numbers in [1e-09, "
+      "1e+06] kg, one per axis");
   EXPECT_EQ(key, "axis_mass");
   g = two_axis_keys();
   g["axis_counts_per_unit"] = std::string("16384,-1");
-  EXPECT_EQ(config_refusal(g, key).substr(0, 55), "device.usb-hid.axis_counts_per_unit = \"16384,-1\" is not");
+  EXPECT_EQ(config_refusal(g, key).substr(0, 55),
+            "device.usb-hid.axis_counts_per_unit = \"16384,-1\" is not");
   g = two_axis_keys();
   g["motion"] = std::string("rotary");
-  EXPECT_EQ(config_refusal(g, key),
-            "device.usb-hid.motion = \"rotary\" is not accepted with axes = 2; accepted: \"linear\" (a Cartesian "
-            "stage of linear axes, m and N)");
+  EXPECT_EQ(
+      config_refusal(g, key),
+      "device.usb-hid.motion = \"rotary\" is not accepted with axes = 2; accepted: \"linear\" (a Cartesian "
+      "stage of linear axes, m and N)");
   EXPECT_EQ(key, "motion");
-  EXPECT_EQ(config_refusal({{"axis_mass", std::string("0.1")}}, key),
-            "device.usb-hid.axis_mass is for a board with several axes; accepted with axes = 2 to 6 (one axis: "
-            "mass)");
+  EXPECT_EQ(
+      config_refusal({{"axis_mass", std::string("0.1")}}, key),
+      "device.usb-hid.axis_mass is for a board with several axes; accepted with axes = 2 to 6 (one axis: "
+      "mass)");
   // Two axes left in the default report: axis 2's count runs into the status bits.
   EXPECT_EQ(config_refusal({{"axes", 2.0}}, key),
             "device.usb-hid.in_enabled_bit overlaps in_position (axis 2) (byte 8, bit 0)");

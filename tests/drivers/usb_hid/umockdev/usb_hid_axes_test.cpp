@@ -56,7 +56,8 @@ class TwoAxisBoardTest : public ::testing::Test {
     x = std::make_unique<RampPlant>(1e-3);
     y = std::make_unique<RampPlant>(1e-3);
     board = std::make_unique<sim::SimulatedBoard>(
-        std::vector<sim::BoardAxis>{{x.get(), 1.0 / counts_x, scale_x}, {y.get(), 1.0 / counts_y, scale_y}}, 1e-3);
+        std::vector<sim::BoardAxis>{{x.get(), 1.0 / counts_x, scale_x}, {y.get(), 1.0 / counts_y, scale_y}},
+        1e-3);
     testbed = std::make_unique<sim::UmockdevUsbBoard>(sim::EmulatedUsbIdentity{}, *board);
   }
   void TearDown() override {
@@ -148,7 +149,8 @@ TEST_F(TwoAxisBoardTest, EncoderFaultOnTheBoardFaultsEveryAxis) {
     result = device.read_axes(r);
   }
   EXPECT_EQ(result, IoResult::fault);
-  EXPECT_EQ(device.hooks_as<UsbHidDevice>().link_status().fault_text, "board fault: encoder error (code 0x05)");
+  EXPECT_EQ(device.hooks_as<UsbHidDevice>().link_status().fault_text,
+            "board fault: encoder error (code 0x05)");
   device.write_axes(forces);
   const sim::BoardSnapshot s = board->snapshot();
   EXPECT_EQ(s.outputs[0], 0);
