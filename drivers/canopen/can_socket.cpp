@@ -114,7 +114,8 @@ int open_unix(std::string_view interface, const std::string& path) {
     ::close(fd);
     fail(interface, "cannot connect to the simulated bus at " + path + ": " + errno_text(error) +
                         " (start it with hapticd-devsim canopen --listen unix:" + path +
-                        ", or a bus of several drives with hapticd-devsim canbus --listen unix:" + path + ")");
+                        ", or a bus of several drives with hapticd-devsim canbus --listen unix:" + path +
+                        ")");
   }
   if (::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK) != 0) {
     const int error = errno;

@@ -198,7 +198,8 @@ void CanopenBusDevice::enable() {
     }
     for (auto& node : nodes_) node->exchange->set_enabled(false);
     run_periods([] { return false; }, 2);  // Disable Voltage goes out
-    if (stopped) throw StopRequested(abandoned("canopen: enabling nodes " + node_list_words(config_.node_ids)));
+    if (stopped)
+      throw StopRequested(abandoned("canopen: enabling nodes " + node_list_words(config_.node_ids)));
     throw SetupError("the drives could not be enabled: " + why, "");
   }
 }
@@ -207,7 +208,8 @@ std::string CanopenBusDevice::clear_fault() {
   const std::string before = fault_words();
   if (before.empty()) return "";
   for (std::size_t i = 0; i < nodes_.size(); ++i)
-    if (exchange_status(i).fault_kind == FaultKind::drive_restarted) throw SetupError("not cleared: " + before, "");
+    if (exchange_status(i).fault_kind == FaultKind::drive_restarted)
+      throw SetupError("not cleared: " + before, "");
   const bool loop = loop_running();
   clear_requested_.store(true, std::memory_order_release);
   if (loop) {
@@ -216,7 +218,7 @@ std::string CanopenBusDevice::clear_fault() {
     run_periods(
         [this] {
           return stop_.stop_requested() || (!clear_requested_.load() && (all(&CyclicExchange::operational) ||
-                                                                          any(&CyclicExchange::faulted)));
+                                                                         any(&CyclicExchange::faulted)));
         },
         periods_in(reset_timeout_s + 0.5, period_s_));
   }
@@ -224,12 +226,13 @@ std::string CanopenBusDevice::clear_fault() {
   for (std::size_t i = 0; i < nodes_.size(); ++i) operational = operational && exchange_status(i).operational;
   if (!operational && stop_.stop_requested()) {
     clear_requested_.store(false, std::memory_order_release);
-    throw StopRequested(abandoned("canopen: clearing the fault of nodes " + node_list_words(config_.node_ids)));
+    throw StopRequested(
+        abandoned("canopen: clearing the fault of nodes " + node_list_words(config_.node_ids)));
   }
   if (!operational) {
     const std::string now = fault_words();
-    throw SetupError("the drives stay in fault: " + (now.empty() ? "not every node is in Operation Enabled" : now),
-                     "");
+    throw SetupError(
+        "the drives stay in fault: " + (now.empty() ? "not every node is in Operation Enabled" : now), "");
   }
   return before;
 }
@@ -390,7 +393,8 @@ IoResult CanopenBusDevice::write_axes(std::span<const double> forces) noexcept {
   }
   CyclicExchange& first = *nodes_.front()->exchange;
   send(cia301::encode_sync(), first);
-  if (heartbeat_due) send(cia301::encode_heartbeat(config_.master_node_id, cia301::NmtState::operational), first);
+  if (heartbeat_due)
+    send(cia301::encode_heartbeat(config_.master_node_id, cia301::NmtState::operational), first);
   publish_all();
   return any(&CyclicExchange::faulted) ? IoResult::fault : IoResult::ok;
 }
@@ -423,7 +427,8 @@ DeviceModel CanopenBusDevice::model() const {
   m.motion = config_.motion;
   const double unit = config_.motion == Motion::rotary ? 2.0 * std::numbers::pi : 1.0;
   m.position_resolution = unit / config_.counts_per_unit;
-  m.delay_periods = 1;  // each node: the RPDO sent before SYNC n acts at SYNC n; the position is from SYNC n-1
+  m.delay_periods =
+      1;  // each node: the RPDO sent before SYNC n acts at SYNC n; the position is from SYNC n-1
   m.source = "config";
   m.effective_mass = INFINITY;
   for (const auto& node : nodes_) {
@@ -461,13 +466,18 @@ DeviceHealth CanopenBusDevice::health() const {
     const ExchangeStatus st = exchange_status(i);
     const CyclicCounters& c = st.counters;
     const std::string p = "node" + std::to_string(nodes_[i]->config.node_id) + "_";
-    for (const auto& [name, value] :
-         {std::pair<const char*, std::uint64_t>{"periods", c.periods}, {"tpdos", c.tpdos},
-          {"late_tpdos", c.late_tpdos}, {"short_tpdos", c.short_tpdos}, {"emcys", c.emcys},
-          {"error_frames", c.error_frames}, {"drive_heartbeats", c.drive_heartbeats},
-          {"tx_dropped", c.tx_dropped}, {"malformed_frames", c.malformed_frames},
-          {"malformed_messages", c.malformed_messages}, {"statusword", st.statusword},
-          {"controlword", st.controlword}})
+    for (const auto& [name, value] : {std::pair<const char*, std::uint64_t>{"periods", c.periods},
+                                      {"tpdos", c.tpdos},
+                                      {"late_tpdos", c.late_tpdos},
+                                      {"short_tpdos", c.short_tpdos},
+                                      {"emcys", c.emcys},
+                                      {"error_frames", c.error_frames},
+                                      {"drive_heartbeats", c.drive_heartbeats},
+                                      {"tx_dropped", c.tx_dropped},
+                                      {"malformed_frames", c.malformed_frames},
+                                      {"malformed_messages", c.malformed_messages},
+                                      {"statusword", st.statusword},
+                                      {"controlword", st.controlword}})
       h.counters.push_back({p + name, value});
   }
   return h;

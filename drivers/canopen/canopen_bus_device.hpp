@@ -46,8 +46,9 @@ namespace hapticd::drivers::canopen {
 /// The bus budget of several drives in one period: one SYNC, each node's
 /// RPDO1 and TPDO1 (+ TPDO2), one frame of other traffic; the summary names
 /// the nodes. Throws std::invalid_argument as check_bus_budget.
-cia301::BusBudget bus_budget_for_nodes(std::span<const CyclicMapping> mappings, std::span<const std::uint8_t> nodes,
-                                       double period_s, std::uint32_t bitrate);
+cia301::BusBudget bus_budget_for_nodes(std::span<const CyclicMapping> mappings,
+                                       std::span<const std::uint8_t> nodes, double period_s,
+                                       std::uint32_t bitrate);
 
 class CanopenBusDevice final : public DeviceHooks {
  public:
@@ -70,7 +71,7 @@ class CanopenBusDevice final : public DeviceHooks {
   /// Undoes every node's dead-man (drive_setup.hpp), then releases the socket.
   void close() noexcept override;
 
-  IoResult read(Reading& out) noexcept override;  ///< error: this device has several axes
+  IoResult read(Reading& out) noexcept override;   ///< error: this device has several axes
   IoResult write(double force) noexcept override;  ///< error: this device has several axes
   int axes() const noexcept override { return static_cast<int>(nodes_.size()); }
   IoResult read_axes(std::span<Reading> out) noexcept override;
@@ -98,8 +99,8 @@ class CanopenBusDevice final : public DeviceHooks {
   bool any(bool (CyclicExchange::*test)() const noexcept) const;
   /// "axis 2 (node 2): <the node's fault in words>" for the first faulted axis, "" if none.
   std::string fault_words() const;
-  void drain_socket() noexcept;    ///< RT
-  void publish_all() noexcept;     ///< RT
+  void drain_socket() noexcept;  ///< RT
+  void publish_all() noexcept;   ///< RT
 
   const CanopenConfig config_;
   StopToken stop_;

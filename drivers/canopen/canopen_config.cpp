@@ -37,13 +37,14 @@ void validate_nodes(const CanopenConfig& c) {
                 " is master_node_id: hapticd's heartbeat needs its own",
             "node_ids");
     for (std::size_t j = 0; j < i; ++j)
-      require(c.node_ids[j] != c.node_ids[i],
-              "node_ids: node " + std::to_string(c.node_ids[i]) + " is named twice; each axis has its own drive",
-              "node_ids");
+      require(
+          c.node_ids[j] != c.node_ids[i],
+          "node_ids: node " + std::to_string(c.node_ids[i]) + " is named twice; each axis has its own drive",
+          "node_ids");
   }
   require(c.axis_mass.empty() || c.axis_mass.size() == n,
-          "axis_mass has " + std::to_string(c.axis_mass.size()) + " masses; accepted: one per node in node_ids (" +
-              std::to_string(n) + ")",
+          "axis_mass has " + std::to_string(c.axis_mass.size()) +
+              " masses; accepted: one per node in node_ids (" + std::to_string(n) + ")",
           "axis_mass");
   require(c.axis_damping.empty() || c.axis_damping.size() == n,
           "axis_damping has " + std::to_string(c.axis_damping.size()) +

@@ -19,14 +19,14 @@
 namespace hapticd::drivers::canopen {
 
 struct CanopenConfig {
-  std::string interface;            ///< "can0", or "unix:/path" for the simulated drive
-  std::uint8_t node_id = 1;         ///< the drive's CANopen node-ID
+  std::string interface;     ///< "can0", or "unix:/path" for the simulated drive
+  std::uint8_t node_id = 1;  ///< the drive's CANopen node-ID
   /// Several drives on one bus, one per axis in this order (README.md,
   /// "Several drives on one bus"); empty: the one drive node_id.
   std::vector<std::uint8_t> node_ids;
   std::vector<double> axis_mass;     ///< per axis, kg (kg m^2); empty: mass on every axis
   std::vector<double> axis_damping;  ///< per axis, N s/m (N m s/rad); empty: damping on every axis
-  std::uint32_t bitrate = 1000000;  ///< bit/s, as set with `ip link set can0 type can bitrate ...`
+  std::uint32_t bitrate = 1000000;   ///< bit/s, as set with `ip link set can0 type can bitrate ...`
   Motion motion = Motion::rotary;
   double counts_per_unit = 16384.0;  ///< 0x6064 increments per output revolution (rotary) or metre (linear)
   double velocity_counts_per_unit =

@@ -125,7 +125,8 @@ std::vector<ParameterSpec> make_parameters() {
 }
 
 /// "1,2" -> {1, 2}; "" -> {}. Throws ParameterError naming the key and what is accepted.
-std::vector<double> number_list(const DriverParameters& p, const std::string& key, const std::string& accepted) {
+std::vector<double> number_list(const DriverParameters& p, const std::string& key,
+                                const std::string& accepted) {
   const std::string& text = p.text(key);
   std::vector<double> out;
   if (text.empty()) return out;

@@ -95,8 +95,8 @@ int run_peer(const Options& o) {
   const std::string& where = member ? o.connect : o.listen;
   const std::string path(unix_path_of(where));
   if (path.empty()) {
-    std::cerr << "hapticd-devsim canopen: " << (member ? "--connect" : "--listen") << " must be unix:/path, got '"
-              << where << "'\n";
+    std::cerr << "hapticd-devsim canopen: " << (member ? "--connect" : "--listen")
+              << " must be unix:/path, got '" << where << "'\n";
     return 2;
   }
   const double period_s = world::units::parse_duration_s(o.period).value_or(-1.0);
@@ -122,8 +122,8 @@ int run_peer(const Options& o) {
   // SIGINT/SIGTERM end the peer: blocked here, taken by sigwait below.
   sigset_t stop_signals = block_stop_signals();
 
-  std::unique_ptr<DriveBus> owned =
-      member ? std::make_unique<DriveBus>(DriveBus::Member{}, path, drive) : std::make_unique<DriveBus>(path, drive);
+  std::unique_ptr<DriveBus> owned = member ? std::make_unique<DriveBus>(DriveBus::Member{}, path, drive)
+                                           : std::make_unique<DriveBus>(path, drive);
   DriveBus& bus = *owned;
   std::atomic<bool> stop{false};
   std::thread loop([&] { bus.run(stop); });
@@ -174,7 +174,8 @@ devsim::SimulatedPeer canbus_peer() {
             auto listen = std::make_shared<std::string>();
             auto* cmd = app.add_subcommand(
                 "canbus", "simulated CAN bus for several drives: hapticd and each drive connect to it");
-            cmd->add_option("--listen", *listen, "unix:/path the driver's interface and the drives' --connect name")
+            cmd->add_option("--listen", *listen,
+                            "unix:/path the driver's interface and the drives' --connect name")
                 ->required();
             cmd->callback([listen, &exit_code] {
               try {
@@ -193,7 +194,8 @@ devsim::SimulatedPeer canopen_peer() {
       [](CLI::App& app, int& exit_code) {
         auto options = std::make_shared<Options>();
         auto* cmd = app.add_subcommand("canopen", "simulated CiA 402 drive for the canopen driver");
-        cmd->add_option("--listen", options->listen, "unix:/path the driver's interface names (the drive alone)");
+        cmd->add_option("--listen", options->listen,
+                        "unix:/path the driver's interface names (the drive alone)");
         cmd->add_option("--connect", options->connect,
                         "unix:/path of a simulated bus (hapticd-devsim canbus) to join as one of its drives");
         cmd->add_option("--node,--node-id", options->node, "the drive's node-ID")->check(CLI::Range(1, 127));

@@ -162,14 +162,15 @@ TEST(CanopenBusBudget, OneSyncAndEveryNodesPdosAgainstThePeriodWithTheFigures) {
   EXPECT_FALSE(at_500us.fits);
   EXPECT_EQ(at_500us.cyclic_bits, 475U);
   EXPECT_EQ(at_500us.total_bits, 610U);
-  EXPECT_EQ(at_500us.summary,
-            "2 drives on one bus (nodes 1, 2, one SYNC): 5 frames (SYNC + RPDO1 + TPDO1 + RPDO1 + TPDO1) = 475 "
-            "bits worst case, + 135 bits for one frame of other traffic = 0.61 ms at 1 Mbit/s: a 0.5 ms "
-            "period needs 1.22 Mbit/s, above classic CAN's 1 Mbit/s; the shortest period at 1 Mbit/s is "
-            "0.61 ms");
+  EXPECT_EQ(
+      at_500us.summary,
+      "2 drives on one bus (nodes 1, 2, one SYNC): 5 frames (SYNC + RPDO1 + TPDO1 + RPDO1 + TPDO1) = 475 "
+      "bits worst case, + 135 bits for one frame of other traffic = 0.61 ms at 1 Mbit/s: a 0.5 ms "
+      "period needs 1.22 Mbit/s, above classic CAN's 1 Mbit/s; the shortest period at 1 Mbit/s is "
+      "0.61 ms");
   // One node alone fits there (SYNC + RPDO1 + TPDO1 + other = 400 bits).
-  const co::BusBudget one = canopen::bus_budget_for_nodes(std::span(mappings).first(1),
-                                                          std::span(two).first(1), 500e-6, 1000000);
+  const co::BusBudget one =
+      canopen::bus_budget_for_nodes(std::span(mappings).first(1), std::span(two).first(1), 500e-6, 1000000);
   EXPECT_TRUE(one.fits);
   EXPECT_EQ(one.total_bits, 400U);
   EXPECT_TRUE(canopen::bus_budget_for_nodes(mappings, two, 1e-3, 1000000).fits);
@@ -204,7 +205,8 @@ TEST(CanopenBusDevice, ConfigureRefusesAPeriodTheBusCannotCarryBeforeTouchingIt)
     FAIL() << "accepted";
   } catch (const hapticd::drivers::DeviceError& e) {
     EXPECT_EQ(e.key(), "bitrate");
-    EXPECT_NE(std::string(e.what()).find("2 drives on one bus (nodes 1, 2, one SYNC): 5 frames"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("2 drives on one bus (nodes 1, 2, one SYNC): 5 frames"),
+              std::string::npos)
         << e.what();
     EXPECT_NE(std::string(e.what()).find("= 0.61 ms at 1 Mbit/s: a 0.5 ms period needs 1.22 Mbit/s"),
               std::string::npos)
@@ -226,10 +228,12 @@ TEST(CanopenBusConfig, TheKeysOfSeveralDrivesAreCheckedNamingTheKey) {
   c.node_ids = {1, 1};
   EXPECT_EQ(refused_key(c), "node_ids: node_ids: node 1 is named twice; each axis has its own drive");
   c.node_ids = {1, 127};
-  EXPECT_EQ(refused_key(c), "node_ids: node_ids: node 127 is master_node_id: hapticd's heartbeat needs its own");
-  c.node_ids = {1, 2, 3, 4, 5, 6, 7};
   EXPECT_EQ(refused_key(c),
-            "node_ids: node_ids names 7 drive(s); accepted: 2 to 6 node-IDs, one per axis (one drive: node_id)");
+            "node_ids: node_ids: node 127 is master_node_id: hapticd's heartbeat needs its own");
+  c.node_ids = {1, 2, 3, 4, 5, 6, 7};
+  EXPECT_EQ(
+      refused_key(c),
+      "node_ids: node_ids names 7 drive(s); accepted: 2 to 6 node-IDs, one per axis (one drive: node_id)");
   c.node_ids = {1, 2};
   c.axis_mass = {0.1};
   EXPECT_EQ(refused_key(c), "axis_mass: axis_mass has 1 masses; accepted: one per node in node_ids (2)");
@@ -240,7 +244,8 @@ TEST(CanopenBusConfig, TheKeysOfSeveralDrivesAreCheckedNamingTheKey) {
   canopen::CanopenConfig one;
   one.interface = "can0";
   one.axis_mass = {0.1, 0.2};
-  EXPECT_EQ(refused_key(one), "axis_mass: axis_mass is for several drives (node_ids = \"1,2\"); one drive: mass");
+  EXPECT_EQ(refused_key(one),
+            "axis_mass: axis_mass is for several drives (node_ids = \"1,2\"); one drive: mass");
 }
 
 // ---- two simulated drives as members of the bus, the driver's hooks ----------

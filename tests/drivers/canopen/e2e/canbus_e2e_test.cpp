@@ -75,8 +75,10 @@ std::string canbus_config(const std::string& interface, const std::string& loop,
 struct Stage {
   explicit Stage(const TempDir& dir, const std::string& hand1 = x_hand, const std::string& hand2 = y_hand)
       : bus(dir, 70),
-        node1(SimulatedDrive::member(dir, bus.interface(), 1, hand1, axis_plant(0.1), {"--rated-torque", "4"}, 70)),
-        node2(SimulatedDrive::member(dir, bus.interface(), 2, hand2, axis_plant(0.3), {"--rated-torque", "4"}, 70)) {}
+        node1(SimulatedDrive::member(dir, bus.interface(), 1, hand1, axis_plant(0.1), {"--rated-torque", "4"},
+                                     70)),
+        node2(SimulatedDrive::member(dir, bus.interface(), 2, hand2, axis_plant(0.3), {"--rated-torque", "4"},
+                                     70)) {}
   SimulatedCanBus bus;
   std::unique_ptr<SimulatedDrive> node1, node2;
 };
@@ -201,8 +203,10 @@ TEST(CanopenBus, AnEmcyOnOneNodeZeroesBothAxesThatPeriodNamingTheAxisAndNode) {
   EXPECT_EQ(reason,
             "axis 2 (node 2): node 2 EMCY 0x2310: continuous over current (motor side); error register 0x03 "
             "(generic, current); manufacturer bytes 00 00 00 00 00; every axis held at zero");
-  EXPECT_TRUE(eventually([&] { return stage.node1->command("status").find(" force=0 ") != std::string::npos; }))
-      << "node 1, itself fine, gets torque 0: " << stage.node1->command("status");
+  EXPECT_TRUE(eventually([&] {
+    return stage.node1->command("status").find(" force=0 ") != std::string::npos;
+  })) << "node 1, itself fine, gets torque 0: "
+      << stage.node1->command("status");
 
   const auto r = d.ctl({"fault", "clear", "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -210,8 +214,9 @@ TEST(CanopenBus, AnEmcyOnOneNodeZeroesBothAxesThatPeriodNamingTheAxisAndNode) {
   // Both back in Operation Enabled (the wall, cleared over the hands inside
   // it, waits for them to come out before it pushes again: docs/scenes.md).
   for (SimulatedDrive* node : {stage.node1.get(), stage.node2.get()})
-    EXPECT_TRUE(eventually([&] { return node->command("status").find("state=\"Operation Enabled\"") != std::string::npos; }))
-        << node->command("status");
+    EXPECT_TRUE(eventually([&] {
+      return node->command("status").find("state=\"Operation Enabled\"") != std::string::npos;
+    })) << node->command("status");
   EXPECT_EQ(d.stop(), 0) << d.log();
 
   // The recording: torque on both axes just before, zero on both from the period the EMCY was seen.
@@ -243,7 +248,8 @@ TEST(CanopenBus, APeriodTheBusCannotCarryForTwoNodesIsRefusedWithTheFigures) {
   Daemon d(dir, config);
   EXPECT_NE(d.wait(30s), 0);
   const std::string log = d.log();
-  EXPECT_NE(log.find("hapticd.toml:8:11: 2 drives on one bus (nodes 1, 2, one SYNC): 5 frames (SYNC + RPDO1 + TPDO1 + RPDO1 + "
+  EXPECT_NE(log.find("hapticd.toml:8:11: 2 drives on one bus (nodes 1, 2, one SYNC): 5 frames (SYNC + RPDO1 "
+                     "+ TPDO1 + RPDO1 + "
                      "TPDO1) = 475 bits worst case, + 135 bits for one frame of other traffic = 0.61 ms at 1 "
                      "Mbit/s: a 0.5 ms period needs 1.22 Mbit/s, above classic CAN's 1 Mbit/s"),
             std::string::npos)

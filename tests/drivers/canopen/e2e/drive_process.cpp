@@ -60,7 +60,8 @@ pid_t spawn(const std::vector<std::string>& args, const std::filesystem::path& l
   // No handshake but its log (it runs in its own process).
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   while (read_file(log).find(ready) == std::string::npos) {
-    if (std::chrono::steady_clock::now() > deadline) throw std::runtime_error("devsim did not start: " + read_file(log));
+    if (std::chrono::steady_clock::now() > deadline)
+      throw std::runtime_error("devsim did not start: " + read_file(log));
     std::this_thread::sleep_for(10ms);
   }
   return pid;
@@ -89,9 +90,11 @@ SimulatedDrive::SimulatedDrive(std::filesystem::path bus, const Spawn& spawn_wit
   commands_ = pipe_fds[1];
 }
 
-std::unique_ptr<SimulatedDrive> SimulatedDrive::member(const TempDir& dir, const std::string& bus_interface, int node,
-                                                       const std::string& hand, const std::string& plant,
-                                                       const std::vector<std::string>& extra, int fifo_priority) {
+std::unique_ptr<SimulatedDrive> SimulatedDrive::member(const TempDir& dir, const std::string& bus_interface,
+                                                       int node, const std::string& hand,
+                                                       const std::string& plant,
+                                                       const std::vector<std::string>& extra,
+                                                       int fifo_priority) {
   Spawn s{{devsim_binary().string(), "canopen", "--connect", bus_interface, "--node-id", std::to_string(node),
            "--plant", plant, "--hand", hand},
           dir.path / ("devsim-node" + std::to_string(node) + ".log"),

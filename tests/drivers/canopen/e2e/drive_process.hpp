@@ -29,9 +29,10 @@ class SimulatedDrive {
                  const std::vector<std::string>& extra = {}, int fifo_priority = 0);
   /// One of several drives: node `node` joins the bus at `bus_interface`
   /// (hapticd-devsim canopen --connect ... --node-id N), its log dir/devsim-nodeN.log.
-  static std::unique_ptr<SimulatedDrive> member(const TempDir& dir, const std::string& bus_interface, int node,
-                                                const std::string& hand, const std::string& plant,
-                                                const std::vector<std::string>& extra = {}, int fifo_priority = 0);
+  static std::unique_ptr<SimulatedDrive> member(const TempDir& dir, const std::string& bus_interface,
+                                                int node, const std::string& hand, const std::string& plant,
+                                                const std::vector<std::string>& extra = {},
+                                                int fifo_priority = 0);
   ~SimulatedDrive();
   SimulatedDrive(const SimulatedDrive&) = delete;
   SimulatedDrive& operator=(const SimulatedDrive&) = delete;
