@@ -205,7 +205,7 @@ void CanopenBusDevice::enable() {
 }
 
 std::string CanopenBusDevice::clear_fault() {
-  const std::string before = fault_words();
+  std::string before = fault_words();
   if (before.empty()) return "";
   for (std::size_t i = 0; i < nodes_.size(); ++i)
     if (exchange_status(i).fault_kind == FaultKind::drive_restarted)
