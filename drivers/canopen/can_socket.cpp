@@ -113,7 +113,9 @@ int open_unix(std::string_view interface, const std::string& path) {
     const int error = errno;
     ::close(fd);
     fail(interface, "cannot connect to the simulated bus at " + path + ": " + errno_text(error) +
-                        " (start it with hapticd-devsim canopen --listen unix:" + path + ")");
+                        " (start it with hapticd-devsim canopen --listen unix:" + path +
+                        ", or a bus of several drives with hapticd-devsim canbus --listen unix:" + path +
+                        ")");
   }
   if (::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK) != 0) {
     const int error = errno;
@@ -275,7 +277,7 @@ CanListener& CanListener::operator=(CanListener&& other) noexcept {
   return *this;
 }
 
-CanListener CanListener::listen(const std::string& path) {
+CanListener CanListener::listen(const std::string& path, int backlog) {
   const std::string label = "unix:" + path;
   const sockaddr_un address = unix_address(path, label);
   struct stat st {};
@@ -289,7 +291,7 @@ CanListener CanListener::listen(const std::string& path) {
   if (::bind(listener.fd_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0)
     fail(label, "bind: " + errno_text(errno));
   listener.path_ = path;
-  if (::listen(listener.fd_, 1) != 0) fail(label, "listen: " + errno_text(errno));
+  if (::listen(listener.fd_, backlog) != 0) fail(label, "listen: " + errno_text(errno));
   return listener;
 }
 

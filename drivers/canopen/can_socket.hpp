@@ -107,8 +107,10 @@ class CanListener {
   CanListener& operator=(const CanListener&) = delete;
 
   /// Creates the socket file at `path` (replacing a stale socket there, never
-  /// another kind of file). Throws std::runtime_error.
-  static CanListener listen(const std::string& path);
+  /// another kind of file). `backlog`: connections that may wait to be
+  /// accepted (a drive serves one; the simulated bus, every member). Throws
+  /// std::runtime_error.
+  static CanListener listen(const std::string& path, int backlog = 1);
   /// Waits up to `timeout` for the driver; an unopened socket on timeout.
   CanSocket accept(std::chrono::microseconds timeout);
   int fd() const noexcept { return fd_; }

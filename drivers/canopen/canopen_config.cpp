@@ -15,7 +15,64 @@ void require(bool ok, const std::string& message, const std::string& key) {
 
 bool positive(double v) { return std::isfinite(v) && v > 0.0; }
 
+/// The keys of several drives on one bus: 2 to max_axes distinct node-IDs,
+/// none hapticd's, one mass and damping per axis, no homing.
+void validate_nodes(const CanopenConfig& c) {
+  if (c.node_ids.empty()) {
+    require(c.axis_mass.empty(), "axis_mass is for several drives (node_ids = \"1,2\"); one drive: mass",
+            "axis_mass");
+    require(c.axis_damping.empty(),
+            "axis_damping is for several drives (node_ids = \"1,2\"); one drive: damping", "axis_damping");
+    return;
+  }
+  const std::size_t n = c.node_ids.size();
+  require(n >= 2 && n <= static_cast<std::size_t>(max_axes),
+          "node_ids names " + std::to_string(n) + " drive(s); accepted: 2 to " + std::to_string(max_axes) +
+              " node-IDs, one per axis (one drive: node_id)",
+          "node_ids");
+  for (std::size_t i = 0; i < n; ++i) {
+    require(cia301::valid_node_id(c.node_ids[i]), "node_ids: each node-ID must be 1..127", "node_ids");
+    require(c.node_ids[i] != c.master_node_id,
+            "node_ids: node " + std::to_string(c.node_ids[i]) +
+                " is master_node_id: hapticd's heartbeat needs its own",
+            "node_ids");
+    for (std::size_t j = 0; j < i; ++j)
+      require(
+          c.node_ids[j] != c.node_ids[i],
+          "node_ids: node " + std::to_string(c.node_ids[i]) + " is named twice; each axis has its own drive",
+          "node_ids");
+  }
+  require(c.axis_mass.empty() || c.axis_mass.size() == n,
+          "axis_mass has " + std::to_string(c.axis_mass.size()) +
+              " masses; accepted: one per node in node_ids (" + std::to_string(n) + ")",
+          "axis_mass");
+  require(c.axis_damping.empty() || c.axis_damping.size() == n,
+          "axis_damping has " + std::to_string(c.axis_damping.size()) +
+              " dampings; accepted: one per node in node_ids (" + std::to_string(n) + ")",
+          "axis_damping");
+  for (double m : c.axis_mass) require(positive(m), "axis_mass: each mass must be > 0", "axis_mass");
+  for (double b : c.axis_damping)
+    require(std::isfinite(b) && b >= 0.0, "axis_damping: each damping must be >= 0", "axis_damping");
+  require(!c.homing, "homing = \"cia402\" is for one drive; several drives (node_ids) home with \"none\"",
+          "homing");
+}
+
 }  // namespace
+
+std::vector<std::uint8_t> drive_nodes(const CanopenConfig& c) {
+  return c.node_ids.empty() ? std::vector<std::uint8_t>{c.node_id} : c.node_ids;
+}
+
+CanopenConfig axis_config(const CanopenConfig& c, std::size_t axis) {
+  CanopenConfig a = c;
+  a.node_ids.clear();
+  a.axis_mass.clear();
+  a.axis_damping.clear();
+  a.node_id = c.node_ids.at(axis);
+  if (!c.axis_mass.empty()) a.mass = c.axis_mass.at(axis);
+  if (!c.axis_damping.empty()) a.damping = c.axis_damping.at(axis);
+  return a;
+}
 
 void validate(const CanopenConfig& c) {
   require(!c.interface.empty(),
@@ -26,7 +83,8 @@ void validate(const CanopenConfig& c) {
           "interface");
   require(cia301::valid_node_id(c.node_id), "node_id must be 1..127", "node_id");
   require(cia301::valid_node_id(c.master_node_id), "master_node_id must be 1..127", "master_node_id");
-  require(c.master_node_id != c.node_id,
+  validate_nodes(c);
+  require(!c.node_ids.empty() || c.master_node_id != c.node_id,
           "master_node_id " + std::to_string(c.master_node_id) +
               " is the drive's node_id: hapticd's heartbeat needs its own",
           "master_node_id");

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "drivers/canopen/homing.hpp"
 #include "drivers/device_hooks.hpp"
@@ -18,9 +19,14 @@
 namespace hapticd::drivers::canopen {
 
 struct CanopenConfig {
-  std::string interface;            ///< "can0", or "unix:/path" for the simulated drive
-  std::uint8_t node_id = 1;         ///< the drive's CANopen node-ID
-  std::uint32_t bitrate = 1000000;  ///< bit/s, as set with `ip link set can0 type can bitrate ...`
+  std::string interface;     ///< "can0", or "unix:/path" for the simulated drive
+  std::uint8_t node_id = 1;  ///< the drive's CANopen node-ID
+  /// Several drives on one bus, one per axis in this order (README.md,
+  /// "Several drives on one bus"); empty: the one drive node_id.
+  std::vector<std::uint8_t> node_ids;
+  std::vector<double> axis_mass;     ///< per axis, kg (kg m^2); empty: mass on every axis
+  std::vector<double> axis_damping;  ///< per axis, N s/m (N m s/rad); empty: damping on every axis
+  std::uint32_t bitrate = 1000000;   ///< bit/s, as set with `ip link set can0 type can bitrate ...`
   Motion motion = Motion::rotary;
   double counts_per_unit = 16384.0;  ///< 0x6064 increments per output revolution (rotary) or metre (linear)
   double velocity_counts_per_unit =
@@ -57,6 +63,12 @@ class ConfigError : public std::invalid_argument {
  private:
   std::string key_;
 };
+
+/// The drives hapticd runs: node_ids, or node_id alone.
+std::vector<std::uint8_t> drive_nodes(const CanopenConfig& config);
+/// The settings of axis `axis` (0-based) of a config with node_ids: its
+/// node_id, mass and damping; everything else shared.
+CanopenConfig axis_config(const CanopenConfig& config, std::size_t axis);
 
 /// Checks ranges and the relations between keys (the heartbeat timeout must
 /// exceed its period, the node-IDs differ ...). Throws ConfigError.

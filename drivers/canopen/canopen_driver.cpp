@@ -1,8 +1,10 @@
 // The canopen driver's self-description for the registry (parameters with
 // types, units, ranges, help) and its factory.
 
+#include <algorithm>
 #include <cmath>
 
+#include "drivers/canopen/canopen_bus_device.hpp"
 #include "drivers/canopen/canopen_device.hpp"
 #include "drivers/driver_description.hpp"
 
@@ -60,6 +62,18 @@ std::vector<ParameterSpec> make_parameters() {
       P::text("interface", "SocketCAN interface (can0), or unix:/path of the simulated drive's bus")
           .defaults_to("can0"),
       P::integer("node_id", "", "the drive's CANopen node-ID").defaults_to(1.0).at_least(1).at_most(127),
+      P::text("node_ids",
+              "several drives on one bus, one per axis in this order: their node-IDs, comma-separated "
+              "(\"1,2\"): one SYNC for all, each node's PDOs, heartbeat and EMCY")
+          .defaults_to("", "one drive: node_id"),
+      P::text("axis_mass",
+              "with node_ids: each axis' moving mass (kg, kg m^2 rotary), comma-separated; unset: mass on "
+              "every axis")
+          .defaults_to(""),
+      P::text("axis_damping",
+              "with node_ids: each axis' damping (N s/m, N m s/rad rotary), comma-separated; unset: damping "
+              "on every axis")
+          .defaults_to(""),
       P::integer("bitrate", "bit/s", "the bus bit rate (as set with ip link), for the bus budget")
           .defaults_to(static_cast<double>(d.bitrate))
           .at_least(10e3)
@@ -110,6 +124,45 @@ std::vector<ParameterSpec> make_parameters() {
   };
 }
 
+/// "1,2" -> {1, 2}; "" -> {}. Throws ParameterError naming the key and what is accepted.
+std::vector<double> number_list(const DriverParameters& p, const std::string& key,
+                                const std::string& accepted) {
+  const std::string& text = p.text(key);
+  std::vector<double> out;
+  if (text.empty()) return out;
+  std::size_t begin = 0;
+  while (begin <= text.size()) {
+    const std::size_t end = std::min(text.find(',', begin), text.size());
+    const std::string item = text.substr(begin, end - begin);
+    std::size_t used = 0;
+    double value = std::nan("");
+    try {
+      value = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    while (used < item.size() && item[used] == ' ') ++used;
+    if (used == 0 || used != item.size() || !std::isfinite(value))
+      throw ParameterError(key, "device.canopen." + key + " = \"" + text + "\": '" + item +
+                                    "' is not a number; accepted: " + accepted);
+    out.push_back(value);
+    begin = end + 1;
+  }
+  return out;
+}
+
+std::vector<std::uint8_t> node_list(const DriverParameters& p) {
+  const std::string accepted = "node-IDs 1..127, comma-separated, one per axis (\"1,2\")";
+  std::vector<std::uint8_t> nodes;
+  for (const double id : number_list(p, "node_ids", accepted)) {
+    if (id != std::floor(id) || id < 1.0 || id > 127.0)
+      throw ParameterError("node_ids", "device.canopen.node_ids = \"" + p.text("node_ids") + "\": " +
+                                           std::to_string(id) + " is no node-ID; accepted: " + accepted);
+    nodes.push_back(static_cast<std::uint8_t>(id));
+  }
+  return nodes;
+}
+
 }  // namespace
 
 CanopenConfig canopen_config_from(const DriverParameters& p) {
@@ -119,6 +172,10 @@ CanopenConfig canopen_config_from(const DriverParameters& p) {
   c.damping = p.number("damping");
   c.interface = p.text("interface");
   c.node_id = static_cast<std::uint8_t>(p.integer("node_id"));
+  c.node_ids = node_list(p);
+  c.axis_mass = number_list(p, "axis_mass", "one mass per node in node_ids, comma-separated (\"0.1,0.3\")");
+  c.axis_damping =
+      number_list(p, "axis_damping", "one damping per node in node_ids, comma-separated (\"0,0.5\")");
   c.bitrate = static_cast<std::uint32_t>(p.integer("bitrate"));
   c.counts_per_unit = p.number("counts_per_unit");
   c.velocity_counts_per_unit = p.number("velocity_counts_per_unit");
@@ -161,7 +218,9 @@ DriverDescription canopen_driver() {
   }();
   return {"canopen", "CiA 402 drive over SocketCAN, cyclic synchronous torque (CiA 301/402)", true,
           parameters, [](const DriverParameters& p) -> std::unique_ptr<DeviceHooks> {
-            return std::make_unique<CanopenDevice>(canopen_config_from(p));
+            CanopenConfig config = canopen_config_from(p);
+            if (!config.node_ids.empty()) return std::make_unique<CanopenBusDevice>(std::move(config));
+            return std::make_unique<CanopenDevice>(std::move(config));
           }};
 }
 

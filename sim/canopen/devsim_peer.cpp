@@ -15,6 +15,7 @@
 
 #include "drivers/canopen/can_socket.hpp"
 #include "drivers/simulation/plant_simulator.hpp"
+#include "sim/canopen/can_bus.hpp"
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 #include "world/units.hpp"
@@ -42,6 +43,7 @@ class SimulatorPlant final : public DrivePlant {
 
 struct Options {
   std::string listen;
+  std::string connect;  ///< unix:/path of a simulated bus (hapticd-devsim canbus), instead of listen
   int node = 1;
   std::string period = "1ms";
   double rated_torque = 1.0;
@@ -73,10 +75,28 @@ LimitSwitches limit_switches_from(const std::string& text) {
   return switches;
 }
 
+/// Blocks SIGINT and SIGTERM in every thread started from here on; sigwait() takes them.
+sigset_t block_stop_signals() {
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+  return stop_signals;
+}
+
 int run_peer(const Options& o) {
-  const std::string path(unix_path_of(o.listen));
+  const bool member = !o.connect.empty();
+  if (member == !o.listen.empty()) {
+    std::cerr << "hapticd-devsim canopen: give one of --listen unix:/path (the drive alone) or --connect "
+                 "unix:/path (a member of hapticd-devsim canbus)\n";
+    return 2;
+  }
+  const std::string& where = member ? o.connect : o.listen;
+  const std::string path(unix_path_of(where));
   if (path.empty()) {
-    std::cerr << "hapticd-devsim canopen: --listen must be unix:/path, got '" << o.listen << "'\n";
+    std::cerr << "hapticd-devsim canopen: " << (member ? "--connect" : "--listen")
+              << " must be unix:/path, got '" << where << "'\n";
     return 2;
   }
   const double period_s = world::units::parse_duration_s(o.period).value_or(-1.0);
@@ -100,17 +120,15 @@ int run_peer(const Options& o) {
   SimulatedDrive drive(settings, plant);
 
   // SIGINT/SIGTERM end the peer: blocked here, taken by sigwait below.
-  sigset_t stop_signals;
-  sigemptyset(&stop_signals);
-  sigaddset(&stop_signals, SIGINT);
-  sigaddset(&stop_signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+  sigset_t stop_signals = block_stop_signals();
 
-  DriveBus bus(path, drive);
+  std::unique_ptr<DriveBus> owned = member ? std::make_unique<DriveBus>(DriveBus::Member{}, path, drive)
+                                           : std::make_unique<DriveBus>(path, drive);
+  DriveBus& bus = *owned;
   std::atomic<bool> stop{false};
   std::thread loop([&] { bus.run(stop); });
-  std::cout << "hapticd-devsim canopen: CiA 402 drive, node " << o.node << ", listening on " << o.listen
-            << std::endl;
+  std::cout << "hapticd-devsim canopen: CiA 402 drive, node " << o.node
+            << (member ? ", connected to the bus " : ", listening on ") << where << std::endl;
   std::thread([&bus] {
     for (std::string line; std::getline(std::cin, line);) {
       if (line.empty()) continue;
@@ -125,7 +143,50 @@ int run_peer(const Options& o) {
   return 0;
 }
 
+int run_bus(const std::string& listen) {
+  const std::string path(unix_path_of(listen));
+  if (path.empty()) {
+    std::cerr << "hapticd-devsim canbus: --listen must be unix:/path, got '" << listen << "'\n";
+    return 2;
+  }
+  sigset_t stop_signals = block_stop_signals();
+  CanBus bus(path);
+  std::atomic<bool> stop{false};
+  std::thread loop([&] { bus.run(stop); });
+  std::cout << "hapticd-devsim canbus: CAN bus, listening on " << listen << std::endl;
+  int signal = 0;
+  sigwait(&stop_signals, &signal);
+  stop = true;
+  loop.join();
+  std::cout << "hapticd-devsim canbus: stopped (" << bus.frames_relayed() << " frames relayed, "
+            << bus.deliveries_dropped() << " deliveries dropped, " << bus.malformed_messages()
+            << " malformed messages)" << std::endl;
+  return 0;
+}
+
 }  // namespace
+
+devsim::SimulatedPeer canbus_peer() {
+  return {"canbus",
+          "a CAN bus on the unix seam: every frame a member sends reaches every other member (hapticd and "
+          "hapticd-devsim canopen --connect)",
+          [](CLI::App& app, int& exit_code) {
+            auto listen = std::make_shared<std::string>();
+            auto* cmd = app.add_subcommand(
+                "canbus", "simulated CAN bus for several drives: hapticd and each drive connect to it");
+            cmd->add_option("--listen", *listen,
+                            "unix:/path the driver's interface and the drives' --connect name")
+                ->required();
+            cmd->callback([listen, &exit_code] {
+              try {
+                exit_code = run_bus(*listen);
+              } catch (const std::exception& e) {
+                std::cerr << "hapticd-devsim canbus: " << e.what() << "\n";
+                exit_code = 1;
+              }
+            });
+          }};
+}
 
 devsim::SimulatedPeer canopen_peer() {
   return {
@@ -133,8 +194,11 @@ devsim::SimulatedPeer canopen_peer() {
       [](CLI::App& app, int& exit_code) {
         auto options = std::make_shared<Options>();
         auto* cmd = app.add_subcommand("canopen", "simulated CiA 402 drive for the canopen driver");
-        cmd->add_option("--listen", options->listen, "unix:/path the driver's interface names")->required();
-        cmd->add_option("--node", options->node, "the drive's node-ID")->check(CLI::Range(1, 127));
+        cmd->add_option("--listen", options->listen,
+                        "unix:/path the driver's interface names (the drive alone)");
+        cmd->add_option("--connect", options->connect,
+                        "unix:/path of a simulated bus (hapticd-devsim canbus) to join as one of its drives");
+        cmd->add_option("--node,--node-id", options->node, "the drive's node-ID")->check(CLI::Range(1, 127));
         cmd->add_option("--period", options->period, "the plant's step per SYNC: hapticd's loop period");
         cmd->add_option("--rated-torque", options->rated_torque,
                         "0x6076 motor rated torque, N m (N): 0x6071 is per mille of it")

@@ -14,6 +14,16 @@ DriveBus::DriveBus(const std::string& path, SimulatedDrive& drive)
   drive_.power_on(now(), out);  // the boot-up goes nowhere: no driver yet
 }
 
+DriveBus::DriveBus(Member, const std::string& path, SimulatedDrive& drive)
+    : drive_(drive), member_(true), bus_path_(path) {
+  // Every frame on the bus reaches the drive; it keeps what CiA 301 addresses to it.
+  connection_ = CanSocket::open("unix:" + path, {}, 0);
+  connections_ = 1;
+  std::vector<Frame> out;
+  drive_.power_on(now(), out);
+  send_all(out);
+}
+
 DriveBus::~DriveBus() { listener_.close(); }
 
 Micros DriveBus::now() const {
@@ -41,7 +51,7 @@ void DriveBus::poll_once(std::chrono::microseconds wait) {
   int fd = -1;
   {
     std::lock_guard lock(mutex_);
-    fd = connection_.is_open() ? connection_.fd() : listener_.fd();
+    fd = connection_.is_open() ? connection_.fd() : listener_.fd();  // -1 (a member cut off): poll waits
     const Micros next = drive_.next_deadline();
     const Micros t = now();
     if (next > t)
@@ -56,6 +66,7 @@ void DriveBus::poll_once(std::chrono::microseconds wait) {
   std::lock_guard lock(mutex_);
   std::vector<Frame> out;
   if (!connection_.is_open()) {
+    if (member_) return;  // the bus ended: no one to hear the drive
     connection_ = listener_.accept(std::chrono::microseconds(0));
     if (connection_.is_open()) ++connections_;
   } else {

@@ -7,6 +7,12 @@
 /// what a dead master is on a real bus: its heartbeat stops. The bus keeps
 /// listening, so hapticd can be restarted against the same drive.
 ///
+/// Or, as a member of a simulated bus (can_bus.hpp, `hapticd-devsim canbus`):
+/// connects to it and hears every frame the other members send (hapticd's,
+/// and the other drives', which it ignores by their COB-IDs as CiA 301 has
+/// it); its boot-up goes to the bus. A bus that ends is the drive's cable
+/// pulled: it serves no one until the program restarts.
+///
 /// Threads: run() on one thread; command() from any thread (a mutex guards
 /// the drive: this is the simulator, not the RT side).
 
@@ -24,6 +30,10 @@ class DriveBus {
  public:
   /// Listens at `path` and powers the drive on. Throws std::runtime_error.
   DriveBus(const std::string& path, SimulatedDrive& drive);
+  struct Member {};
+  /// Connects to the bus at `path` as one member of it and powers the drive
+  /// on (its boot-up goes to the bus). Throws std::runtime_error.
+  DriveBus(Member, const std::string& path, SimulatedDrive& drive);
   ~DriveBus();
 
   /// Serves until `stop` is set (checked at least every `tick`).
@@ -40,14 +50,16 @@ class DriveBus {
   /// The force the drive applies now (N m or N), read under the bus's lock.
   double applied_force() const;
   std::uint64_t connections() const noexcept { return connections_.load(); }
-  const std::string& path() const noexcept { return listener_.path(); }
+  const std::string& path() const noexcept { return member_ ? bus_path_ : listener_.path(); }
 
  private:
   Micros now() const;
   void send_all(const std::vector<Frame>& frames);
 
   SimulatedDrive& drive_;
-  CanListener listener_;
+  bool member_ = false;
+  std::string bus_path_;  ///< member: the bus' path
+  CanListener listener_;  ///< not open for a member
   CanSocket connection_;
   mutable std::mutex mutex_;
   std::atomic<std::uint64_t> connections_{0};

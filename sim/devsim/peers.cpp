@@ -12,6 +12,7 @@ const std::vector<SimulatedPeer>& simulated_peers() {
   // One line per driver with a simulated peer (its sim/ folder).
   static const std::vector<SimulatedPeer> peers{
       canopen::sim::canopen_peer(),    // sim/canopen
+      canopen::sim::canbus_peer(),     // sim/canopen: the bus several drives share
       modbus::sim::modbus_peer(),      // sim/modbus
       usb_hid::sim::usb_hid_peer(),    // sim/usb_hid
       gpio_pwm::sim::gpio_pwm_peer(),  // sim/gpio_pwm

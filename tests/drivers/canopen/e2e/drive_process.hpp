@@ -5,6 +5,7 @@
 #include <sys/types.h>
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,12 @@ class SimulatedDrive {
   /// 80; a host that refuses it runs the drive as before, said in its log).
   SimulatedDrive(const TempDir& dir, const std::string& hand, const std::string& plant = rigid_wheel_plant,
                  const std::vector<std::string>& extra = {}, int fifo_priority = 0);
+  /// One of several drives: node `node` joins the bus at `bus_interface`
+  /// (hapticd-devsim canopen --connect ... --node-id N), its log dir/devsim-nodeN.log.
+  static std::unique_ptr<SimulatedDrive> member(const TempDir& dir, const std::string& bus_interface,
+                                                int node, const std::string& hand, const std::string& plant,
+                                                const std::vector<std::string>& extra = {},
+                                                int fifo_priority = 0);
   ~SimulatedDrive();
   SimulatedDrive(const SimulatedDrive&) = delete;
   SimulatedDrive& operator=(const SimulatedDrive&) = delete;
@@ -37,11 +44,35 @@ class SimulatedDrive {
   void kill_now();
 
  private:
+  struct Spawn {
+    std::vector<std::string> args;
+    std::filesystem::path log;
+    std::string ready;  ///< the log line that says it runs
+    int fifo_priority = 0;
+  };
+  SimulatedDrive(std::filesystem::path bus, const Spawn& spawn);
   std::vector<std::string> replies() const;
   std::filesystem::path bus_;
   std::filesystem::path log_;
   pid_t pid_ = -1;
   int commands_ = -1;
+};
+
+/// hapticd-devsim canbus (the simulated bus several drives and hapticd join)
+/// as its own process on dir/bus.sock; stopped at destruction.
+class SimulatedCanBus {
+ public:
+  explicit SimulatedCanBus(const TempDir& dir, int fifo_priority = 0);
+  ~SimulatedCanBus();
+  SimulatedCanBus(const SimulatedCanBus&) = delete;
+  SimulatedCanBus& operator=(const SimulatedCanBus&) = delete;
+  std::string interface() const { return "unix:" + bus_.string(); }
+  std::string log() const;
+
+ private:
+  std::filesystem::path bus_;
+  std::filesystem::path log_;
+  pid_t pid_ = -1;
 };
 
 }  // namespace hapticd::e2e
