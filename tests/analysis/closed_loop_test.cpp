@@ -11,7 +11,7 @@
 #include "analysis/wall_stability.hpp"
 #include "world/spring_scene.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::closed_loop_test {
 namespace {
 
 // Hulin's wall: s = previous y; F = -K y - B (y - y_prev)/T.
@@ -136,4 +136,4 @@ TEST(ClosedLoop, RejectsInconsistentScene) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::closed_loop_test

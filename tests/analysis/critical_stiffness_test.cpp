@@ -18,7 +18,7 @@
 #include "analysis/two_mass.hpp"
 #include "world/integrator.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::critical_stiffness_test {
 namespace {
 
 using world::Sensor;
@@ -416,4 +416,4 @@ TEST(RelayExperiment, RecoversAKnownSinusoid) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::critical_stiffness_test

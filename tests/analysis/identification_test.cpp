@@ -21,7 +21,7 @@
 #include "world/chirp_scene.hpp"
 #include "world/integrator.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::identification_test {
 namespace {
 
 constexpr double T = 1e-3;
@@ -211,4 +211,4 @@ TEST(Identification, RefusesWhatIdentifiesNothing) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::identification_test

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::integrator_stability_test {
 namespace {
 
 using world::Integrator;
@@ -234,4 +234,4 @@ TEST(IntegratorStability, RejectsBadInput) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::integrator_stability_test

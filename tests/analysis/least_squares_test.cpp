@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::least_squares_test {
 namespace {
 
 // y = a e^{-b t} + c with Gaussian noise: the fit recovers (a, b, c), and the
@@ -71,4 +71,4 @@ TEST(LeastSquares, RefusesWhatItCannotStart) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::least_squares_test

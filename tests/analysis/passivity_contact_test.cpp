@@ -11,7 +11,7 @@
 #include "analysis/stability_gate.hpp"
 #include "analysis/wall_stability.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::passivity_contact_test {
 namespace {
 
 // Hulin section 7: m = 0.1 kg, T = 1 ms, d = 1, B = 46 N s/m (beta = 0.46).
@@ -173,4 +173,4 @@ TEST(PassivityGate, AControllerThatCouldDestabiliseTheDeviceAsADamperIsRefused) 
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::passivity_contact_test

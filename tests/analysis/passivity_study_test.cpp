@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::passivity_study_test {
 namespace {
 
 const PassivityStudy& default_study() {
@@ -166,4 +166,4 @@ TEST(PassivityStudy, RefusesFactorsThatAreNotPositive) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::passivity_study_test

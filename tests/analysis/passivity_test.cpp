@@ -17,7 +17,7 @@
 #include "world/spring_scene.hpp"
 #include "world/wall_scene.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::passivity_test {
 namespace {
 
 constexpr double pi = std::numbers::pi;
@@ -532,4 +532,4 @@ TEST(WallPassivity, NonFiniteOrOutOfRangeInputCannotBeAssessed) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::passivity_test

@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::relay_simulation_test {
 namespace {
 
 constexpr double T = 1e-3;
@@ -136,4 +136,4 @@ TEST(RelaySimulation, MatchesTheCrossoverHelpers) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::relay_simulation_test

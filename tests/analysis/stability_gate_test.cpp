@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::stability_gate_test {
 namespace {
 
 const world::ParameterSet wheel{{"integrator", std::string("exact")}};
@@ -110,4 +110,4 @@ TEST(StabilityGate, AnUndampedWheelIsPassiveAtNoDampingAndNoNumberMakesItPassive
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::stability_gate_test

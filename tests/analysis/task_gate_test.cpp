@@ -16,6 +16,8 @@
 
 #include "analysis/wall_stability.hpp"
 
+namespace task_gate_test {
+
 namespace {
 
 using namespace hapticd::analysis;
@@ -185,3 +187,5 @@ TEST(TaskGate, AxesThatCannotBeJudgedGiveNoVerdictEvenForced) {
 }
 
 }  // namespace
+
+}  // namespace task_gate_test

@@ -14,6 +14,8 @@
 
 #include "analysis/wall_stability.hpp"
 
+namespace task_space_test {
+
 namespace {
 
 using hapticd::analysis::cartesian_along;
@@ -121,3 +123,5 @@ TEST(TaskSpace, ThePantographsWorstCaseIsTheLightestConfigurationOfTheBox) {
 }
 
 }  // namespace
+
+}  // namespace task_space_test

@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::verdict_test {
 namespace {
 
 constexpr double nan = std::numeric_limits<double>::quiet_NaN();
@@ -93,4 +93,4 @@ TEST(Verdict, WorseOrdersCannotAssessThenUnstableThenMarginal) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::verdict_test

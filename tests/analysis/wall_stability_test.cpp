@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::wall_stability_test {
 namespace {
 
 const double sqrt2 = std::sqrt(2.0);
@@ -423,4 +423,4 @@ TEST(WallStability, NormalizationRoundTrips) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::wall_stability_test

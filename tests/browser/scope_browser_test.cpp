@@ -31,7 +31,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::scope_browser_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -304,4 +304,4 @@ TEST(ScopeBrowser, PageHoldsTheRunsSamplesWithNoNetwork) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::scope_browser_test

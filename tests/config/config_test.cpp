@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::daemon::config {
+namespace hapticd::daemon::config::config_test {
 namespace {
 
 /// Parses text as file "t.toml" and returns the ConfigError's what(), or
@@ -440,4 +440,4 @@ TEST(ConfigHelpers, RingCapacity) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::config
+}  // namespace hapticd::daemon::config::config_test

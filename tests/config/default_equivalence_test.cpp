@@ -17,7 +17,7 @@
 #include "drivers/loopback/loopback_config.hpp"
 #include "drivers/loopback/loopback_device.hpp"
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::default_equivalence_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -111,4 +111,4 @@ TEST(ShippedDefaultConfig, CommentedLoopbackDefaultsAreTheDriversDefaults) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::default_equivalence_test

@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::daemon::config {
+namespace hapticd::daemon::config::examples_test {
 namespace {
 
 const std::filesystem::path config_dir = std::filesystem::path(HAPTICD_SOURCE_DIR) / "config";
@@ -85,4 +85,4 @@ TEST(ShippedConfigs, PaperValuesAreThePapers) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::config
+}  // namespace hapticd::daemon::config::examples_test

@@ -17,7 +17,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::daemon::config {
+namespace hapticd::daemon::config::host_checks_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -221,4 +221,4 @@ TEST(HostChecks, DefaultRecordingDirectoryIsNamedWithWhereItComesFrom) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::config
+}  // namespace hapticd::daemon::config::host_checks_test

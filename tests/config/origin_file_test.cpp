@@ -18,7 +18,7 @@
 #include "daemon/config/config.hpp"
 #include "daemon/config/host_checks.hpp"
 
-namespace hapticd::daemon::config {
+namespace hapticd::daemon::config::origin_file_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -247,4 +247,4 @@ TEST(OriginConfig, ThePersistedFilesDirectoryIsCheckedOnTheHost) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::config
+}  // namespace hapticd::daemon::config::origin_file_test

@@ -14,7 +14,7 @@
 #include "daemon/config/config.hpp"
 #include "daemon/service.hpp"
 
-namespace hapticd::daemon {
+namespace hapticd::daemon::parameter_position_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -128,4 +128,4 @@ TEST(ParameterPositions, AValidConfigIsAccepted) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon
+}  // namespace hapticd::daemon::parameter_position_test

@@ -13,7 +13,7 @@
 
 #include "daemon/config/host_checks_setup.hpp"
 
-namespace hapticd::daemon::config {
+namespace hapticd::daemon::config::setup_check_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -292,4 +292,4 @@ TEST_F(FakeHost, TheWholeRunItsVerdictAndJson) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::config
+}  // namespace hapticd::daemon::config::setup_check_test

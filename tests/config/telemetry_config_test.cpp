@@ -7,7 +7,7 @@
 
 #include "daemon/config/config.hpp"
 
-namespace hapticd::daemon::config {
+namespace hapticd::daemon::config::telemetry_config_test {
 namespace {
 
 std::string telemetry_error(const std::string& toml) {
@@ -80,4 +80,4 @@ TEST(TelemetryConfig, ErrorsAreAtTheValueAndSayWhatIsAccepted) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::config
+}  // namespace hapticd::daemon::config::telemetry_config_test

@@ -20,6 +20,8 @@
 #include "client/socket_path.hpp"
 #include "control_test_util.hpp"
 
+namespace client_test {
+
 using namespace std::chrono_literals;
 using hapticd::client::AssignmentError;
 using hapticd::client::Client;
@@ -275,3 +277,5 @@ TEST(Assignment, NameValuePairs) {
 }
 
 }  // namespace
+
+}  // namespace client_test

@@ -21,6 +21,8 @@
 #include "control_test_util.hpp"
 #include "daemon/control/server.hpp"
 
+namespace server_test {
+
 using namespace std::chrono_literals;
 using hapticd::client::Client;
 using hapticd::client::ConnectError;
@@ -1087,3 +1089,5 @@ TEST_F(PermissionTest, AReadersEstopIsServedWhenEverySlotIsHeld) {
 }
 
 }  // namespace
+
+}  // namespace server_test

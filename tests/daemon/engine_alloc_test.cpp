@@ -24,6 +24,8 @@
 #include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
+namespace engine_alloc_test {
+
 namespace {
 
 using hapticd::daemon::TelemetrySample;
@@ -546,3 +548,5 @@ TEST(EngineAlloc, SixAxesEveryTaskSceneFaultsAndClearsAllocateNothing) {
   EXPECT_GT(engine.counters().telemetry_dropped, 0u) << "the ring filled and dropped";
   device->disable();
 }
+
+}  // namespace engine_alloc_test

@@ -19,6 +19,8 @@
 #include "rt/loop_timing.hpp"
 #include "world/scene_catalog.hpp"
 
+namespace engine_axes_test {
+
 namespace {
 
 using hapticd::daemon::TelemetrySample;
@@ -233,3 +235,5 @@ TEST(EngineAxes, KinematicsThatDoNotFitTheDeviceAreRefused) {
 }
 
 }  // namespace
+
+}  // namespace engine_axes_test

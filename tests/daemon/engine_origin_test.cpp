@@ -24,6 +24,8 @@
 #include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
+namespace engine_origin_test {
+
 namespace {
 
 using hapticd::daemon::flag_fault_latched;
@@ -366,3 +368,5 @@ TEST(EngineOriginThreads, ZerosFromTheControlThreadWhileTheLoopRuns) {
   }
   EXPECT_EQ(matched, zero_cycles.size());
 }
+
+}  // namespace engine_origin_test

@@ -18,6 +18,8 @@
 #include "rt/loop_timing.hpp"
 #include "world/scene_catalog.hpp"
 
+namespace engine_plausibility_test {
+
 namespace {
 
 using hapticd::daemon::flag_fault_latched;
@@ -335,3 +337,5 @@ TEST(PositionStepGuard, TheDefaultMaxVelocityIsTheHandPlusTheMotorOverOneTurnOrA
   // A lighter device is flung faster by the same motor.
   EXPECT_GT(default_max_velocity(true, 0.001, 1.0), default_max_velocity(true, 0.01, 1.0));
 }
+
+}  // namespace engine_plausibility_test

@@ -21,6 +21,8 @@
 #include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
+namespace engine_safety_test {
+
 namespace {
 
 using hapticd::daemon::TelemetrySample;
@@ -462,3 +464,5 @@ TEST(EngineThread, PublishThenWaitAppliedReturnsTheCycle) {
   EXPECT_TRUE(engine.finished());
   device.disable();
 }
+
+}  // namespace engine_safety_test

@@ -20,6 +20,8 @@
 #include "tests/support/loopback_start.hpp"
 #include "world/scene_catalog.hpp"
 
+namespace engine_thread_test {
+
 namespace {
 
 using hapticd::daemon::TelemetrySample;
@@ -162,3 +164,5 @@ TEST(EngineThreads, PublishEstopClearAndDrainConcurrently) {
   EXPECT_EQ(samples + engine.counters().telemetry_dropped, engine.cycle());
   EXPECT_GE(engine.counters().faults_latched, 1u);  // the NaN injections
 }
+
+}  // namespace engine_thread_test

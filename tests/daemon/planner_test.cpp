@@ -17,6 +17,8 @@
 #include "world/spring_scene.hpp"
 #include "world/wall_scene.hpp"
 
+namespace planner_test {
+
 namespace {
 
 using hapticd::daemon::DeviceModel;
@@ -391,3 +393,5 @@ TEST(Planner, InvalidParametersAreRefusedAsInvalid) {
   EXPECT_TRUE(damper.invalid);
   EXPECT_NE(damper.message.find("<= 1e+06"), std::string::npos) << damper.message;
 }
+
+}  // namespace planner_test

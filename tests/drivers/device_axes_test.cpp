@@ -21,6 +21,8 @@
 #include "rpc/jsonrpc.hpp"
 #include "tests/support/alloc_counter.hpp"
 
+namespace device_axes_test {
+
 namespace {
 
 using namespace hapticd::drivers;
@@ -288,3 +290,5 @@ TEST(LoopbackStage, BadKeysAreRefusedNamingTheKeyAndWhatIsAccepted) {
 }
 
 }  // namespace
+
+}  // namespace device_axes_test

@@ -9,7 +9,7 @@
 #include "drivers/parameter.hpp"
 #include "drivers/registry.hpp"
 
-namespace hapticd::drivers {
+namespace hapticd::drivers::device_keys_test {
 namespace {
 
 const ParameterSpec* find(const DriverDescription& driver, const std::string& name) {
@@ -72,4 +72,4 @@ TEST(DeviceKeys, WordsAndAliasesOfTheSharedSpec) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers
+}  // namespace hapticd::drivers::device_keys_test

@@ -15,6 +15,8 @@
 
 #include "tests/support/alloc_counter.hpp"
 
+namespace device_test {
+
 namespace {
 
 using namespace hapticd::drivers;
@@ -237,3 +239,5 @@ TEST(Device, TheRtCallsAllocateNothing) {
 }
 
 }  // namespace
+
+}  // namespace device_test

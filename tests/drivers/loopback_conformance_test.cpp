@@ -32,6 +32,6 @@ struct LoopbackConformance {
 
 }  // namespace
 
-namespace hapticd::testing {
+namespace hapticd::testing::loopback_conformance_test {
 INSTANTIATE_TYPED_TEST_SUITE_P(Loopback, DeviceConformance, LoopbackConformance);
-}  // namespace hapticd::testing
+}  // namespace hapticd::testing::loopback_conformance_test

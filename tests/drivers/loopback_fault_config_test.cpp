@@ -13,6 +13,8 @@
 #include "drivers/loopback/loopback_device.hpp"
 #include "tests/support/loopback_start.hpp"
 
+namespace loopback_fault_config_test {
+
 namespace {
 
 using hapticd::drivers::IoResult;
@@ -342,3 +344,5 @@ TEST(LoopbackConfigKeys, NumbersOutsideTheirRangeAreRefusedNamingIt) {
 }
 
 }  // namespace
+
+}  // namespace loopback_fault_config_test

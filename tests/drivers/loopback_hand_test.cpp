@@ -11,6 +11,8 @@
 #include "drivers/loopback/loopback_device.hpp"
 #include "tests/support/loopback_start.hpp"
 
+namespace loopback_hand_test {
+
 namespace {
 
 using hapticd::drivers::IoResult;
@@ -316,3 +318,5 @@ TEST(HandScriptParse, NumbersHaveRangesThatKeepTheTrajectoryFinite) {
 }
 
 }  // namespace
+
+}  // namespace loopback_hand_test

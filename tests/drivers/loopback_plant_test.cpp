@@ -15,6 +15,8 @@
 #include "drivers/loopback/loopback_device.hpp"
 #include "tests/support/loopback_start.hpp"
 
+namespace loopback_plant_test {
+
 namespace {
 
 using hapticd::drivers::IoResult;
@@ -425,3 +427,5 @@ TEST(LoopbackTwoMass, CableModeMatchesContinuousEigenvalues) {
 }
 
 }  // namespace
+
+}  // namespace loopback_plant_test

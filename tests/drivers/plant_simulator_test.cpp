@@ -11,6 +11,8 @@
 #include "drivers/simulation/plant_simulator.hpp"
 #include "tests/support/loopback_start.hpp"
 
+namespace plant_simulator_test {
+
 namespace {
 
 using hapticd::drivers::IoResult;
@@ -57,3 +59,5 @@ TEST(PlantSimulator, LoopbackRunIsTheSimulatorRunBitForBit) {
 }
 
 }  // namespace
+
+}  // namespace plant_simulator_test

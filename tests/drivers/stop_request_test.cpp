@@ -4,7 +4,7 @@
 
 #include <string>
 
-namespace hapticd::drivers {
+namespace hapticd::drivers::stop_request_test {
 namespace {
 
 // The cause is kept by pointer. Before the first request it must read as ""
@@ -24,4 +24,4 @@ TEST(StopRequest, TheFirstCauseIsKeptAndReadBack) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers
+}  // namespace hapticd::drivers::stop_request_test

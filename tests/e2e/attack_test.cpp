@@ -28,7 +28,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::attack_test {
 namespace {
 
 using nlohmann::json;
@@ -483,4 +483,4 @@ TEST(Attack, StreamTimeoutIsTheSilenceAccepted) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::attack_test

@@ -17,7 +17,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::axes_test {
 namespace {
 
 using nlohmann::json;
@@ -179,4 +179,4 @@ TEST(Axes, TheConfigsAxisErrorsNameTheKey) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::axes_test

@@ -11,7 +11,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::cli_passivity_test {
 namespace {
 
 using nlohmann::json;
@@ -136,4 +136,4 @@ TEST(CliPassivity, BoundaryCarriesThePassivityCurve) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::cli_passivity_test

@@ -10,7 +10,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::cli_plane_wall_test {
 namespace {
 
 using nlohmann::json;
@@ -86,4 +86,4 @@ TEST(CliPlaneWall, BadArgumentsAreUsageErrorsNamingTheFlag) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::cli_plane_wall_test

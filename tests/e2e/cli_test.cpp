@@ -13,7 +13,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::cli_test {
 namespace {
 
 using nlohmann::json;
@@ -309,4 +309,4 @@ TEST(CliStats, HumanFormAndUnchangedJson) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::cli_test

@@ -12,7 +12,7 @@
 
 #include "tests/e2e/support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::driver_framework_test {
 namespace {
 
 using nlohmann::json;
@@ -104,4 +104,4 @@ TEST(DriverFramework, DeviceIsDescribedFromItsDriversTableAndClearSaysWhatTheDev
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::driver_framework_test

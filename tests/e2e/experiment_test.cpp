@@ -15,7 +15,7 @@
 
 #include "tests/e2e/support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::experiment_test {
 namespace {
 
 using nlohmann::json;
@@ -423,4 +423,4 @@ TEST(Experiment, CtrlCDuringTheRelayRestoresTheSceneAndStopsTheRecording) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::experiment_test

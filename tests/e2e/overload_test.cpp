@@ -31,7 +31,7 @@
 #include "process_probe.hpp"
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::overload_test {
 namespace {
 
 using nlohmann::json;
@@ -217,4 +217,4 @@ TEST(Overload, HundredClientsComingAndGoingForTenSeconds) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::overload_test

@@ -14,7 +14,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::passivity_test {
 namespace {
 
 constexpr double fixed_gain_limit = 14342.0;  // N/m: `hapticctl analyze wall` at beta = 0.46, d = 1
@@ -121,4 +121,4 @@ TEST(PassivityLoopback, FiveTimesTheLimitIsRefusedButForcedItStaysBoundedWithThe
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::passivity_test

@@ -13,7 +13,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::physics_test {
 namespace {
 
 using std::numbers::pi;
@@ -288,4 +288,4 @@ TEST(Freudenberg4, ResonantExcitationPumpsOrDampsByPhase) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::physics_test

@@ -17,7 +17,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::refusal_test {
 namespace {
 
 using nlohmann::json;
@@ -261,4 +261,4 @@ TEST(Refusals, AnUnstableWallsRefusalReadsAsADoublingTime) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::refusal_test

@@ -28,7 +28,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::safety_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -675,4 +675,4 @@ TEST(Safety, SigtermExitsZeroWithACompleteRecordingAndTheDeviceStopped) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::safety_test

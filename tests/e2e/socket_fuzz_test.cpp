@@ -27,7 +27,7 @@
 #include "process_probe.hpp"
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::socket_fuzz_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -254,4 +254,4 @@ delay = 1
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::socket_fuzz_test

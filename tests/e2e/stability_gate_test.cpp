@@ -12,7 +12,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::stability_gate_test {
 namespace {
 
 using nlohmann::json;
@@ -275,4 +275,4 @@ TEST(StabilityGate, LoadRefusesParametersOutsideTheirRange) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::stability_gate_test

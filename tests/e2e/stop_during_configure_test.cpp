@@ -30,6 +30,8 @@
 
 #include "support.hpp"
 
+namespace stop_during_configure_test {
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -190,3 +192,5 @@ TEST(StopDuringConfigure, ACanopenDriveThatNeverAnswersSdosDoesNotHoldSigterm) {
   close(peer);
   close(listener);
 }
+
+}  // namespace stop_during_configure_test

@@ -26,7 +26,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::telemetry_test {
 namespace {
 
 using nlohmann::json;
@@ -355,4 +355,4 @@ TEST(Telemetry, AnUnknownConfiguredChannelIsAConfigErrorAtItsPosition) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::telemetry_test

@@ -15,7 +15,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::thread_placement_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -88,4 +88,4 @@ TEST(ThreadPlacement, ControlAndRecorderGoWhereTheConfigSays) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::thread_placement_test

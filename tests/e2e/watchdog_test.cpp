@@ -31,7 +31,7 @@
 
 #include "support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::watchdog_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -221,4 +221,4 @@ TEST(SystemdWatchdog, PingsOnlyWhileTheLoopAdvancesAndTheUnitRestartsAStalledDae
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::watchdog_test

@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+namespace device_permissions_test {
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -298,3 +300,5 @@ TEST(UnitDevices, EachDriversDropInAllowsExactlyTheNodesItsRulesGrant) {
 }
 
 }  // namespace
+
+}  // namespace device_permissions_test

@@ -24,7 +24,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::daemon::recorder {
+namespace hapticd::daemon::recorder::recorder_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -878,4 +878,4 @@ TEST(Recorder, StreamsGetEveryDrainedSampleRecordingOrNot) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::recorder
+}  // namespace hapticd::daemon::recorder::recorder_test

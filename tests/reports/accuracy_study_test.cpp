@@ -11,7 +11,7 @@
 
 #include "analysis/wall_stability.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::accuracy_study_test {
 namespace {
 
 using world::Integrator;
@@ -246,4 +246,4 @@ TEST(AccuracyStudy, ProgressReachesTheEndAndCanStopTheStudy) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::accuracy_study_test

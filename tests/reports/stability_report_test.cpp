@@ -12,7 +12,7 @@
 #include "analysis/stability_sweep.hpp"
 #include "analysis/wall_stability.hpp"
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::stability_report_test {
 namespace {
 
 const double sqrt2 = std::sqrt(2.0);
@@ -212,4 +212,4 @@ TEST(StabilitySweep, NonFiniteReadsShowWhatTheSceneEmits) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::stability_report_test

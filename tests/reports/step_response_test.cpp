@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-namespace hapticd::analysis {
+namespace hapticd::analysis::step_response_test {
 namespace {
 
 struct Body {
@@ -123,4 +123,4 @@ TEST(StepResponse, ShortPulseKeepsItsDigits) {
 }
 
 }  // namespace
-}  // namespace hapticd::analysis
+}  // namespace hapticd::analysis::step_response_test

@@ -11,6 +11,8 @@
 #include "rt/mailbox.hpp"
 #include "rt/spsc_ring.hpp"
 
+namespace alloc_guard_test {
+
 using hapticd::testing::AllocationGuard;
 using namespace hapticd::rt;
 using namespace std::chrono_literals;
@@ -110,3 +112,5 @@ TEST(AllocationGuard, ScheduleAndStatsAllocateNothing) {
   EXPECT_EQ(n, 0u);
   EXPECT_EQ(stats->snapshot().cycles, 100'000u);
 }
+
+}  // namespace alloc_guard_test

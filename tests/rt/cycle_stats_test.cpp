@@ -4,6 +4,8 @@
 
 #include "rt/loop_timing.hpp"
 
+namespace cycle_stats_test {
+
 using hapticd::rt::CycleStats;
 using hapticd::rt::Nanos;
 using hapticd::rt::PeriodicSchedule;
@@ -67,3 +69,5 @@ TEST(CycleStats, ResetClearsTheStatisticsButKeepsTheCurrentStreak) {
   EXPECT_EQ(snap.max_overrun_streak, 3u);
   EXPECT_EQ(snap.compute.max_ns, 100'000);
 }
+
+}  // namespace cycle_stats_test

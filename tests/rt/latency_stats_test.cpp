@@ -9,6 +9,8 @@
 #include <thread>
 #include <vector>
 
+namespace latency_stats_test {
+
 using hapticd::rt::HistogramLayout;
 using hapticd::rt::LatencyHistogram;
 using hapticd::rt::Nanos;
@@ -120,3 +122,5 @@ TEST(LatencyHistogram, SnapshotsAreConsistentWhileTheWriterRuns) {
   EXPECT_TRUE(ok);
   EXPECT_EQ(h.snapshot().count, 2'000'000u);
 }
+
+}  // namespace latency_stats_test

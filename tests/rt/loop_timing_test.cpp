@@ -4,6 +4,8 @@
 
 #include <chrono>
 
+namespace loop_timing_test {
+
 using hapticd::rt::Nanos;
 using hapticd::rt::PeriodicSchedule;
 using hapticd::rt::RealClock;
@@ -133,3 +135,5 @@ TEST(PeriodicSchedule, RealClockRunsThreeHundredPeriods) {
   EXPECT_GE(s.next_index() - 1, 300u);
   EXPECT_GE(elapsed, Nanos{300ms});  // deadlines are never served early
 }
+
+}  // namespace loop_timing_test

@@ -7,6 +7,8 @@
 #include <memory>
 #include <thread>
 
+namespace mailbox_test {
+
 using hapticd::rt::Mailbox;
 using namespace std::chrono_literals;
 
@@ -146,3 +148,5 @@ TEST(Mailbox, ConcurrentPublishAcquireStress) {
   }
   EXPECT_EQ(Plan::live, 0);
 }
+
+}  // namespace mailbox_test

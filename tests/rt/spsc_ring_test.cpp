@@ -7,6 +7,8 @@
 #include <thread>
 #include <vector>
 
+namespace spsc_ring_test {
+
 using hapticd::rt::SpscRing;
 
 TEST(SpscRing, RejectsCapacityThatIsNotAPowerOfTwo) {
@@ -100,3 +102,5 @@ TEST(SpscRing, ConcurrentTransferOfTenMillionItemsInOrder) {
   EXPECT_EQ(ring.dropped(), refused);
   EXPECT_TRUE(ring.empty());
 }
+
+}  // namespace spsc_ring_test

@@ -15,6 +15,8 @@
 
 #include "daemon/system/rt_permission.hpp"
 
+namespace rt_setup_test {
+
 using namespace hapticd::daemon::system;
 using Nanos = std::chrono::nanoseconds;
 
@@ -212,3 +214,5 @@ TEST(CpuDmaLatency, MissingDeviceIsAClearErrorAndNotHeld) {
   EXPECT_FALSE(req.held());
   EXPECT_TRUE(contains(err, "/nonexistent/cpu_dma_latency")) << err;
 }
+
+}  // namespace rt_setup_test

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <string>
 
+namespace systemd_notify_test {
+
 using hapticd::daemon::system::SystemdNotifier;
 
 namespace {
@@ -86,3 +88,5 @@ TEST(SystemdNotifier, SendsToTheNotifySocketAndReadsTheWatchdog) {
   ::close(fd);
   ::unlink(path.c_str());
 }
+
+}  // namespace systemd_notify_test

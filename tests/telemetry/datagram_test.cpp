@@ -13,7 +13,7 @@
 #include "daemon/telemetry/datagram.hpp"
 #include "daemon/telemetry/udp_endpoint.hpp"
 
-namespace hapticd::daemon::telemetry {
+namespace hapticd::daemon::telemetry::datagram_test {
 namespace {
 
 using nlohmann::json;
@@ -127,4 +127,4 @@ TEST(TelemetryPrefix, IsAShortPathElement) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::telemetry
+}  // namespace hapticd::daemon::telemetry::datagram_test

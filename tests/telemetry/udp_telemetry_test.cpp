@@ -19,7 +19,7 @@
 #include "daemon/telemetry/datagram.hpp"
 #include "daemon/telemetry/udp_telemetry.hpp"
 
-namespace hapticd::daemon::telemetry {
+namespace hapticd::daemon::telemetry::udp_telemetry_test {
 namespace {
 
 using nlohmann::json;
@@ -234,4 +234,4 @@ TEST(UdpTelemetry, HeldDuringASceneSwitchSoNamesFollowTheCycle) {
 }
 
 }  // namespace
-}  // namespace hapticd::daemon::telemetry
+}  // namespace hapticd::daemon::telemetry::udp_telemetry_test

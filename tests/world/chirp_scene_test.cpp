@@ -11,7 +11,7 @@
 #include "world/any_scene.hpp"
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::chirp_scene_test {
 namespace {
 
 constexpr double T = 1e-3;
@@ -128,4 +128,4 @@ TEST(RelayCatalog, DelayAndDurationPickTheVariant) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::chirp_scene_test

@@ -12,7 +12,7 @@
 #include "world/plant.hpp"
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::coupled_simulation_test {
 namespace {
 
 TEST(CoupledSimulation, ReleasedDeviceOscillatesAtTheCoupledFrequency) {
@@ -77,4 +77,4 @@ TEST(CoupledSimulation, ReleasedDeviceOscillatesAtTheCoupledFrequency) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::coupled_simulation_test

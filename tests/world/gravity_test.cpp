@@ -8,6 +8,8 @@
 
 #include <cmath>
 
+namespace gravity_test {
+
 namespace {
 
 using namespace hapticd::world;
@@ -55,3 +57,5 @@ TEST(Gravity, NoFeedforwardAtASingularConfiguration) {
 }
 
 }  // namespace
+
+}  // namespace gravity_test

@@ -11,7 +11,7 @@
 #include "world/integrator.hpp"
 #include "world/spring_scene.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::integrator_test {
 namespace {
 
 using test::eigenvalues;
@@ -173,4 +173,4 @@ TEST(Integrators, OrderOfAccuracyOnAStepResponse) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::integrator_test

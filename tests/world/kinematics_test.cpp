@@ -12,6 +12,8 @@
 
 #include "tests/support/alloc_counter.hpp"
 
+namespace kinematics_test {
+
 namespace {
 
 using namespace hapticd::world;
@@ -178,3 +180,5 @@ TEST(Kinematics, TheRtCallsAllocateNothing) {
 }
 
 }  // namespace
+
+}  // namespace kinematics_test

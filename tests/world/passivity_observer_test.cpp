@@ -12,7 +12,7 @@
 
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::passivity_observer_test {
 namespace {
 
 constexpr double t = 1e-3;
@@ -402,4 +402,4 @@ TEST(PassivityObserver, StepDoesNotAllocate) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::passivity_observer_test

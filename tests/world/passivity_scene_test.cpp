@@ -14,7 +14,7 @@
 #include "tests/support/alloc_counter.hpp"
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::passivity_scene_test {
 namespace {
 
 using DampedDelayedWall = WallScene<WallDamping::backward_difference, WallDelay::samples>;
@@ -134,4 +134,4 @@ TEST(PassivityScene, StepAllocatesNothing) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::passivity_scene_test

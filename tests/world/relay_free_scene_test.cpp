@@ -7,7 +7,7 @@
 
 #include "world/any_scene.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::relay_free_scene_test {
 namespace {
 
 using Plain = RelayScene<RelayHysteresis::none>;
@@ -138,4 +138,4 @@ TEST(AnyScene, DispatchesToTheHeldScene) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::relay_free_scene_test

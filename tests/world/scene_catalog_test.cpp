@@ -8,7 +8,7 @@
 
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::scene_catalog_test {
 namespace {
 
 std::string error_of(std::string_view name, const ParameterSet& given, double period = 1e-3,
@@ -192,4 +192,4 @@ TEST(SceneCatalog, PlannedSceneRunsFromReset) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::scene_catalog_test

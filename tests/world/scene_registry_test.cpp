@@ -10,7 +10,7 @@
 
 #include "world/scene_catalog.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::scene_registry_test {
 namespace {
 
 // The RT variant is what it was when it was written out by hand: the same
@@ -98,4 +98,4 @@ TEST(SceneRegistry, ChoicesTypeAsEnumForTheProtocol) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::scene_registry_test

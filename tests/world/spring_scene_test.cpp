@@ -11,7 +11,7 @@
 
 #include "world/spring_scene.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::spring_scene_test {
 namespace {
 
 using None = SpringScene<SpringDamping::none>;
@@ -281,4 +281,4 @@ TEST(SpringScene, LinearModelReproducesStep) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::spring_scene_test

@@ -13,6 +13,8 @@
 
 #include "world/scene_catalog.hpp"
 
+namespace task_scenes_test {
+
 namespace {
 
 using namespace hapticd::world;
@@ -145,3 +147,5 @@ TEST(TaskScenes, EachDeviceTakesOnlyTheScenesThatMeanSomethingOnIt) {
 }
 
 }  // namespace
+
+}  // namespace task_scenes_test

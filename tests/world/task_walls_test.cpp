@@ -11,6 +11,8 @@
 
 #include "tests/support/alloc_counter.hpp"
 
+namespace task_walls_test {
+
 namespace {
 
 using namespace hapticd::world;
@@ -157,3 +159,5 @@ TEST(TaskWalls, TheRtStepAllocatesNothing) {
 }
 
 }  // namespace
+
+}  // namespace task_walls_test

@@ -14,7 +14,7 @@
 
 #include "world/text.hpp"
 
-namespace hapticd::world::text {
+namespace hapticd::world::text::text_test {
 namespace {
 
 const std::vector<double>& samples() {
@@ -87,4 +87,4 @@ TEST(Text, QuantityAndJoin) {
 }
 
 }  // namespace
-}  // namespace hapticd::world::text
+}  // namespace hapticd::world::text::text_test

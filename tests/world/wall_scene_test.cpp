@@ -10,7 +10,7 @@
 #include "world/plant.hpp"
 #include "world/wall_scene.hpp"
 
-namespace hapticd::world {
+namespace hapticd::world::wall_scene_test {
 namespace {
 
 using Plain = WallScene<WallDamping::none, WallDelay::none>;
@@ -207,4 +207,4 @@ TEST(WallScene, HulinRemark2MaximumStiffnessPointIsOnTheBoundary) {
 }
 
 }  // namespace
-}  // namespace hapticd::world
+}  // namespace hapticd::world::wall_scene_test

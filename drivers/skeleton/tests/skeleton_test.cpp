@@ -115,6 +115,6 @@ TEST(SkeletonDevice, APeerThatGoesAwayLatchesAFaultWithTheReason) {
 
 }  // namespace
 
-namespace hapticd::testing {
+namespace hapticd::testing::skeleton_test {
 INSTANTIATE_TYPED_TEST_SUITE_P(Skeleton, DeviceConformance, SkeletonConformance);
-}  // namespace hapticd::testing
+}  // namespace hapticd::testing::skeleton_test

@@ -6,6 +6,8 @@
 
 #include "drivers/canopen/301/bus_budget.hpp"
 
+namespace bus_budget_test {
+
 namespace co = hapticd::drivers::canopen::cia301;
 
 TEST(CanopenBusBudget, WorstCaseFrameBits) {
@@ -83,3 +85,5 @@ TEST(CanopenBusBudget, APeriodExactlyTheBusTimeFitsThoughTheDurationIsNotExactIn
   // One bit time less is still refused.
   EXPECT_FALSE(co::check_bus_budget(cycle, 399 * 1e-6, 1000000).fits);
 }
+
+}  // namespace bus_budget_test

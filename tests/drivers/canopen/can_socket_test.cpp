@@ -22,6 +22,8 @@
 #include "drivers/canopen/can_error.hpp"
 #include "drivers/canopen/can_socket.hpp"
 
+namespace can_socket_test {
+
 namespace canopen = hapticd::drivers::canopen;
 using canopen::CanSocket;
 using canopen::IoStatus;
@@ -259,3 +261,5 @@ TEST(CanopenCanSocket, VcanRoundTrip) {
   ASSERT_EQ(driver.receive(got), IoStatus::ok);
   EXPECT_EQ(got, make(0x185, {0x37, 0x12, 0xFE, 0xFF, 0xFF, 0xFF}));
 }
+
+}  // namespace can_socket_test

@@ -101,6 +101,6 @@ struct CanopenConformance {
 
 }  // namespace
 
-namespace hapticd::testing {
+namespace hapticd::testing::canopen_conformance_test {
 INSTANTIATE_TYPED_TEST_SUITE_P(Canopen, DeviceConformance, CanopenConformance);
-}  // namespace hapticd::testing
+}  // namespace hapticd::testing::canopen_conformance_test

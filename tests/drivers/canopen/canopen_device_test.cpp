@@ -23,6 +23,8 @@
 #include "sim/canopen/simulated_drive.hpp"
 #include "tests/support/alloc_counter.hpp"
 
+namespace canopen_device_test {
+
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;
 namespace co = hapticd::drivers::canopen::cia301;
@@ -822,3 +824,5 @@ TEST_F(HostileBusTest, MalformedMessagesKeepReadAllocationFree) {
   EXPECT_EQ(st.counters.malformed_messages, 3U);
   EXPECT_EQ(st.counters.malformed_frames, 3U);
 }
+
+}  // namespace canopen_device_test

@@ -15,6 +15,8 @@
 #include "drivers/canopen/301/pdo.hpp"
 #include "drivers/canopen/301/sdo.hpp"
 
+namespace codec_301_test {
+
 namespace co = hapticd::drivers::canopen::cia301;
 
 namespace {
@@ -419,3 +421,5 @@ TEST(CanopenObject, CommunicationObjectsDescribed) {
   EXPECT_FALSE(co::find_communication_object({0x1800, 4}));
   EXPECT_FALSE(co::find_communication_object({0x1234, 0}));
 }
+
+}  // namespace codec_301_test

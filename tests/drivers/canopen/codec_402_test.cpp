@@ -8,6 +8,8 @@
 #include "drivers/canopen/402/objects.hpp"
 #include "drivers/canopen/402/state_machine.hpp"
 
+namespace codec_402_test {
+
 namespace co = hapticd::drivers::canopen::cia402;
 using co::Command;
 using co::DriveState;
@@ -183,3 +185,5 @@ TEST(Canopen402Errors, CodesInWords) {
             "EMCY 0x2310: continuous over current (motor side); error register 0x03 (generic, current); "
             "manufacturer bytes 00 00 00 12 AB");
 }
+
+}  // namespace codec_402_test

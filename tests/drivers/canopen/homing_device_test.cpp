@@ -20,6 +20,8 @@
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 
+namespace homing_device_test {
+
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;
 namespace drivers = hapticd::drivers;
@@ -237,3 +239,5 @@ TEST_F(HomingDevice, AStopCutsTheHomingShortWithinASlice) {
 }
 
 }  // namespace
+
+}  // namespace homing_device_test

@@ -14,6 +14,8 @@
 #include "drivers/canopen/homing.hpp"
 #include "sim/canopen/homing_controller.hpp"
 
+namespace homing_test {
+
 namespace canopen = hapticd::drivers::canopen;
 namespace cia402 = hapticd::drivers::canopen::cia402;
 namespace sim = hapticd::drivers::canopen::sim;
@@ -293,3 +295,5 @@ TEST(SimulatedDriveHoming, BitFourFallingOrHaltInterrupts) {
 }
 
 }  // namespace
+
+}  // namespace homing_test

@@ -18,6 +18,8 @@
 #include "sim/canopen/simulated_drive.hpp"
 #include "tests/support/alloc_counter.hpp"
 
+namespace master_test {
+
 namespace canopen = hapticd::drivers::canopen;
 namespace co = hapticd::drivers::canopen::cia301;
 namespace c4 = hapticd::drivers::canopen::cia402;
@@ -775,3 +777,5 @@ TEST(CanopenConfig, ScalingFromDriveUnitsToSi) {
   EXPECT_DOUBLE_EQ(l.si_per_velocity_unit, -1e-3);
   EXPECT_DOUBLE_EQ(l.force_per_permille, -20e-3 * 10.0);
 }
+
+}  // namespace master_test

@@ -15,6 +15,8 @@
 #include "sim/canopen/commands.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 
+namespace simulated_drive_test {
+
 namespace co = hapticd::drivers::canopen::cia301;
 namespace sim = hapticd::drivers::canopen::sim;
 using co::Frame;
@@ -461,3 +463,5 @@ TEST_F(SimulatedDriveTest, TextCommandsSetTheSwitches) {
       0U);
   EXPECT_EQ(sim::apply_command(drive, "status", now, out).rfind("ok state=\"Fault\" nmt=operational", 0), 0U);
 }
+
+}  // namespace simulated_drive_test

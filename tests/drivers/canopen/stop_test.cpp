@@ -22,6 +22,8 @@
 #include "sim/canopen/drive_bus.hpp"
 #include "sim/canopen/simulated_drive.hpp"
 
+namespace stop_test {
+
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;
 namespace co = hapticd::drivers::canopen::cia301;
@@ -208,3 +210,5 @@ TEST_F(DriveStop, FaultClearGivesWayToAStop) {
   EXPECT_FALSE(exchange().operational);
   stop_loop();
 }
+
+}  // namespace stop_test

@@ -14,7 +14,7 @@
 #include "drivers/gpio_pwm/sysfs_attributes.hpp"
 #include "sim/gpio_pwm/board.hpp"
 
-namespace hapticd::drivers::gpio_pwm::sim {
+namespace hapticd::drivers::gpio_pwm::sim::board_test {
 namespace {
 
 bool eventually(const std::function<bool()>& condition) {
@@ -192,4 +192,4 @@ TEST_F(BoardLockstep, QuadratureEdgesFollowThePlant) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm::sim
+}  // namespace hapticd::drivers::gpio_pwm::sim::board_test

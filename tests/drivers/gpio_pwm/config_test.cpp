@@ -8,7 +8,7 @@
 
 #include "drivers/gpio_pwm/gpio_pwm_config.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::config_test {
 namespace {
 
 GpioPwmConfig valid_counter_config() {
@@ -115,4 +115,4 @@ TEST(GpioPwmConfig, DuplicateLineMessageNamesBothRoles) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::config_test

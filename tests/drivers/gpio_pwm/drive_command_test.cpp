@@ -6,7 +6,7 @@
 
 #include "drivers/gpio_pwm/drive_command.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::drive_command_test {
 namespace {
 
 // 0.8 N m at full duty, 95 % maximum, 10 mN m deadband, 20 kHz.
@@ -61,4 +61,4 @@ TEST(DriveCommand, ForceOfInvertsTheSplitToTheNanosecond) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::drive_command_test

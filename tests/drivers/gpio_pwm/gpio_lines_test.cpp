@@ -17,7 +17,7 @@
 #include "tests/drivers/gpio_pwm/line_backends.hpp"
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::gpio_lines_test {
 namespace {
 
 using testing_support::LineBackend;
@@ -334,4 +334,4 @@ INSTANTIATE_TEST_SUITE_P(Chips, GpioLines, ::testing::Values("umockdev", "gpio-s
                          });
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::gpio_lines_test

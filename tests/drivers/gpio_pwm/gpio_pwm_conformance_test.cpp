@@ -96,6 +96,6 @@ struct GpioPwmConformance {
 
 }  // namespace
 
-namespace hapticd::testing {
+namespace hapticd::testing::gpio_pwm_conformance_test {
 INSTANTIATE_TYPED_TEST_SUITE_P(GpioPwm, DeviceConformance, GpioPwmConformance);
-}  // namespace hapticd::testing
+}  // namespace hapticd::testing::gpio_pwm_conformance_test

@@ -18,7 +18,7 @@
 #include "sim/gpio_pwm/board.hpp"
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::gpio_pwm_device_test {
 namespace {
 
 bool eventually(const std::function<bool()>& condition) {
@@ -373,4 +373,4 @@ TEST_F(GpioPwmDeviceTest, QuadratureLinesGiveThePosition) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::gpio_pwm_device_test

@@ -13,7 +13,7 @@
 
 #include "sim/gpio_pwm/umockdev_gpio_testbed.hpp"
 
-namespace hapticd::drivers::gpio_pwm::sim {
+namespace hapticd::drivers::gpio_pwm::sim::libgpiod_testbed_test {
 namespace {
 
 GpioChipSpec spec() {
@@ -208,4 +208,4 @@ TEST_F(LibgpiodTestbed, BlockingReadWaitsForTheNextEvent) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm::sim
+}  // namespace hapticd::drivers::gpio_pwm::sim::libgpiod_testbed_test

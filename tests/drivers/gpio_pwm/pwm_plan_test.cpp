@@ -8,7 +8,7 @@
 #include "drivers/gpio_pwm/sysfs_value.hpp"
 #include "sim/gpio_pwm/pwm_channel_model.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::pwm_plan_test {
 namespace {
 
 std::vector<PwmWrite> writes_of(const PwmTiming& current, const PwmTiming& target) {
@@ -100,4 +100,4 @@ TEST(PwmPlan, TheWrongOrderIsRefusedBySimulatedKernel) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::pwm_plan_test

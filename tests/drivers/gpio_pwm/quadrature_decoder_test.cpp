@@ -9,7 +9,7 @@
 #include "drivers/gpio_pwm/quadrature_decoder.hpp"
 #include "sim/gpio_pwm/quadrature_encoder.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::quadrature_decoder_test {
 namespace {
 
 constexpr QuadratureState s00 = quadrature_state(false, false);
@@ -140,4 +140,4 @@ TEST(QuadratureDecoder, RateBoundFromTheKernelQueueDepth) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::quadrature_decoder_test

@@ -13,7 +13,7 @@
 #include "sim/gpio_pwm/pwm_channel_model.hpp"
 #include "sim/gpio_pwm/quadrature_encoder.hpp"
 
-namespace hapticd::drivers::gpio_pwm::sim {
+namespace hapticd::drivers::gpio_pwm::sim::sim_models_test {
 namespace {
 
 GpioChipModel chip() {
@@ -263,4 +263,4 @@ TEST(Amplifier, ChargePumpWatchdogCutsThePowerWhenTheWaveStops) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm::sim
+}  // namespace hapticd::drivers::gpio_pwm::sim::sim_models_test

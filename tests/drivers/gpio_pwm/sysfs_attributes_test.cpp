@@ -16,7 +16,7 @@
 #include "sim/gpio_pwm/sysfs_peripherals.hpp"
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::sysfs_attributes_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -266,4 +266,4 @@ TEST(CounterInput, ErrorsNameTheKey) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::sysfs_attributes_test

@@ -8,7 +8,7 @@
 #include "drivers/gpio_pwm/counter_unwrap.hpp"
 #include "drivers/gpio_pwm/sysfs_value.hpp"
 
-namespace hapticd::drivers::gpio_pwm {
+namespace hapticd::drivers::gpio_pwm::sysfs_counter_test {
 namespace {
 
 TEST(SysfsValue, ParsesWhatTheKernelPrints) {
@@ -103,4 +103,4 @@ TEST(CounterUnwrap, RawAboveTheCeilingIsRefused) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::gpio_pwm
+}  // namespace hapticd::drivers::gpio_pwm::sysfs_counter_test

@@ -12,6 +12,8 @@
 #include "loopback_plant.hpp"
 #include "sim/modbus/amplifier.hpp"
 
+namespace amplifier_test {
+
 namespace mb = hapticd::drivers::modbus;
 using mb::sim::Decision;
 
@@ -170,3 +172,5 @@ TEST_F(AmplifierTest, AnAmplifierWithoutFunction23AnswersIllegalFunction) {
   EXPECT_EQ(d.kind, Decision::Kind::exception);
   EXPECT_EQ(d.exception_code, mb::exception_code::illegal_function);
 }
+
+}  // namespace amplifier_test

@@ -12,6 +12,8 @@
 #include "sim/modbus/amplifier.hpp"
 #include "sim/modbus/amplifier_wire.hpp"
 
+namespace amplifier_wire_test {
+
 namespace sim = hapticd::drivers::modbus::sim;
 using Bytes = std::vector<std::uint8_t>;
 
@@ -108,3 +110,5 @@ TEST(AmplifierWire, AnAddressOutsideTheTablesIsRefusedAndNotApplied) {
   EXPECT_EQ(amplifier.on_request(Bytes{0x04, 0x00, 0x3F, 0x00, 0x01}, 0.0).kind,
             sim::Decision::Kind::reply);  // input register 63: the last one
 }
+
+}  // namespace amplifier_wire_test

@@ -7,6 +7,8 @@
 
 #include "drivers/modbus/modbus_config.hpp"
 
+namespace config_test {
+
 namespace mb = hapticd::drivers::modbus;
 using Values = std::map<std::string, hapticd::drivers::ParameterValue, std::less<>>;
 
@@ -140,3 +142,5 @@ TEST(ModbusConfig, TheShippedExampleIsValid) {
   EXPECT_EQ(values.size(), table->size());
   EXPECT_EQ(refusal(values).second, "");
 }
+
+}  // namespace config_test

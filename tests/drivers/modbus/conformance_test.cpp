@@ -71,7 +71,7 @@ using ModbusRtuConformance = ModbusConformance<true>;
 
 }  // namespace
 
-namespace hapticd::testing {
+namespace hapticd::testing::conformance_test {
 INSTANTIATE_TYPED_TEST_SUITE_P(ModbusTcp, DeviceConformance, ModbusTcpConformance);
 INSTANTIATE_TYPED_TEST_SUITE_P(ModbusRtu, DeviceConformance, ModbusRtuConformance);
-}  // namespace hapticd::testing
+}  // namespace hapticd::testing::conformance_test

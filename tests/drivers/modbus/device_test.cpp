@@ -23,6 +23,8 @@
 #include "sim/modbus/amplifier_server.hpp"
 #include "tests/support/alloc_counter.hpp"
 
+namespace device_test {
+
 namespace mb = hapticd::drivers::modbus;
 using hapticd::drivers::DeviceError;
 using hapticd::drivers::DeviceState;
@@ -708,3 +710,5 @@ TEST(ModbusDeviceHostile, RepliesFromAnotherUnitAreRefusedCountedAndLatch) {
   EXPECT_FALSE(d.clear_fault().empty());
   EXPECT_EQ(d.read(r), IoResult::ok);
 }
+
+}  // namespace device_test

@@ -12,6 +12,8 @@
 
 #include "drivers/modbus/modbus_frame.hpp"
 
+namespace frame_test {
+
 namespace mb = hapticd::drivers::modbus;
 using Bytes = std::vector<std::uint8_t>;
 
@@ -236,3 +238,5 @@ TEST(ModbusFrame, WriteSingleRepliesEchoTheRequest) {
   EXPECT_EQ(mb::parse_echo_response(hex("86 02"), request, exception), mb::PduStatus::exception);
   EXPECT_EQ(exception, 0x02);
 }
+
+}  // namespace frame_test

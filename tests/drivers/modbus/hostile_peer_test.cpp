@@ -30,6 +30,8 @@
 #include "drivers/modbus/modbus_link.hpp"
 #include "drivers/stop_request.hpp"
 
+namespace hostile_peer_test {
+
 namespace mb = hapticd::drivers::modbus;
 using hapticd::drivers::StopRequest;
 using hapticd::drivers::StopRequested;
@@ -308,3 +310,5 @@ TEST(ModbusLinkStop, AnRtuExchangeOffTheLoopReadsAndChecksTheReply) {
   ::close(master);
   ::close(slave);
 }
+
+}  // namespace hostile_peer_test

@@ -29,6 +29,8 @@
 #include "sim/modbus/amplifier_server.hpp"
 #include "tests/support/alloc_counter.hpp"
 
+namespace link_test {
+
 namespace mb = hapticd::drivers::modbus;
 using mb::LinkOutcome;
 using Bytes = std::vector<std::uint8_t>;
@@ -541,3 +543,5 @@ TEST(ModbusLinkTcp, RepliesArePairedByTransactionIdAcrossSegments) {
   close(peer);
   close(listener);
 }
+
+}  // namespace link_test

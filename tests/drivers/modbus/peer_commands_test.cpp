@@ -5,6 +5,8 @@
 #include "loopback_plant.hpp"
 #include "sim/modbus/peer_commands.hpp"
 
+namespace peer_commands_test {
+
 namespace mb = hapticd::drivers::modbus;
 
 namespace {
@@ -47,3 +49,5 @@ TEST(ModbusPeerCommands, BadCommandsSayWhatIsAccepted) {
   EXPECT_EQ(p.run("explode").rfind("error: \"explode\" is not a command; commands: exception CODE", 0), 0u);
   EXPECT_EQ(p.run("").rfind("error: empty command", 0), 0u);
 }
+
+}  // namespace peer_commands_test

@@ -7,6 +7,8 @@
 #include "drivers/modbus/modbus_config.hpp"
 #include "drivers/modbus/register_map.hpp"
 
+namespace register_map_test {
+
 namespace mb = hapticd::drivers::modbus;
 
 TEST(ModbusRegisterMap, WordOrderSplitsAndJoins) {
@@ -144,3 +146,5 @@ TEST(ModbusRegisterMap, FaultWordInWords) {
   EXPECT_THROW(mb::parse_fault_bits("1:a,1:b"), std::invalid_argument);
   EXPECT_TRUE(mb::parse_fault_bits("").empty());
 }
+
+}  // namespace register_map_test

@@ -5,6 +5,8 @@
 
 #include "drivers/modbus/rtu_timing.hpp"
 
+namespace rtu_timing_test {
+
 namespace mb = hapticd::drivers::modbus;
 
 namespace {
@@ -116,3 +118,5 @@ TEST(ModbusRtuTiming, ShortestPeriodAndLowestBaud) {
   EXPECT_FALSE(mb::is_supported_baud(14400));
   EXPECT_TRUE(mb::is_supported_baud(4000000));
 }
+
+}  // namespace rtu_timing_test

@@ -34,7 +34,7 @@
 #include "tests/drivers/canopen/e2e/drive_process.hpp"
 #include "tests/e2e/support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::canopen_e2e_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -614,4 +614,4 @@ TEST(Canopen, SdoMethodsRefuseUnknownMembersAndWrongTypes) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::canopen_e2e_test

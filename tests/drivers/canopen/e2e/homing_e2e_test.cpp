@@ -27,7 +27,7 @@
 #include "tests/drivers/canopen/e2e/drive_process.hpp"
 #include "tests/e2e/support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::homing_e2e_test {
 namespace canopen_homing {
 namespace {
 
@@ -158,4 +158,4 @@ TEST(CanopenHoming, AMethodTheDriveDoesNotHaveStopsTheStartAtTheKey) {
 
 }  // namespace
 }  // namespace canopen_homing
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::homing_e2e_test

@@ -37,7 +37,7 @@
 #include "tests/drivers/canopen/e2e/drive_process.hpp"
 #include "tests/e2e/support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::passivity_canopen_test {
 namespace passivity_canopen {
 namespace {
 
@@ -289,4 +289,4 @@ TEST(PassivityCanopen, WithoutTheControllerTheSameWallThrowsTheDeviceOffAtTheTor
 
 }  // namespace
 }  // namespace passivity_canopen
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::passivity_canopen_test

@@ -31,6 +31,8 @@
 #include "drivers/simulation/plant_config.hpp"
 #include "support.hpp"
 
+namespace gpio_pwm_e2e_test {
+
 namespace {
 
 using namespace hapticd::e2e;
@@ -369,3 +371,5 @@ TEST(GpioPwmEndToEnd, QuadratureEdgesGiveTheBoardsCountOnceTheWheelIsHeld) {
 }
 
 }  // namespace
+
+}  // namespace gpio_pwm_e2e_test

@@ -32,6 +32,8 @@
 
 #include "support.hpp"
 
+namespace modbus_e2e_test {
+
 namespace {
 
 using namespace hapticd::e2e;
@@ -577,3 +579,5 @@ INSTANTIATE_TEST_SUITE_P(ModbusEndToEnd, ModbusEndToEnd, ::testing::Values(Trans
                          transport_name);
 
 }  // namespace
+
+}  // namespace modbus_e2e_test

@@ -26,6 +26,8 @@
 #include "sim/usb_hid/umockdev_board.hpp"
 #include "support.hpp"
 
+namespace usb_hid_e2e_test {
+
 namespace {
 
 using namespace hapticd::e2e;
@@ -214,3 +216,5 @@ TEST(UsbHidEndToEnd, UnplugZeroesTheOutputAndFaultClearResumes) {
 }
 
 }  // namespace
+
+}  // namespace usb_hid_e2e_test

@@ -10,7 +10,7 @@
 #include "drivers/usb_hid/report_codec.hpp"
 #include "sim/usb_hid/board_firmware.hpp"
 
-namespace hapticd::drivers::usb_hid::sim {
+namespace hapticd::drivers::usb_hid::sim::board_firmware_test {
 namespace {
 
 // OUT reports written byte by byte from the README's table, and IN reports
@@ -191,4 +191,4 @@ TEST(BoardReports, TheDriversCodecAndTheBoardsAgreeOnTheDefaultLayout) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid::sim
+}  // namespace hapticd::drivers::usb_hid::sim::board_firmware_test

@@ -10,7 +10,7 @@
 
 #include "drivers/usb_hid/host_session.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::host_session_test {
 namespace {
 
 constexpr std::uint8_t in_ep = 0x81;
@@ -266,4 +266,4 @@ TEST(SessionNoAck, ResetDecidedAfterTimeoutReports) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::host_session_test

@@ -8,7 +8,7 @@
 
 #include "drivers/usb_hid/link_budget.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::link_budget_test {
 namespace {
 
 TEST(PollingInterval, PerBusSpeed) {
@@ -86,4 +86,4 @@ TEST(LinkDelay, InPlusOutIntervalInPeriods) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::link_budget_test

@@ -12,7 +12,7 @@
 
 #include "drivers/usb_hid/report_codec.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::report_codec_test {
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
@@ -328,4 +328,4 @@ TEST(FaultCodes, ProtocolTableAndUnknownCodes) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::report_codec_test

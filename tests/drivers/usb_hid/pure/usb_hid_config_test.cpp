@@ -11,8 +11,10 @@
 #include "drivers/usb_hid/usb_hid_config.hpp"
 
 namespace hapticd::drivers::usb_hid {
-
 DriverDescription usb_hid_driver();  // usb_hid_driver.cpp (the registry's X-macro declares it too)
+}  // namespace hapticd::drivers::usb_hid
+
+namespace hapticd::drivers::usb_hid::usb_hid_config_test {
 
 namespace {
 
@@ -136,4 +138,4 @@ TEST(UsbHidConfig, ValidateNeedsTheIdsAndAFittingDeadMan) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::usb_hid_config_test

@@ -19,7 +19,7 @@
 
 extern char** environ;
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::cross_process_test {
 namespace {
 
 using testing::EmulatedBoardTest;
@@ -85,4 +85,4 @@ TEST_F(EmulatedBoardTest, AnotherProcessExchangesTwoHundredReports) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::cross_process_test

@@ -14,7 +14,7 @@
 #include "emulated_board_fixture.hpp"
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::transport_test {
 namespace {
 
 using testing::EmulatedBoardTest;
@@ -82,9 +82,9 @@ TEST_F(EmulatedBoardTest, ExchangesTwoHundredReportsInEachDirection) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::transport_test
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::transport_test {
 namespace {
 
 using testing::EmulatedBoardTest;
@@ -338,4 +338,4 @@ TEST_F(EmulatedBoardTest, PeriodPathAllocatesNothingInOurCode) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::transport_test

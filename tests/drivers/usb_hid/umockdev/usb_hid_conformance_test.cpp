@@ -71,6 +71,6 @@ struct UsbHidConformance {
 
 }  // namespace
 
-namespace hapticd::testing {
+namespace hapticd::testing::usb_hid_conformance_test {
 INSTANTIATE_TYPED_TEST_SUITE_P(UsbHid, DeviceConformance, UsbHidConformance);
-}  // namespace hapticd::testing
+}  // namespace hapticd::testing::usb_hid_conformance_test

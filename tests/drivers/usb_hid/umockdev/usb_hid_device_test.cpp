@@ -19,7 +19,7 @@
 #include "emulated_board_fixture.hpp"
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::usb_hid_device_test {
 namespace {
 
 using testing::EmulatedBoardTest;
@@ -339,4 +339,4 @@ TEST_F(EmulatedBoardTest, ReadWriteAllocateNothing) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::usb_hid_device_test
