@@ -26,6 +26,8 @@
 #include "sim/canopen/simulated_drive.hpp"
 #include "tests/support/alloc_counter.hpp"
 
+namespace canbus_test {
+
 namespace canopen = hapticd::drivers::canopen;
 namespace sim = hapticd::drivers::canopen::sim;
 namespace co = hapticd::drivers::canopen::cia301;
@@ -399,3 +401,5 @@ TEST_F(TwoDrivesOnTheBus, AnEmcyOnOneNodeZeroesEveryAxisNamingTheAxisAndClearsTh
 }
 
 }  // namespace
+
+}  // namespace canbus_test

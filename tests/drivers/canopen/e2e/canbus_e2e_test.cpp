@@ -26,7 +26,7 @@
 #include "tests/drivers/canopen/e2e/drive_process.hpp"
 #include "tests/e2e/support.hpp"
 
-namespace hapticd::e2e {
+namespace hapticd::e2e::canbus_e2e_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -257,4 +257,4 @@ TEST(CanopenBus, APeriodTheBusCannotCarryForTwoNodesIsRefusedWithTheFigures) {
 }
 
 }  // namespace
-}  // namespace hapticd::e2e
+}  // namespace hapticd::e2e::canbus_e2e_test

@@ -20,6 +20,8 @@
 #include "sim/usb_hid/umockdev_board.hpp"
 #include "support.hpp"
 
+namespace usb_hid_axes_e2e_test {
+
 namespace {
 
 using namespace hapticd::e2e;
@@ -221,3 +223,5 @@ TEST(UsbHidAxesEndToEnd, BadReportOnAnyAxisZeroesBothAxes) {
 }
 
 }  // namespace
+
+}  // namespace usb_hid_axes_e2e_test

@@ -16,7 +16,7 @@
 #include "sim/usb_hid/board_firmware.hpp"
 #include "sim/usb_hid/board_reports.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::report_axes_test {
 
 DriverDescription usb_hid_driver();  // usb_hid_driver.cpp
 
@@ -311,4 +311,4 @@ TEST(UsbHidAxes, OneAxisConfigIsUnchanged) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::report_axes_test

@@ -18,7 +18,7 @@
 #include "emulated_board_fixture.hpp"
 #include "tests/support/alloc_counter.hpp"
 
-namespace hapticd::drivers::usb_hid {
+namespace hapticd::drivers::usb_hid::usb_hid_axes_test {
 namespace {
 
 using testing::RampPlant;
@@ -262,4 +262,4 @@ TEST_F(TwoAxisBoardTest, OneAxisCallsOnATwoAxisBoardAreRefused) {
 }
 
 }  // namespace
-}  // namespace hapticd::drivers::usb_hid
+}  // namespace hapticd::drivers::usb_hid::usb_hid_axes_test
