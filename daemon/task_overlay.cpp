@@ -10,7 +10,9 @@ namespace {
 
 using config::ConfigError;
 
-std::string overlay_number(double v) { return world::text::format_significant(v, world::text::precision::summary); }
+std::string overlay_number(double v) {
+  return world::text::format_significant(v, world::text::precision::summary);
+}
 
 std::string axis_list(const std::vector<std::string>& names) {
   std::string out;
@@ -25,25 +27,30 @@ void add_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, Tas
   const auto& names = device.axis_names;
   const auto it = std::find(names.begin(), names.end(), g.axis);
   if (it == names.end())
-    throw ConfigError(g.axis_where, "gravity.axis",
-                      "gravity.axis = \"" + g.axis + "\" names no axis of the device; accepted: " + axis_list(names));
+    throw ConfigError(
+        g.axis_where, "gravity.axis",
+        "gravity.axis = \"" + g.axis + "\" names no axis of the device; accepted: " + axis_list(names));
   const double weight = g.mass * g.acceleration;  // N
   if (weight > cfg.device.torque_limit)
     throw ConfigError(g.mass_where, "gravity.mass",
                       "gravity.mass = " + overlay_number(g.mass) + " kg weighs " + overlay_number(weight) +
                           " N, more than device.torque_limit = " + overlay_number(cfg.device.torque_limit) +
                           " N: the feedforward could not hold the axis; accepted: a mass up to " +
-                          overlay_number(cfg.device.torque_limit / g.acceleration) + " kg, or a larger torque_limit");
+                          overlay_number(cfg.device.torque_limit / g.acceleration) +
+                          " kg, or a larger torque_limit");
   const auto axis = static_cast<Eigen::Index>(it - names.begin());
   world::StageWeight stage{world::AxisVector::Zero(static_cast<Eigen::Index>(names.size()))};
   stage.holding(axis) = g.down_positive ? -weight : weight;
   out.gravity = stage;
   const std::string down = g.down_positive ? "positive" : "negative";
-  out.status["gravity"] = {{"axis", g.axis},           {"mass", g.mass},
-                           {"acceleration", g.acceleration}, {"down", down},
+  out.status["gravity"] = {{"axis", g.axis},
+                           {"mass", g.mass},
+                           {"acceleration", g.acceleration},
+                           {"down", down},
                            {"feedforward", stage.holding(axis)}};
-  out.notes.push_back("gravity: " + overlay_number(g.mass) + " kg on axis " + g.axis + " (down " + down + ", g = " +
-                      overlay_number(g.acceleration) + " m/s^2): a feedforward of " + overlay_number(stage.holding(axis)) +
+  out.notes.push_back("gravity: " + overlay_number(g.mass) + " kg on axis " + g.axis + " (down " + down +
+                      ", g = " + overlay_number(g.acceleration) + " m/s^2): a feedforward of " +
+                      overlay_number(stage.holding(axis)) +
                       " N added after the scene, inside the torque limit (gravity_" + g.axis + ")");
 }
 
@@ -62,8 +69,9 @@ void add_workspace(const config::DaemonConfig& cfg, const DeviceModel& device, T
   for (const auto& p : w.parameters) parameters[p.key] = p.value;
   if (w.shape == "sphere") {
     if (const auto* side = workspace_key(w, "side"))
-      throw ConfigError(side->where, "workspace.side",
-                        "workspace.side: a workspace holds the device inside its sphere; accepted: no side key");
+      throw ConfigError(
+          side->where, "workspace.side",
+          "workspace.side: a workspace holds the device inside its sphere; accepted: no side key");
     parameters["side"] = std::string("inside");
   }
   auto outcome = plan_on_device(w.shape, parameters, device, false);
@@ -90,7 +98,8 @@ void add_workspace(const config::DaemonConfig& cfg, const DeviceModel& device, T
 
 }  // namespace
 
-std::vector<world::ChannelDescription> TaskOverlay::channels(const std::vector<std::string>& axis_names) const {
+std::vector<world::ChannelDescription> TaskOverlay::channels(
+    const std::vector<std::string>& axis_names) const {
   std::vector<world::ChannelDescription> out;
   if (gravity) {
     for (const auto& n : axis_names) out.push_back({"gravity_" + n, "N"});

@@ -487,12 +487,12 @@ class Parser {
     for (const auto& [key, node] : in_file_order(table)) {
       if (key->str() != "shape") continue;
       workspace.shape = get_string(*node, "workspace.shape", accepted);
-      if (workspace.shape != "box" && workspace.shape != "sphere") out_of_range(*node, "workspace.shape", accepted);
+      if (workspace.shape != "box" && workspace.shape != "sphere")
+        out_of_range(*node, "workspace.shape", accepted);
       workspace.shape_where = position(node->source());
       has_shape = true;
     }
-    if (!has_shape)
-      fail(table.source(), "workspace.shape", "[workspace] needs shape; accepted: " + accepted);
+    if (!has_shape) fail(table.source(), "workspace.shape", "[workspace] needs shape; accepted: " + accepted);
     collect(table, "", "workspace", workspace.parameters, "shape");
   }
 

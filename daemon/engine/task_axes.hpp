@@ -8,9 +8,9 @@
 
 #include <array>
 
+#include <optional>
 #include "daemon/engine/safety.hpp"
 #include "drivers/device_hooks.hpp"
-#include <optional>
 
 #include "world/any_scene.hpp"
 #include "world/gravity.hpp"

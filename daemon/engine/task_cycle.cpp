@@ -142,7 +142,8 @@ void Engine::task_channels(TelemetrySample& sample) const noexcept {
   }
   std::size_t count = channels_per_axis * n;
   if (a.gravity) {
-    for (std::size_t i = 0; i < n; ++i) sample.channels[count + i] = a.feedforward(static_cast<Eigen::Index>(i));
+    for (std::size_t i = 0; i < n; ++i)
+      sample.channels[count + i] = a.feedforward(static_cast<Eigen::Index>(i));
     count += n;
   }
   if (a.workspace) {

@@ -128,7 +128,8 @@ TEST(GravityFeedforward, ThePantographsFeedforwardAndAHandForceComposeByVirtualW
     TaskState back;
     k.solve(q - dq, back);
     const AxisVector dx = (moved.position - back.position) / 2;
-    const double dv = (potential(k, m, q(0) + dq(0), q(1) + dq(1)) - potential(k, m, q(0) - dq(0), q(1) - dq(1))) / 2;
+    const double dv =
+        (potential(k, m, q(0) + dq(0), q(1) + dq(1)) - potential(k, m, q(0) - dq(0), q(1) - dq(1))) / 2;
     EXPECT_NEAR(tau.dot(dq), force.dot(dx) + dv, 1e-13);
   }
   // Saturated, the sum keeps its direction.
