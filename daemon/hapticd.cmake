@@ -7,6 +7,7 @@ add_library(hapticd_daemon_core STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/device_model.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/device_factory.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/service.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/task_overlay.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/calibration.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/calibration_methods.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/methods/status_methods.cpp

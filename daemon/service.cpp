@@ -144,6 +144,7 @@ Service::Service(ServiceOptions options)
         cfg.loop.period_s);
   }
   resolve_axes();
+  overlay_ = make_task_overlay(cfg, model_);
   position_rule_ = position_rule_for(cfg, model_.info);
   // Whose origin a stored one must be, and what the state directory holds.
   const drivers::DeviceModel device_model = device_.device->model();
@@ -236,6 +237,7 @@ std::string Service::describe() const {
     for (std::size_t i = 0; i < model_.axis_names.size(); ++i)
       out << (i == 0 ? " " : ", ") << model_.axis_names[i] << " (" << model_.info.axes[i].mass << " kg, "
           << model_.info.axes[i].damping << " N s/m)";
+    for (const auto& note : overlay_.notes) out << "\n" << note;
   }
   return out.str();
 }
@@ -266,6 +268,7 @@ recorder::RecordingHeader Service::header_for(const CurrentScene& scene) const {
     h.notes.push_back("axes: " + std::to_string(model_.axis_names.size()) + ", " +
                       options_.config.device.kinematics +
                       " kinematics: each axis' position, task force (before the limit) and output (sent)");
+    h.notes.insert(h.notes.end(), overlay_.notes.begin(), overlay_.notes.end());
   }
   h.notes.push_back("stability: " + scene.stability.summary);
   if (scene.forced) h.notes.push_back("UNSTABLE parameters loaded with force=true");
@@ -292,6 +295,8 @@ CurrentScene Service::scene_from(const PlannedScene& planned, const world::Param
   next.channels = planned.plan.channels;
   if (!model_.axis_names.empty()) {
     auto axes = axis_channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary);
+    const auto overlay = overlay_.channels(model_.axis_names);
+    axes.insert(axes.end(), overlay.begin(), overlay.end());
     next.channels.insert(next.channels.begin(), axes.begin(), axes.end());
   }
   next.stability = planned.stability;
@@ -388,6 +393,8 @@ void Service::start_engine() {
   eo.overrun_limit = virtual_clock ? 0 : cfg.loop.overrun_limit;
   eo.position_rule = position_rule_;
   eo.require_calibration = cfg.device.require_calibration;
+  eo.gravity = overlay_.gravity;
+  eo.workspace = overlay_.workspace;
   if (cfg.loop.duration_s) eo.duration = nanos(*cfg.loop.duration_s);
   eo.telemetry_capacity = power_of_two_at_least(cfg.recorder.ring_capacity(cfg.loop.period_s));
   eo.wait_for_telemetry_space = virtual_clock;

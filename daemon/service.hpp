@@ -22,6 +22,7 @@
 #include "daemon/engine/engine.hpp"
 #include "daemon/planner.hpp"
 #include "daemon/recorder/recorder.hpp"
+#include "daemon/task_overlay.hpp"
 #include "daemon/telemetry/udp_telemetry.hpp"
 #include "rt/clock.hpp"
 
@@ -141,6 +142,7 @@ class Service {
   engine::PositionStepRule position_rule_;
   PlannedScene initial_;
   world::ParameterSet initial_requested_;
+  TaskOverlay overlay_;  ///< [gravity] and [workspace] on several axes (none on one)
   std::unique_ptr<rt::Clock> clock_;
   std::unique_ptr<engine::Engine> engine_;
   std::unique_ptr<telemetry::UdpTelemetry> telemetry_;  ///< outlives recorder_, which feeds it

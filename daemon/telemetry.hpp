@@ -14,8 +14,9 @@
 namespace hapticd::daemon {
 
 /// The scene's channels (10 at most), after three per axis on a device with
-/// several (position, task force, joint output: 18 for 6 axes).
-inline constexpr std::size_t max_telemetry_channels = 24;
+/// several (position, task force, joint output: 18 for 6 axes), one more per
+/// axis with [gravity] and one with [workspace] (26 for 6 axes and a wall).
+inline constexpr std::size_t max_telemetry_channels = 26;
 
 /// Bits in TelemetrySample::flags.
 enum TelemetryFlag : std::uint32_t {

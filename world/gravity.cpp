@@ -21,4 +21,16 @@ AxisVector pantograph_gravity_torques(const PantographKinematics& kinematics, co
   return tau * m.gravity;
 }
 
+void gravity_torques(const GravityModel& model, const Kinematics& kinematics, const AxisVector& q,
+                     const TaskState& state, AxisVector& out) noexcept {
+  out.setZero(q.size());
+  if (const auto* stage = std::get_if<StageWeight>(&model)) {
+    if (stage->holding.size() == q.size()) out = stage->holding;
+    return;
+  }
+  const auto* pantograph = std::get_if<PantographKinematics>(&kinematics);
+  if (pantograph != nullptr && q.size() == PantographKinematics::joints())
+    out = pantograph_gravity_torques(*pantograph, std::get<PantographMasses>(model), q, state);
+}
+
 }  // namespace hapticd::world

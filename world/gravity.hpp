@@ -11,6 +11,8 @@
 ///   dV/dq = g sum_k m_k d y_k / d q with the handle's row of J.
 /// Pure and RT-safe.
 
+#include <variant>
+
 #include "world/kinematics.hpp"
 
 namespace hapticd::world {
@@ -28,5 +30,23 @@ struct PantographMasses {
 /// otherwise: no feedforward at a singular configuration.
 AxisVector pantograph_gravity_torques(const PantographKinematics& kinematics, const PantographMasses& masses,
                                       const AxisVector& q, const TaskState& state) noexcept;
+
+/// A Cartesian stage: the constant joint force that holds each axis, N (m g
+/// on a vertical axis, 0 on a horizontal one): V = sum_i h_i q_i, so
+/// dV/dq = h.
+struct StageWeight {
+  AxisVector holding;
+};
+
+/// What the config describes ([gravity], docs/config.md).
+using GravityModel = std::variant<StageWeight, PantographMasses>;
+
+/// The joint torques (N or N m) that hold the device still against gravity
+/// at joints q, `state` being solve(q)'s result: the feedforward the engine
+/// adds after the scene (tau = J^T F + tau_g). Zero where the model does not
+/// fit the kinematics (a pantograph's masses on a stage) or at a singular
+/// configuration. RT-safe: `out` has fixed capacity.
+void gravity_torques(const GravityModel& model, const Kinematics& kinematics, const AxisVector& q,
+                     const TaskState& state, AxisVector& out) noexcept;
 
 }  // namespace hapticd::world

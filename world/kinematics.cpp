@@ -73,6 +73,17 @@ void zero(TaskState& out, KinematicsStatus status) noexcept {
   out.jacobian.setZero(2, 2);
 }
 
+/// One common factor so that |tau_i| <= limits_i: the direction is kept.
+double scale_to_limits(const AxisVector& limits, AxisVector& torques) noexcept {
+  double factor = 1.0;
+  for (Eigen::Index i = 0; i < torques.size(); ++i) {
+    const double size = std::abs(torques(i));
+    if (size > limits(i)) factor = std::min(factor, limits(i) / size);
+  }
+  torques *= factor;
+  return factor;
+}
+
 }  // namespace
 
 void PantographKinematics::solve(const AxisVector& joints, TaskState& out) const noexcept {
@@ -140,13 +151,18 @@ double joint_torques(const AxisMatrix& jacobian, const AxisVector& force, const 
   torques.setZero(jacobian.cols());
   if (!force.allFinite() || !jacobian.allFinite()) return 0.0;
   torques.noalias() = jacobian.transpose() * force;
-  double factor = 1.0;
-  for (Eigen::Index i = 0; i < torques.size(); ++i) {
-    const double size = std::abs(torques(i));
-    if (size > limits(i)) factor = std::min(factor, limits(i) / size);
-  }
-  torques *= factor;
-  return factor;
+  return scale_to_limits(limits, torques);
+}
+
+double joint_torques(const AxisMatrix& jacobian, const AxisVector& force, const AxisVector& feedforward,
+                     const AxisVector& limits, AxisVector& torques) noexcept {
+  torques.setZero(jacobian.cols());
+  if (!force.allFinite() || !jacobian.allFinite() || !feedforward.allFinite() ||
+      feedforward.size() != jacobian.cols())
+    return 0.0;
+  torques.noalias() = jacobian.transpose() * force;
+  torques += feedforward;
+  return scale_to_limits(limits, torques);
 }
 
 }  // namespace hapticd::world

@@ -112,4 +112,11 @@ void solve(const Kinematics& kinematics, const AxisVector& joints, TaskState& ou
 double joint_torques(const AxisMatrix& jacobian, const AxisVector& force, const AxisVector& limits,
                      AxisVector& torques) noexcept;
 
+/// tau = J^T F + tau_ff (a feedforward in joint space, e.g. gravity
+/// compensation, world/gravity.hpp), then the same common factor on the
+/// sum, so |tau_i| <= limits_i and the total keeps its direction. Returns
+/// the factor; a non-finite force or feedforward gives zero torques and 0.
+double joint_torques(const AxisMatrix& jacobian, const AxisVector& force, const AxisVector& feedforward,
+                     const AxisVector& limits, AxisVector& torques) noexcept;
+
 }  // namespace hapticd::world

@@ -442,6 +442,60 @@ class Parser {
     collect(table, "", "scene", scene.parameters, "name");
   }
 
+  /// [gravity]: axis, mass, acceleration, down (docs/config.md, "Gravity and a workspace").
+  void parse_gravity(const toml::table& table, GravityConfig& gravity) const {
+    static const std::string accepted = join({"axis", "mass", "acceleration", "down"});
+    gravity.configured = true;
+    bool has_axis = false, has_mass = false;
+    for (const auto& [key, node] : in_file_order(table)) {
+      const std::string_view name = key->str();
+      const std::string dotted = "gravity." + std::string(name);
+      if (name == "axis") {
+        gravity.axis = get_string(*node, dotted, "the name of the vertical axis (device.axis_names)");
+        gravity.axis_where = position(node->source());
+        has_axis = true;
+      } else if (name == "mass") {
+        const std::string range = "a mass in kg greater than 0 and at most 100";
+        gravity.mass = get_number(*node, dotted, range);
+        if (!(gravity.mass > 0.0 && gravity.mass <= 100.0)) out_of_range(*node, dotted, range);
+        gravity.mass_where = position(node->source());
+        has_mass = true;
+      } else if (name == "acceleration") {
+        const std::string range = "m/s^2 greater than 0 and at most 30 (9.80665 on Earth)";
+        gravity.acceleration = get_number(*node, dotted, range);
+        if (!(gravity.acceleration > 0.0 && gravity.acceleration <= 30.0)) out_of_range(*node, dotted, range);
+      } else if (name == "down") {
+        const std::string range = "\"negative\" (the axis points up) or \"positive\"";
+        const std::string value = get_string(*node, dotted, range);
+        if (value != "negative" && value != "positive") out_of_range(*node, dotted, range);
+        gravity.down_positive = value == "positive";
+      } else {
+        unknown_key(*key, "gravity", accepted);
+      }
+    }
+    if (!has_axis || !has_mass)
+      fail(table.source(), has_axis ? "gravity.mass" : "gravity.axis",
+           std::string("[gravity] needs ") + (has_axis ? "mass (kg)" : "axis (the vertical axis' name)") +
+               "; accepted keys: " + accepted);
+  }
+
+  /// [workspace]: shape and the box's or sphere's parameters (checked by the scene planner).
+  void parse_workspace(const toml::table& table, WorkspaceConfig& workspace) const {
+    const std::string accepted = "\"box\" or \"sphere\"";
+    workspace.parameters.clear();
+    bool has_shape = false;
+    for (const auto& [key, node] : in_file_order(table)) {
+      if (key->str() != "shape") continue;
+      workspace.shape = get_string(*node, "workspace.shape", accepted);
+      if (workspace.shape != "box" && workspace.shape != "sphere")
+        out_of_range(*node, "workspace.shape", accepted);
+      workspace.shape_where = position(node->source());
+      has_shape = true;
+    }
+    if (!has_shape) fail(table.source(), "workspace.shape", "[workspace] needs shape; accepted: " + accepted);
+    collect(table, "", "workspace", workspace.parameters, "shape");
+  }
+
   void parse_control(const toml::table& table, ControlConfig& control) const {
     static const std::string accepted =
         join({"socket", "group", "max_clients", "max_message_bytes", "idle_timeout", "cpu"});
@@ -597,7 +651,8 @@ class Parser {
     config.control.socket_where = config.control.group_where = whole_file;
     config.recorder.directory_where = whole_file;
     config.telemetry.udp_where = config.telemetry.channels_where = whole_file;
-    static const std::string sections = join({"loop", "device", "scene", "control", "recorder", "telemetry"});
+    static const std::string sections =
+        join({"loop", "device", "scene", "gravity", "workspace", "control", "recorder", "telemetry"});
     for (const auto& [key, node] : in_file_order(root)) {
       const std::string_view name = key->str();
       if (name == "loop") {
@@ -609,6 +664,12 @@ class Parser {
       } else if (name == "scene") {
         config.scene.table_where = position(key->source());
         parse_scene(section_table(*key, *node), config.scene);
+      } else if (name == "gravity") {
+        config.gravity.table_where = position(key->source());
+        parse_gravity(section_table(*key, *node), config.gravity);
+      } else if (name == "workspace") {
+        config.workspace.shape_where = position(key->source());
+        parse_workspace(section_table(*key, *node), config.workspace);
       } else if (name == "control") {
         parse_control(section_table(*key, *node), config.control);
       } else if (name == "recorder") {

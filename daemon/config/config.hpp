@@ -125,6 +125,31 @@ struct DeviceConfig {
   bool operator==(const DeviceConfig&) const = default;
 };
 
+/// [gravity] (issue 22 item 7): the weight a vertical axis of a stage
+/// carries, held by a feedforward the engine adds after the scene.
+struct GravityConfig {
+  bool configured = false;        ///< a [gravity] table was given
+  std::string axis;               ///< the vertical axis' name (device.axis_names, else x, y, z, ...)
+  double mass = 0.0;              ///< kg the axis lifts, > 0 and <= 100
+  double acceleration = 9.80665;  ///< m/s^2, > 0 and <= 30
+  bool down_positive = false;     ///< down = "positive": gravity pulls toward +axis
+  SourcePosition table_where;     ///< position of the [gravity] key
+  SourcePosition axis_where;      ///< position of gravity.axis' value
+  SourcePosition mass_where;      ///< position of gravity.mass' value
+  bool operator==(const GravityConfig&) const = default;
+};
+
+/// [workspace] (issue 22 item 7): a box or a sphere of task space the device
+/// is held inside, a wall rendered on top of any scene. `shape` and the
+/// box's or sphere's parameters, kept as the scene's are (file order,
+/// positions) for the scene planner.
+struct WorkspaceConfig {
+  std::string shape;           ///< "" (none), "box" or "sphere"
+  ParameterList parameters;    ///< every [workspace] key except shape, unvalidated
+  SourcePosition shape_where;  ///< position of workspace.shape's value, else of [workspace]
+  bool operator==(const WorkspaceConfig&) const = default;
+};
+
 struct SceneConfig {
   std::string name = "spring-wheel";
   ParameterList parameters;    ///< every [scene] key except name, unvalidated
@@ -177,6 +202,8 @@ struct DaemonConfig {
   LoopConfig loop;
   DeviceConfig device;
   SceneConfig scene;
+  GravityConfig gravity;
+  WorkspaceConfig workspace;
   ControlConfig control;
   RecorderConfig recorder;
   TelemetryConfig telemetry;

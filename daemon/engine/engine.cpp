@@ -22,6 +22,10 @@ Engine::Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock)
     task_ = std::make_unique<TaskAxes>(
         device_.axes(), options_.kinematics.value_or(world::CartesianKinematics(device_.axes())),
         options_.position_rule);
+    task_->gravity = options_.gravity;
+    task_->workspace = options_.workspace;
+  } else if (options_.gravity || options_.workspace) {
+    throw std::invalid_argument("gravity compensation and a workspace wall need a device with several axes");
   }
 }
 

@@ -47,6 +47,12 @@ struct EngineOptions {
   /// A device with several axes: its kinematics (joints to task space);
   /// nothing: Cartesian on the device's axes. Unused on one axis.
   std::optional<world::Kinematics> kinematics;
+  /// Several axes: the gravity feedforward ([gravity], world/gravity.hpp),
+  /// joint torques added after the scene, inside the common saturation.
+  std::optional<world::GravityModel> gravity;
+  /// Several axes: the workspace wall ([workspace]: a box or a sphere the
+  /// device is held inside), stepped beside every scene and added to its force.
+  std::optional<world::AnyTaskScene> workspace;
   /// Virtual clock only: wait for ring space instead of dropping a sample.
   /// Simulated time is not real time, so a deterministic run that loses
   /// nothing is worth more than speed; never set with the real clock.

@@ -8,9 +8,12 @@
 
 #include <array>
 
+#include <optional>
 #include "daemon/engine/safety.hpp"
 #include "drivers/device_hooks.hpp"
+
 #include "world/any_scene.hpp"
+#include "world/gravity.hpp"
 #include "world/kinematics.hpp"
 
 namespace hapticd::daemon::engine {
@@ -18,8 +21,10 @@ namespace hapticd::daemon::engine {
 static_assert(drivers::max_axes == world::max_axes, "the drivers' and the kinematics' axis capacity agree");
 
 /// The telemetry channels a device with several axes adds before the
-/// scene's: each axis' position, then its task force (the scene's, before
-/// the limit), then its joint output (sent to the device).
+/// scene's: each axis' position, then its task force (the scene's and the
+/// workspace wall's, before the limit), then its joint output (sent to the
+/// device); then, with [gravity], each axis' feedforward (before the limit)
+/// and, with [workspace], the workspace wall's penetration.
 inline constexpr std::size_t channels_per_axis = 3;
 
 struct TaskAxes {
@@ -35,6 +40,12 @@ struct TaskAxes {
   world::AxisVector force;   ///< the task scene's force, N
   world::AxisVector output;  ///< J^T F after the common saturation factor, sent
   world::AxisVector limits;  ///< each joint's limit |tau_i|
+  /// [gravity]: the model, and this period's joint feedforward tau_g.
+  std::optional<world::GravityModel> gravity;
+  world::AxisVector feedforward;
+  /// [workspace]: the wall held on top of every scene, and its force this period.
+  std::optional<world::AnyTaskScene> workspace;
+  world::AxisVector workspace_force;
 };
 
 }  // namespace hapticd::daemon::engine

@@ -25,7 +25,9 @@ TaskAxes::TaskAxes(int n, world::Kinematics k, PositionStepRule rule)
       joints(world::AxisVector::Zero(n)),
       force(world::AxisVector::Zero(world::task_dimensions(kinematics))),
       output(world::AxisVector::Zero(n)),
-      limits(world::AxisVector::Zero(n)) {
+      limits(world::AxisVector::Zero(n)),
+      feedforward(world::AxisVector::Zero(n)),
+      workspace_force(world::AxisVector::Zero(world::task_dimensions(kinematics))) {
   if (world::joint_count(kinematics) != n)
     throw std::invalid_argument("the kinematics has " + std::to_string(world::joint_count(kinematics)) +
                                 " joints; the device has " + std::to_string(n) + " axes");
@@ -69,6 +71,7 @@ bool Engine::read_task_position(const rt::WakeUp& wake, TelemetrySample& sample)
   }
   if (reset_pending_ && plan_ != nullptr) {
     world::reset(a.scene, a.task.position);
+    if (a.workspace) world::reset(*a.workspace, a.task.position);
     reset_pending_ = false;
   }
   return true;
@@ -79,15 +82,26 @@ void Engine::render_task_force(TelemetrySample& sample, bool position_valid, boo
   TaskAxes& a = *task_;
   a.force.setZero();
   a.output.setZero();
+  a.feedforward.setZero();
   if (position_valid && plan_ != nullptr && output_allowed) {
     world::step(a.scene, a.task.position, a.force);
-    if (!a.force.allFinite()) latch(FaultReason::non_finite_command);
+    // The workspace wall on top of the scene, in task space (before J^T).
+    if (a.workspace) {
+      world::step(*a.workspace, a.task.position, a.workspace_force);
+      a.force += a.workspace_force;
+    }
+    // Gravity after the scene, in joint space: tau = J^T F + tau_g.
+    if (a.gravity) world::gravity_torques(*a.gravity, a.kinematics, a.joints, a.task, a.feedforward);
+    if (!a.force.allFinite() || !a.feedforward.allFinite()) latch(FaultReason::non_finite_command);
   }
   // As on one axis: one read of the latch decides the output and the flag.
   output_latched = output_latched || latch_.latched();
   if (position_valid && plan_ != nullptr && !output_latched) {
     a.limits.setConstant(plan_->torque_limit);
-    const double factor = world::joint_torques(a.task.jacobian, a.force, a.limits, a.output);
+    // One common factor on the sum: the feedforward saturates with the scene.
+    const double factor =
+        a.gravity ? world::joint_torques(a.task.jacobian, a.force, a.feedforward, a.limits, a.output)
+                  : world::joint_torques(a.task.jacobian, a.force, a.limits, a.output);
     if (factor < 1.0) {
       sample.flags |= flag_torque_limited;
       bump_counter(torque_limited_);
@@ -127,6 +141,16 @@ void Engine::task_channels(TelemetrySample& sample) const noexcept {
     sample.channels[2 * n + i] = a.output(k);
   }
   std::size_t count = channels_per_axis * n;
+  if (a.gravity) {
+    for (std::size_t i = 0; i < n; ++i)
+      sample.channels[count + i] = a.feedforward(static_cast<Eigen::Index>(i));
+    count += n;
+  }
+  if (a.workspace) {
+    const std::size_t wall = world::channel_count(*a.workspace);
+    world::channels(*a.workspace, std::span<double>(sample.channels.data() + count, wall));
+    count += wall;
+  }
   if (plan_ != nullptr) {
     const std::size_t scene = world::channel_count(a.scene);
     world::channels(a.scene, std::span<double>(sample.channels.data() + count, scene));

@@ -121,6 +121,8 @@ json Service::status() const {
                       {"damping", model_.info.axes[i].damping}});
     out["device"]["axes"] = axes;
     out["device"]["kinematics"] = cfg.device.kinematics;
+    // [gravity] and [workspace], only when configured.
+    for (const auto& [key, value] : overlay_.status.items()) out[key] = value;
   }
   if (rt_report_ != nullptr) {
     out["realtime"] = {{"scheduler_set", rt_report_->scheduler_set},

@@ -126,7 +126,7 @@ LoopbackStage loopback_stage_from(const DriverParameters& p) {
   const int count = static_cast<int>(p.integer("axes"));
   LoopbackStage stage;
   if (count == 1) {
-    for (const char* key : {"axis_mass", "axis_damping", "hands"}) {
+    for (const char* key : {"axis_mass", "axis_damping", "axis_weight", "hands"}) {
       if (p.given(key))
         throw ParameterError(key, "loopback: " + std::string(key) +
                                       " is for a stage of several axes; accepted with axes = 2 to " +
@@ -155,9 +155,13 @@ LoopbackStage loopback_stage_from(const DriverParameters& p) {
       p.given("axis_damping")
           ? per_axis_numbers("axis_damping", p.text("axis_damping"), count, 0.0, r::max_damping, "N s/m")
           : std::vector<double>(static_cast<std::size_t>(count), axis.damping);
+  const auto weights = p.given("axis_weight") ? per_axis_numbers("axis_weight", p.text("axis_weight"), count,
+                                                                 -r::max_force, r::max_force, "N")
+                                              : std::vector<double>(static_cast<std::size_t>(count), 0.0);
   for (int i = 0; i < count; ++i) {
     axis.mass = masses[static_cast<std::size_t>(i)];
     axis.damping = dampings[static_cast<std::size_t>(i)];
+    axis.weight = weights[static_cast<std::size_t>(i)];
     axis.validate();
     stage.axes.push_back(axis);
   }

@@ -86,6 +86,7 @@ void PlantConfig::validate() const {
   within("coulomb", coulomb, 0.0, true, r::max_force);
   within("counts", counts, 1.0, true, max_counts);
   within("max_force", max_force, 0.0, false, r::max_force);
+  within("weight", weight, -r::max_force, true, r::max_force);
   within("period", period_s, min_period_s, true, max_period_s);
   if (delay < 0 || delay > max_delay_periods) {
     fail("delay", "delay must be an integer in 0.." + std::to_string(max_delay_periods) + " (got " +

@@ -52,6 +52,9 @@ struct PlantConfig {
   /// Freudenberg's 800 N mm for a 45 degree move), so the software limit,
   /// not the actuator, is what clips; linear default 10 N.
   double max_force = 1.2;
+  /// A constant force on the mass (N or N m), e.g. -m g on a vertical axis
+  /// whose positive direction is up (issue 22 item 7); 0: a horizontal axis.
+  double weight = 0.0;
   int delay = 0;           ///< extra output delay, whole periods, 0..max_delay_periods
   double period_s = 1e-3;  ///< simulation period T, s
 

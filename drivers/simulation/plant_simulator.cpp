@@ -218,7 +218,7 @@ void PlantSimulator::advance_plant(double u) noexcept {
   } else {
     const bool impedance = kind == HandKind::impedance;
     HandPull pull;
-    pull.external = kind == HandKind::force ? script.force_at_time(t) : 0.0;
+    pull.external = (kind == HandKind::force ? script.force_at_time(t) : 0.0) + config_.weight;
     if (impedance) {
       pull.stiffness = hand->stiffness;
       pull.damping = hand->damping;

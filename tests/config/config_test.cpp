@@ -290,13 +290,55 @@ TEST(ConfigErrors, AxisNamesAndKinematicsNameTheKeyAndWhatIsAccepted) {
   EXPECT_TRUE(default_config().device.axis_names.empty()) << "the default: named by the device's count";
 }
 
+TEST(ConfigValues, GravityAndWorkspaceParse) {
+  const DaemonConfig config = parse_config(
+      "[gravity]\naxis = \"y\"\nmass = 0.3\nacceleration = 1.62\ndown = \"positive\"\n"
+      "[workspace]\nshape = \"box\"\nlow = \"-0.01,-0.01\"\nstiffness = 2000\n",
+      "t.toml");
+  EXPECT_TRUE(config.gravity.configured);
+  EXPECT_EQ(config.gravity.axis, "y");
+  EXPECT_EQ(config.gravity.mass, 0.3);
+  EXPECT_EQ(config.gravity.acceleration, 1.62);
+  EXPECT_TRUE(config.gravity.down_positive);
+  EXPECT_EQ(config.gravity.mass_where, (SourcePosition{"t.toml", 3, 8}));
+  EXPECT_EQ(config.workspace.shape, "box");
+  ASSERT_EQ(config.workspace.parameters.size(), 2U);
+  EXPECT_EQ(config.workspace.parameters[0].key, "low");
+  EXPECT_EQ(config.workspace.parameters[1].value, ParameterValue(2000.0));
+  const DaemonConfig none = parse_config("", "t.toml");
+  EXPECT_FALSE(none.gravity.configured);
+  EXPECT_TRUE(none.workspace.shape.empty());
+}
+
+TEST(ConfigErrors, GravityAndWorkspaceNameTheKeyAndWhatIsAccepted) {
+  EXPECT_EQ(
+      error_of("[gravity]\naxis = \"y\"\nmass = 0\n"),
+      "t.toml:3:8: gravity.mass = 0 is out of range; accepted: a mass in kg greater than 0 and at most 100");
+  EXPECT_EQ(error_of("[gravity]\naxis = \"y\"\nmass = inf\n").find("t.toml:3:8: gravity.mass = inf"), 0U);
+  EXPECT_EQ(
+      error_of("[gravity]\naxis = \"y\"\nmass = 1\ndown = \"up\"\n"),
+      "t.toml:4:8: gravity.down = \"up\" is out of range; accepted: \"negative\" (the axis points up) or "
+      "\"positive\"");
+  EXPECT_EQ(
+      error_of("[gravity]\nmass = 1\n"),
+      "t.toml:1:1: [gravity] needs axis (the vertical axis' name); accepted keys: axis, mass, acceleration, "
+      "down");
+  EXPECT_EQ(error_of("[gravity]\naxis = \"y\"\nmass = 1\nweight = 2\n"),
+            "t.toml:4:1: unknown key 'weight' in [gravity]; accepted: axis, mass, acceleration, down");
+  EXPECT_EQ(error_of("[workspace]\nlow = \"0,0\"\n"),
+            "t.toml:1:1: [workspace] needs shape; accepted: \"box\" or \"sphere\"");
+  EXPECT_EQ(error_of("[workspace]\nshape = \"cube\"\n"),
+            "t.toml:2:9: workspace.shape = \"cube\" is out of range; accepted: \"box\" or \"sphere\"");
+}
+
 TEST(ConfigErrors, UnknownSectionsAndTopLevelKeys) {
   EXPECT_EQ(
       error_of("[loop]\n\n[looop]\nperiod = 1"),
-      "t.toml:3:2: unknown section [looop]; accepted: loop, device, scene, control, recorder, telemetry");
+      "t.toml:3:2: unknown section [looop]; accepted: loop, device, scene, gravity, workspace, control, "
+      "recorder, telemetry");
   EXPECT_EQ(error_of("period = \"1ms\""),
             "t.toml:1:1: unknown key 'period' outside any section; accepted sections: loop, device, scene, "
-            "control, recorder, telemetry");
+            "gravity, workspace, control, recorder, telemetry");
   EXPECT_EQ(error_of("loop = 3"), "t.toml:1:1: 'loop' must be a section [loop], not a value");
 }
 

@@ -549,4 +549,54 @@ TEST(EngineAlloc, SixAxesEveryTaskSceneFaultsAndClearsAllocateNothing) {
   device->disable();
 }
 
+// [gravity] and [workspace] (issue 22 item 7): the feedforward and the
+// workspace wall on top of every task scene, faults and clears included.
+TEST(EngineAlloc, SixAxesWithGravityAndAWorkspaceWallAllocateNothing) {
+  rt::VirtualClock clock;
+  auto device = six_axis_stage();
+  EngineOptions options = quiet_options(1u << 10);
+  options.position_rule.resolution = 3.14e-6;
+  world::StageWeight weight{world::AxisVector::Zero(6)};
+  weight.holding(2) = 0.3 * world::standard_gravity;
+  options.gravity = weight;
+  auto workspace = world::plan_scene("box",
+                                     {{"low", "-0.015,-0.015,-0.015,-0.015,-0.015,-0.015"},
+                                      {"high", "0.015,0.015,0.015,0.015,0.015,0.015"},
+                                      {"stiffness", 400.0},
+                                      {"damping", 20.0},
+                                      {"delay", 2.0}},
+                                     period_s, world::Motion::linear, 6);
+  ASSERT_TRUE(std::holds_alternative<world::ScenePlan>(workspace));
+  options.workspace = std::get<world::ScenePlan>(workspace).task_object;
+  Engine engine(options, *device, clock);
+  rt::PeriodicSchedule schedule(clock, rt::Nanos{1'000'000});
+  device->configure({period_s});
+  device->enable();
+  schedule.start();
+  auto& plant = device->hooks_as<loopback::LoopbackDevice>();
+  const auto guarded = [&](int n) {
+    AllocationGuard guard;
+    for (int i = 0; i < n; ++i) engine.run_cycle(schedule.wait_next());
+    return guard.count();
+  };
+  std::vector<TelemetrySample> buffer(4096);
+  for (auto& named : every_task_plan()) {
+    SCOPED_TRACE(named.label);
+    const bool is_free = named.label == "free";
+    engine.publish(std::move(named.plan));
+    EXPECT_EQ(guarded(1), 0u) << "the install";
+    EXPECT_EQ(guarded(2000), 0u);
+    plant.simulator(3).inject_fault(hapticd::drivers::simulation::Fault::nan, 1);
+    EXPECT_EQ(guarded(3), 0u);
+    EXPECT_EQ(engine.fault(), FaultReason::non_finite_position);
+    engine.clear_fault();
+    EXPECT_EQ(guarded(1500), 0u);
+    const DrainSummary s = drain_all(engine, buffer);
+    EXPECT_EQ(s.channel_counts, (std::set<std::uint32_t>{is_free ? 25u : 26u}))
+        << "6 x 3, 6 feedforwards, the workspace's penetration, the scene's";
+    EXPECT_GT(s.nonzero_applied, 100u) << "the workspace wall on x, whose hand crosses its faces";
+  }
+  device->disable();
+}
+
 }  // namespace engine_alloc_test

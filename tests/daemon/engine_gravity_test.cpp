@@ -1,0 +1,209 @@
+// Gravity compensation and the workspace wall on a device with several axes
+// (issue 22 item 7), on a two-axis Cartesian loopback stage whose y axis is
+// vertical (the plant carries the weight -m g on y): the feedforward m g,
+// added after the scene, holds y still with the free scene and no hand;
+// without it y falls; the feedforward saturates with the scene's force by
+// one common factor; the workspace box holds the device inside while the
+// scene is free and the hand pushes outward, penetrating F/K.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "daemon/engine/engine.hpp"
+#include "drivers/device.hpp"
+#include "drivers/loopback/loopback_device.hpp"
+#include "rt/clock.hpp"
+#include "rt/loop_timing.hpp"
+#include "world/gravity.hpp"
+#include "world/scene_catalog.hpp"
+
+namespace engine_gravity_test {
+
+namespace {
+
+using hapticd::daemon::TelemetrySample;
+using hapticd::daemon::engine::Engine;
+using hapticd::daemon::engine::EngineOptions;
+using hapticd::daemon::engine::LoopPlan;
+namespace loopback = hapticd::drivers::loopback;
+namespace simulation = hapticd::drivers::simulation;
+namespace world = hapticd::world;
+namespace rt = hapticd::rt;
+
+constexpr double period_s = 1e-3;
+constexpr double y_mass = 0.3;  // kg
+const double weight = y_mass * world::standard_gravity;
+
+/// x horizontal (0.1 kg), y vertical (0.3 kg, weighing -m g), free hands unless given.
+loopback::LoopbackStage vertical_stage(const std::string& x_hand = "mode=free",
+                                       const std::string& y_hand = "mode=free") {
+  loopback::LoopbackStage s;
+  for (const double mass : {0.1, y_mass}) {
+    auto axis = loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::linear);
+    axis.mass = mass;
+    axis.counts = 1e9;  // 1 nm
+    axis.max_force = 1e3;
+    s.axes.push_back(axis);
+  }
+  s.axes[1].weight = -weight;
+  s.hands = {simulation::parse_hand_script(x_hand), simulation::parse_hand_script(y_hand)};
+  return s;
+}
+
+EngineOptions options_with(std::optional<world::GravityModel> gravity,
+                           std::optional<world::AnyTaskScene> workspace) {
+  EngineOptions options;
+  options.realtime.priority = 0;
+  options.realtime.lock_memory = false;
+  options.realtime.hold_dma_latency = false;
+  options.position_rule.max_velocity = 50.0;
+  options.position_rule.resolution = 1e-9;
+  options.position_rule.period_s = period_s;
+  options.gravity = std::move(gravity);
+  options.workspace = std::move(workspace);
+  return options;
+}
+
+world::GravityModel y_up() {
+  world::StageWeight stage{world::AxisVector::Zero(2)};
+  stage.holding(1) = weight;
+  return stage;
+}
+
+world::AnyTaskScene task_scene(const std::string& name, const world::ParameterSet& parameters) {
+  auto outcome = world::plan_scene(name, parameters, period_s, world::Motion::linear, 2);
+  if (const auto* error = std::get_if<world::SceneError>(&outcome)) ADD_FAILURE() << error->message;
+  return std::get<world::ScenePlan>(outcome).task_object;
+}
+
+std::unique_ptr<LoopPlan> plan_of(const std::string& name, const world::ParameterSet& parameters,
+                                  double torque_limit) {
+  auto plan = std::make_unique<LoopPlan>();
+  plan->task_scene = task_scene(name, parameters);
+  plan->torque_limit = torque_limit;
+  return plan;
+}
+
+struct Rig {
+  Rig(const loopback::LoopbackStage& s, EngineOptions options)
+      : device("loopback", std::make_unique<loopback::LoopbackDevice>(s)),
+        plant(device.hooks_as<loopback::LoopbackDevice>()),
+        engine(std::move(options), device, clock),
+        schedule(clock, rt::Nanos{1'000'000}) {
+    device.configure({period_s});
+    device.enable();
+    schedule.start();
+  }
+  ~Rig() { device.disable(); }
+  std::vector<TelemetrySample> run(int n) {
+    std::vector<TelemetrySample> out, buffer(4096);
+    for (int i = 0; i < n; ++i) {
+      engine.run_cycle(schedule.wait_next());
+      for (std::size_t got; (got = engine.drain(buffer)) > 0;)
+        out.insert(out.end(), buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(got));
+    }
+    return out;
+  }
+  rt::VirtualClock clock;
+  hapticd::drivers::Device device;
+  loopback::LoopbackDevice& plant;
+  Engine engine;
+  rt::PeriodicSchedule schedule;
+};
+
+TEST(EngineGravity, TheFeedforwardHoldsAVerticalAxisStillWithTheFreeScene) {
+  Rig rig(vertical_stage(), options_with(y_up(), std::nullopt));
+  rig.engine.publish(plan_of("free", {}, 10.0));
+  const auto samples = rig.run(2000);
+  ASSERT_EQ(samples.size(), 2000U);
+  double drift = 0.0;
+  for (const auto& s : samples) {
+    // position_x, position_y, force_x, force_y, output_x, output_y, gravity_x, gravity_y
+    ASSERT_EQ(s.channel_count, 8U);
+    EXPECT_EQ(s.channels[2], 0.0) << "the free scene's force";
+    EXPECT_EQ(s.channels[3], 0.0);
+    EXPECT_EQ(s.channels[6], 0.0) << "x is horizontal";
+    EXPECT_EQ(s.channels[7], weight) << "m g on y";
+    EXPECT_EQ(s.channels[5], weight) << "sent as it is: below the limit";
+    drift = std::max(drift, std::abs(s.channels[1]));
+  }
+  // The feedforward is the plant's weight to the last bit: no net force, so
+  // no motion at all (a bound of one encoder count, 1 nm).
+  EXPECT_LE(drift, 1e-9);
+}
+
+TEST(EngineGravity, WithoutTheFeedforwardTheAxisFalls) {
+  Rig rig(vertical_stage(), options_with(std::nullopt, std::nullopt));
+  rig.engine.publish(plan_of("free", {}, 10.0));
+  const auto samples = rig.run(200);
+  ASSERT_EQ(samples.back().channel_count, 6U) << "no gravity channels without [gravity]";
+  // Free fall over 0.2 s: g t^2 / 2 = 0.196 m.
+  EXPECT_NEAR(samples.back().channels[1], -0.5 * world::standard_gravity * 0.2 * 0.2, 0.01);
+}
+
+TEST(EngineGravity, TheFeedforwardSaturatesWithTheScenesForceByOneCommonFactor) {
+  // The hand holds the device 5 mm inside a plane wall along x: F = (10, 0) N;
+  // with m g = 2.94 N on y the sum (10, 2.94) is above a 2 N limit: both scaled
+  // by 2 / 10, the direction of the sum kept.
+  Rig rig(vertical_stage("mode=hold trajectory=constant position=-0.005", "mode=hold"),
+          options_with(y_up(), std::nullopt));
+  rig.engine.publish(
+      plan_of("plane-wall", {{"normal", "1,0"}, {"stiffness", 2000.0}, {"damping", 0.0}}, 2.0));
+  rig.run(5);
+  rig.plant.simulator(0).set_hand("mode=hold trajectory=ramp from=-0.005 to=0.001 rate=1");
+  rig.run(10);
+  rig.plant.simulator(0).set_hand("mode=hold trajectory=ramp from=0.001 to=-0.005 rate=1");
+  const auto samples = rig.run(10);
+  const auto& s = samples.back();
+  const double fx = s.channels[2], ox = s.channels[4], oy = s.channels[5];
+  ASSERT_NEAR(fx, 2000.0 * 0.005, 1e-6);
+  EXPECT_NEAR(ox, 2.0, 1e-12) << "x at its limit";
+  EXPECT_NEAR(oy, weight * 2.0 / fx, 1e-9) << "the feedforward scaled by the same factor";
+  EXPECT_NE(s.flags & hapticd::daemon::flag_torque_limited, 0U);
+}
+
+TEST(EngineGravity, TheWorkspaceBoxHoldsTheDeviceInsideWhileTheHandPushesOut) {
+  const double k = 2000.0, b = 20.0, push = 2.0, high = 0.01;
+  auto workspace =
+      task_scene("box", {{"low", "-0.01,-0.01"}, {"high", "0.01,0.01"}, {"stiffness", k}, {"damping", b}});
+  Rig rig(vertical_stage("mode=force force=2", "mode=free"), options_with(y_up(), workspace));
+  // A limit the impact stays below: a saturated wall would scale the
+  // feedforward with it (one common factor), and y would sag meanwhile.
+  rig.engine.publish(plan_of("free", {}, 30.0));
+  const auto samples = rig.run(3000);
+  double deepest = 0.0;
+  for (const auto& s : samples) {
+    ASSERT_EQ(s.channel_count, 9U) << "the axes' 6, gravity's 2, the workspace's penetration";
+    deepest = std::max(deepest, s.channels[0] - high);
+    if (s.channels[0] > high) {
+      EXPECT_NEAR(s.channels[8], s.channels[0] - high, 1e-15);
+    }
+  }
+  const auto& last = samples.back();
+  // At rest against the face: the wall's K p balances the hand, p = F / K = 1 mm.
+  EXPECT_NEAR(last.channels[0] - high, push / k, 1e-6);
+  EXPECT_NEAR(last.channels[2], -push, 1e-3) << "the workspace's force in the task force";
+  // The hand's work over the 1 cm approach, E = F d, goes into the wall:
+  // K p^2 / 2 <= F p + E bounds the deepest point (the damping only lowers it).
+  const double bound = push / k + std::sqrt(std::pow(push / k, 2) + 2 * push * 0.01 / k);
+  EXPECT_LT(deepest, bound);
+  EXPECT_GT(deepest, push / k) << "it did push into the wall";
+  EXPECT_LE(std::abs(last.channels[1]), 1e-9) << "y held by the feedforward meanwhile";
+}
+
+TEST(EngineGravity, GravityOnOneAxisIsRefused) {
+  hapticd::drivers::Device device("loopback",
+                                  std::make_unique<loopback::LoopbackDevice>(
+                                      loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::linear)));
+  rt::VirtualClock clock;
+  EXPECT_THROW(Engine(options_with(y_up(), std::nullopt), device, clock), std::invalid_argument);
+}
+
+}  // namespace
+
+}  // namespace engine_gravity_test
