@@ -16,9 +16,11 @@
 #include "sim/usb_hid/board_firmware.hpp"
 #include "sim/usb_hid/board_reports.hpp"
 
-namespace hapticd::drivers::usb_hid::report_axes_test {
-
+namespace hapticd::drivers::usb_hid {
 DriverDescription usb_hid_driver();  // usb_hid_driver.cpp
+}  // namespace hapticd::drivers::usb_hid
+
+namespace hapticd::drivers::usb_hid::report_axes_test {
 
 namespace {
 
