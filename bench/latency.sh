@@ -14,7 +14,7 @@
 # or more after the deadline (hapticd's overruns; cyclictest's histogram
 # from the period up), per 10,000 cycles.
 #
-# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--telemetry] [--out DIR]
+# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--telemetry] [--axes N] [--out DIR]
 #   --load  adds two hapticd variants per round: under control-plane load
 #           (bench/hapticd_load: 16 clients streaming telemetry at 1 kHz, one
 #           param.set 1,000 times a second, every reply naming its cycle),
@@ -25,11 +25,16 @@
 #           PlotJuggler's JSON) at the loop rate, every channel, to a
 #           receiver that never reads (bench/udp_sink), and reports its
 #           percentiles against the same round's hapticd without it.
+#   --axes N  adds a hapticd variant on an N-axis loopback stage (2..6,
+#           issue 22): one read and one write of every axis per period, the
+#           task scene `box` (a 2 cm cube, K = 400 N/m) with the hand on x
+#           moving through two of its faces, tau = J^T F; reported against
+#           cyclictest and against the same round's one-axis hapticd.
 #   env: CPU (1: the RT CPU), OTHER_CPU (0), PRIORITY (80), BUILD (build), WARMUP_S (0.5)
 # Needs root (SCHED_FIFO, /dev/cpu_dma_latency, mlockall) like cyclictest.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-rounds=10 slice=3 periods="1000 250 100" load=0 telemetry=0 out=""
+rounds=10 slice=3 periods="1000 250 100" load=0 telemetry=0 axes=0 out=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rounds) rounds="$2"; shift 2 ;;
@@ -37,8 +42,9 @@ while [[ $# -gt 0 ]]; do
     --periods) periods="$2"; shift 2 ;;
     --load) load=1; shift ;;
     --telemetry) telemetry=1; shift ;;
+    --axes) axes="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
-    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--telemetry] [--out DIR]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--telemetry] [--axes N] [--out DIR]" >&2; exit 2 ;;
   esac
 done
 cpu="${CPU:-1}" other="${OTHER_CPU:-0}" prio="${PRIORITY:-80}" warmup="${WARMUP_S:-0.5}"
@@ -60,6 +66,10 @@ mkdir -p "$out"
 variants=(cyclictest hapticd)
 [[ "$load" == 1 ]] && variants+=(loaded loaded-pinned)
 [[ "$telemetry" == 1 ]] && variants+=(telemetry)
+if [[ "$axes" != 0 ]]; then
+  [[ "$axes" =~ ^[2-6]$ ]] || { echo "--axes takes 2 to 6 (got '$axes')" >&2; exit 2; }
+  variants+=("axes$axes")
+fi
 
 # ---- one slice of each kind: writes one line "p50 p99 p999 max late_per_10k cycles [compute_p50 compute_p99]"
 cyclictest_slice() {  # period_us file
@@ -80,6 +90,22 @@ cyclictest_slice() {  # period_us file
     }' "$work/ct.txt" >"$result"
 }
 
+# The one-axis wheel, or an N-axis stage (variant axesN) rendering a box whose
+# faces the hand on x crosses at 1 Hz (the others held), every axis 0.1 kg.
+device_and_scene() {  # variant
+  if [[ "$1" != axes* ]]; then
+    printf '[device]\ndriver = "loopback"\n[scene]\nname = "spring-wheel"\nintegrator = "exact"\n'
+    return
+  fi
+  local n="${1#axes}" low high masses hands
+  low="$(printf -- '-0.01,%.0s' $(seq "$n"))" high="$(printf -- '0.01,%.0s' $(seq "$n"))"
+  masses="$(printf -- '0.1,%.0s' $(seq "$n"))"
+  hands="mode=hold trajectory=sine amplitude=0.015 frequency=1$(printf -- '; mode=hold%.0s' $(seq 2 "$n"))"
+  printf '[device]\ndriver = "loopback"\ntorque_limit = 10.0\nkinematics = "cartesian"\n'
+  printf '[device.loopback]\naxes = %s\naxis_mass = "%s"\nhands = "%s"\n' "$n" "${masses%,}" "$hands"
+  printf '[scene]\nname = "box"\nlow = "%s"\nhigh = "%s"\nstiffness = 400.0\ndamping = 2.0\n' "${low%,}" "${high%,}"
+}
+
 hapticd_config() {  # period_us variant socket dir [udp_port]
   local placement="" telemetry_section=""
   if [[ "$2" == telemetry ]]; then
@@ -95,11 +121,7 @@ priority = $prio
 cpu = $cpu
 clock = "real"
 overrun_limit = 0
-[device]
-driver = "loopback"
-[scene]
-name = "spring-wheel"
-integrator = "exact"
+$(device_and_scene "$2")
 [control]
 socket = "$3"
 max_clients = 32
@@ -207,7 +229,7 @@ for period in $periods; do
     }
     printf '  %-16s p50 %s  p99 %s  p99.9 %s  max %s   (%s / cyclictest, median (min-max) of %d rounds)\n' \
       "$v" "$(ratios 1 cyclictest)" "$(ratios 2 cyclictest)" "$(ratios 3 cyclictest)" "$(ratios 4 cyclictest)" "$v" "$rounds"
-    if [[ "$v" == loaded* || "$v" == telemetry ]]; then
+    if [[ "$v" == loaded* || "$v" == telemetry || "$v" == axes* ]]; then
       printf '  %-16s p50 %s  p99 %s  p99.9 %s   (%s / hapticd without it, same rounds)\n' "" \
         "$(ratios 1 hapticd)" "$(ratios 2 hapticd)" "$(ratios 3 hapticd)" "$v"
     fi
