@@ -19,7 +19,9 @@ static_assert(drivers::max_axes == world::max_axes, "the drivers' and the kinema
 
 /// The telemetry channels a device with several axes adds before the
 /// scene's: each axis' position, then its task force (the scene's, before
-/// the limit), then its joint output (sent to the device).
+/// the limit), then its joint output (sent to the device). A linkage whose
+/// joints are not its task axes (the pantograph) adds the handle's task
+/// position after them.
 inline constexpr std::size_t channels_per_axis = 3;
 
 struct TaskAxes {
@@ -35,6 +37,13 @@ struct TaskAxes {
   world::AxisVector force;   ///< the task scene's force, N
   world::AxisVector output;  ///< J^T F after the common saturation factor, sent
   world::AxisVector limits;  ///< each joint's limit |tau_i|
+  /// The pantograph: its task position is not its joints' (telemetry shows both).
+  bool linkage = false;
+  /// Channels before the scene's: 3 per axis (+ the task position of a linkage).
+  std::size_t axis_channels() const noexcept {
+    return channels_per_axis * static_cast<std::size_t>(axes) +
+           (linkage ? static_cast<std::size_t>(force.size()) : 0);
+  }
 };
 
 }  // namespace hapticd::daemon::engine
