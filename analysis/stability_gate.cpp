@@ -201,7 +201,8 @@ GateDevice rigid_device(double mass, double damping, double period_s, int delay_
 SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDevice& device) {
   if (plan.task_wall || plan.per_axis) {
     try {
-      return plan.task_wall ? check_task_wall_stability(plan, device) : check_per_axis_stability(plan, device);
+      return plan.task_wall ? check_task_wall_stability(plan, device)
+                            : check_per_axis_stability(plan, device);
     } catch (const std::invalid_argument& e) {
       SceneStability v;
       v.checked = true;

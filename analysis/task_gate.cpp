@@ -80,14 +80,17 @@ std::vector<TaskDirection> task_wall_directions(const world::ScenePlan& plan, co
     if (judged.directions.empty()) {
       world::AxisVector n;
       DirectionalModel along = pantograph_lightest(k, device.axes, device.workspace, n);
-      std::string label = "the lightest direction (" + task_number(n(0)) + ", " + task_number(n(1)) + ")" + at(along);
+      std::string label =
+          "the lightest direction (" + task_number(n(0)) + ", " + task_number(n(1)) + ")" + at(along);
       add(std::move(label), std::move(along));
       return out;
     }
     static const char* const task_axes[] = {"x", "y"};
     for (std::size_t i = 0; i < judged.directions.size(); ++i) {
       DirectionalModel along = pantograph_along(k, device.axes, judged.directions[i], device.workspace);
-      std::string label = (judged.along_axes && i < 2 ? "axis " + std::string(task_axes[i]) : judged.labels.at(i)) + at(along);
+      std::string label =
+          (judged.along_axes && i < 2 ? "axis " + std::string(task_axes[i]) : judged.labels.at(i)) +
+          at(along);
       add(std::move(label), std::move(along));
     }
     return out;
@@ -203,7 +206,8 @@ void require_stage(const world::ScenePlan& plan, const GateDevice& device) {
     throw std::invalid_argument(plan.scene +
                                 " needs a Cartesian stage: a pantograph's task axes are coupled through its "
                                 "linkage (its mass along x depends on y), so no axis is a one-axis device");
-  if (device.axes.empty()) throw std::invalid_argument("the device's axes (mass and damping of each) are not known");
+  if (device.axes.empty())
+    throw std::invalid_argument("the device's axes (mass and damping of each) are not known");
 }
 
 std::string axis_label(const GateDevice& device, std::size_t i) {
@@ -219,7 +223,8 @@ AxisVerdicts judge_axes(const world::ScenePlan& plan, const GateDevice& device) 
     out.devices.push_back(rigid_device(device.axes[i].mass, device.axes[i].damping, device.period_s,
                                        device.delay_samples, world::Motion::linear));
     auto planned = world::plan_scene(per.scene, per.parameters, device.period_s, world::Motion::linear);
-    if (const auto* error = std::get_if<world::SceneError>(&planned)) throw std::invalid_argument(error->message);
+    if (const auto* error = std::get_if<world::SceneError>(&planned))
+      throw std::invalid_argument(error->message);
     out.verdicts.push_back(check_scene_stability(std::get<world::ScenePlan>(planned), out.devices.back()));
     const SceneStability& v = out.verdicts.back();
     const SceneStability& w = out.verdicts[out.worst];
@@ -233,7 +238,8 @@ AxisVerdicts judge_axes(const world::ScenePlan& plan, const GateDevice& device) 
 SceneStability worst_axis(const GateDevice& device, const AxisVerdicts& judged) {
   SceneStability v = judged.verdicts[judged.worst];
   v.summary = "on " + axis_label(device, judged.worst) + ": " + v.summary;
-  if (judged.verdicts.size() > 1) v.summary += " (the worst of " + std::to_string(judged.verdicts.size()) + " axes)";
+  if (judged.verdicts.size() > 1)
+    v.summary += " (the worst of " + std::to_string(judged.verdicts.size()) + " axes)";
   return v;
 }
 

@@ -203,7 +203,8 @@ void Service::resolve_axes() {
   if (linkage != (kinematics == "pantograph")) {
     throw drivers::DeviceError(
         options_.config.device.driver + (linkage ? " simulates a pantograph" : " provides no linkage") +
-        " and device.kinematics is \"" + kinematics + "\"; accepted: kinematics = \"pantograph\" exactly for a " +
+        " and device.kinematics is \"" + kinematics +
+        "\"; accepted: kinematics = \"pantograph\" exactly for a " +
         "device that reports its pantograph linkage (the loopback with linkage = \"pantograph\")");
   }
   model_.axis_names = axis_names_for(options_.config.device, axes, linkage);
@@ -254,7 +255,8 @@ std::string Service::describe() const {
     out << "\naxes: " << options_.config.device.kinematics;
     for (std::size_t i = 0; i < model_.axis_names.size(); ++i)
       out << (i == 0 ? " " : ", ") << model_.axis_names[i] << " (" << model_.info.axes[i].mass
-          << (rotary ? " kg m^2, " : " kg, ") << model_.info.axes[i].damping << (rotary ? " N m s/rad)" : " N s/m)");
+          << (rotary ? " kg m^2, " : " kg, ") << model_.info.axes[i].damping
+          << (rotary ? " N m s/rad)" : " N s/m)");
     if (const auto& p = model_.info.pantograph) {
       out << "; links " << p->geometry.a1 << ", " << p->geometry.a2 << ", " << p->geometry.a3 << ", "
           << p->geometry.a4 << ", " << p->geometry.a5 << " m; workspace x " << p->x_min << " to " << p->x_max
@@ -416,7 +418,8 @@ void Service::start_engine() {
   if (cfg.loop.duration_s) eo.duration = nanos(*cfg.loop.duration_s);
   eo.telemetry_capacity = power_of_two_at_least(cfg.recorder.ring_capacity(cfg.loop.period_s));
   eo.wait_for_telemetry_space = virtual_clock;
-  if (const auto& linkage = model_.info.pantograph) eo.kinematics = world::PantographKinematics(linkage->geometry);
+  if (const auto& linkage = model_.info.pantograph)
+    eo.kinematics = world::PantographKinematics(linkage->geometry);
   engine_ = std::make_unique<engine::Engine>(eo, *device_.device, *clock_);
 }
 

@@ -33,8 +33,8 @@
 
 #include "drivers/stop_request.hpp"
 #include "rpc/params.hpp"
-#include "world/parameter.hpp"
 #include "world/kinematics.hpp"
+#include "world/parameter.hpp"
 #include "world/plant.hpp"
 
 namespace hapticd::drivers {

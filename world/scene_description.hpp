@@ -41,7 +41,8 @@ enum class StabilityRule {
   /// axes decouple), refusing with the axis and its limit.
   per_axis,
 };
-std::string_view to_string(StabilityRule rule) noexcept;  ///< "none", "linear", "hulin_wall", "task_wall", "per_axis"
+std::string_view to_string(
+    StabilityRule rule) noexcept;  ///< "none", "linear", "hulin_wall", "task_wall", "per_axis"
 
 /// Where a scene lives: on one axis (position and force scalars), in task
 /// space (a device with several axes), or either (free).

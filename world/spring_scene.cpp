@@ -245,23 +245,25 @@ SceneDescription AxisSpringsEntry::describe() {
   for (auto& spec : spring_parameters(false)) {
     if (!spec.name.starts_with("passivity")) parameters.push_back(std::move(spec));
   }
-  return {.name = "axis-springs",
-          .reference = "Freudenberg 2, 2.19-2.24 on each axis (issue 22)",
-          .summary = "spring-mass on each axis of a Cartesian stage: axis i's virtual mass on a spring to x_i",
-          .parameters = std::move(parameters),
-          .fixed_motion = Motion::linear,
-          .stability = StabilityRule::per_axis,
-          .unstable_hint = spring_hint,
-          .build = build_axis_springs,
-          .space = SceneSpace::task};
+  return {
+      .name = "axis-springs",
+      .reference = "Freudenberg 2, 2.19-2.24 on each axis (issue 22)",
+      .summary = "spring-mass on each axis of a Cartesian stage: axis i's virtual mass on a spring to x_i",
+      .parameters = std::move(parameters),
+      .fixed_motion = Motion::linear,
+      .stability = StabilityRule::per_axis,
+      .unstable_hint = spring_hint,
+      .build = build_axis_springs,
+      .space = SceneSpace::task};
 }
 
 template <SpringDamping D>
 std::array<SpringScene<D>, max_axes> AxisSpringsScene<D>::make_springs(const SpringParameters& parameters,
-                                                                        double period_s) {
+                                                                       double period_s) {
   return [&]<std::size_t... i>(std::index_sequence<i...>) {
     return std::array<SpringScene<D>, max_axes>{((void)i, SpringScene<D>(parameters, period_s))...};
-  }(std::make_index_sequence<max_axes>{});
+  }
+  (std::make_index_sequence<max_axes>{});
 }
 
 template <SpringDamping D>

@@ -176,7 +176,8 @@ class AxisSpringsScene {
   const SpringScene<D>& axis(std::size_t i) const { return springs_.at(i); }
 
  private:
-  static std::array<SpringScene<D>, max_axes> make_springs(const SpringParameters& parameters, double period_s);
+  static std::array<SpringScene<D>, max_axes> make_springs(const SpringParameters& parameters,
+                                                           double period_s);
   Eigen::Index axes_;
   std::array<SpringScene<D>, max_axes> springs_;
 };
@@ -187,8 +188,9 @@ extern template class AxisSpringsScene<SpringDamping::relative>;
 
 struct AxisSpringsEntry {
   using alternatives = std::tuple<>;
-  using task_alternatives = std::tuple<AxisSpringsScene<SpringDamping::none>, AxisSpringsScene<SpringDamping::absolute>,
-                                       AxisSpringsScene<SpringDamping::relative>>;
+  using task_alternatives =
+      std::tuple<AxisSpringsScene<SpringDamping::none>, AxisSpringsScene<SpringDamping::absolute>,
+                 AxisSpringsScene<SpringDamping::relative>>;
   static SceneDescription describe();
 };
 

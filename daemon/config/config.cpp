@@ -365,7 +365,8 @@ class Parser {
   /// driver once the whole [device] table is read: check_kinematics).
   std::string get_kinematics(const toml::node& node, const std::string& key) const {
     std::string value = get_string(node, key, "\"cartesian\" or \"pantograph\"");
-    if (value != "cartesian" && value != "pantograph") out_of_range(node, key, "\"cartesian\" or \"pantograph\"");
+    if (value != "cartesian" && value != "pantograph")
+      out_of_range(node, key, "\"cartesian\" or \"pantograph\"");
     return value;
   }
 

@@ -135,7 +135,8 @@ void Engine::task_channels(TelemetrySample& sample) const noexcept {
     // The handle where the kinematics put it (0 when they could not).
     for (Eigen::Index k = 0; k < a.force.size(); ++k)
       sample.channels[count + static_cast<std::size_t>(k)] =
-          a.task.status == world::KinematicsStatus::ok && k < a.task.position.size() ? a.task.position(k) : 0.0;
+          a.task.status == world::KinematicsStatus::ok && k < a.task.position.size() ? a.task.position(k)
+                                                                                     : 0.0;
     count = a.axis_channels();
   }
   if (plan_ != nullptr) {

@@ -167,10 +167,10 @@ DeviceModel::Pantograph pantograph_model(const DriverParameters& p) {
   } catch (const std::invalid_argument& e) {
     throw ParameterError("links", std::string("loopback: links: ") + e.what());
   }
-  const auto box = p.given("workspace")
-                       ? per_axis_numbers("workspace", p.text("workspace"), 4, -r::max_position,
-                                          r::max_position, "m")
-                       : std::vector<double>(default_workspace.begin(), default_workspace.end());
+  const auto box =
+      p.given("workspace")
+          ? per_axis_numbers("workspace", p.text("workspace"), 4, -r::max_position, r::max_position, "m")
+          : std::vector<double>(default_workspace.begin(), default_workspace.end());
   model.x_min = box[0], model.x_max = box[1], model.y_min = box[2], model.y_max = box[3];
   if (!(box[0] < box[1] && box[2] < box[3]))
     throw ParameterError("workspace", "loopback: workspace = \"" + p.text("workspace") +
@@ -211,10 +211,9 @@ LoopbackStage pantograph_from(const DriverParameters& p) {
                                         "\" is not accepted; a point inside the workspace (m)");
     linkage.start = {s[0], s[1]};
   }
-  const auto inertia =
-      p.given("joint_inertia")
-          ? per_axis_numbers("joint_inertia", p.text("joint_inertia"), 2, r::min_mass, r::max_mass, "kg m^2")
-          : std::vector<double>(2, default_joint_inertia);
+  const auto inertia = p.given("joint_inertia") ? per_axis_numbers("joint_inertia", p.text("joint_inertia"),
+                                                                   2, r::min_mass, r::max_mass, "kg m^2")
+                                                : std::vector<double>(2, default_joint_inertia);
   const auto damping = p.given("joint_damping") ? per_axis_numbers("joint_damping", p.text("joint_damping"),
                                                                    2, 0.0, r::max_damping, "N m s/rad")
                                                 : std::vector<double>(2, 0.0);
@@ -238,7 +237,8 @@ LoopbackStage pantograph_from(const DriverParameters& p) {
     linkage.hand = simulation::parse_task_hand_script(text, linkage.start);
     simulation::PantographHand check(m.geometry, linkage.hand, joint.period_s);
   } catch (const std::invalid_argument& e) {
-    throw ParameterError("hand", std::string("device.loopback.hand (on the pantograph's handle): ") + e.what());
+    throw ParameterError("hand",
+                         std::string("device.loopback.hand (on the pantograph's handle): ") + e.what());
   }
   stage.pantograph = std::move(linkage);
   return stage;

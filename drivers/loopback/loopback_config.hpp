@@ -48,7 +48,7 @@ struct LoopbackStage {
   /// rotary: joint_inertia, joint_damping), the hand holds the handle.
   struct Pantograph {
     DeviceModel::Pantograph model;    ///< links and workspace
-    std::array<double, 2> start{};     ///< the handle at start-up, m
+    std::array<double, 2> start{};    ///< the handle at start-up, m
     simulation::TaskHandScript hand;  ///< the `hand` key, on the handle
   };
   std::optional<Pantograph> pantograph;

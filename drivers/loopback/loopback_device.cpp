@@ -42,7 +42,8 @@ void LoopbackDevice::start_pantograph() {
   x << pantograph_->start[0], pantograph_->start[1];
   const auto q = linkage_->kinematics().inverse(x);
   if (!q) throw std::invalid_argument("loopback: the pantograph's start is out of its reach");
-  for (std::size_t i = 0; i < 2; ++i) simulators_[i]->set_initial_state((*q)(static_cast<Eigen::Index>(i)), 0.0);
+  for (std::size_t i = 0; i < 2; ++i)
+    simulators_[i]->set_initial_state((*q)(static_cast<Eigen::Index>(i)), 0.0);
 }
 
 std::unique_ptr<Device> make_loopback_device(const LoopbackConfig& config, const HandScript& hand) {

@@ -70,6 +70,7 @@ std::string TaskHandScript::to_text() const {
 TaskHandScript parse_task_hand_script(std::string_view text, const std::array<double, 2>& origin) {
   TaskHandScript out;
   out.origin = origin;
+  if (text.find_first_not_of(" \t\n") == std::string_view::npos) return out;  // no hand: free
   std::string rest;
   std::size_t i = 0;
   while (i < text.size()) {
@@ -91,8 +92,8 @@ TaskHandScript parse_task_hand_script(std::string_view text, const std::array<do
     throw ParameterError("direction", "task hand: direction must not be 0,0; e.g. direction=0,-1");
   out.direction = {out.direction[0] / norm, out.direction[1] / norm};
   out.script = parse_hand_script(rest);
-  const bool spring = out.script.mode == HandMode::impedance ||
-                      (out.script.mode == HandMode::hold && !out.script.ideal);
+  const bool spring =
+      out.script.mode == HandMode::impedance || (out.script.mode == HandMode::hold && !out.script.ideal);
   if (spring && !out.script.stiffness)
     throw ParameterError("stiffness", "task hand: mode=" + std::string(to_string(out.script.mode)) +
                                           (out.script.ideal ? "" : " ideal=false") +
@@ -117,10 +118,10 @@ void PantographHand::check_reach(const TaskHandScript& hand) const {
     if (q) kinematics_.solve(*q, s);
     if (!q || s.status != world::KinematicsStatus::ok)
       throw std::invalid_argument(
-          "task hand: the reference passes (" + format_number(x(0)) + ", " + format_number(x(1)) +
-          ") m, " +
+          "task hand: the reference passes (" + format_number(x(0)) + ", " + format_number(x(1)) + ") m, " +
           (q ? std::string(world::to_string(s.status)) : std::string("out of the pantograph's reach")) +
-          "; accepted: a reference within the linkage's reach (origin, direction and the trajectory's range)");
+          "; accepted: a reference within the linkage's reach (origin, direction and the trajectory's "
+          "range)");
   }
 }
 

@@ -41,7 +41,7 @@
 namespace hapticd::drivers::simulation {
 
 struct TaskHandScript {
-  HandScript script;                         ///< the mode and s(t) along the direction, m
+  HandScript script;                          ///< the mode and s(t) along the direction, m
   std::array<double, 2> direction{1.0, 0.0};  ///< unit, in the task plane
   std::array<double, 2> origin{0.0, 0.0};     ///< o, m
   /// Back to key=value text (parse_task_hand_script(to_text()) == *this).
@@ -50,7 +50,8 @@ struct TaskHandScript {
 };
 
 /// Parses "direction=0,-1 mode=hold trajectory=ramp ..."; `origin` when
-/// the text gives none. Throws ParameterError naming the key.
+/// the text gives none; blank text is no hand (mode=free). Throws
+/// ParameterError naming the key.
 TaskHandScript parse_task_hand_script(std::string_view text, const std::array<double, 2>& origin);
 
 class PantographHand {

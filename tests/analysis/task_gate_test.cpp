@@ -191,7 +191,8 @@ TEST(TaskGate, AxesThatCannotBeJudgedGiveNoVerdictEvenForced) {
 namespace {
 
 GateDevice pantograph(std::vector<JointModel> joints, const TaskBox& box) {
-  GateDevice device = rigid_device(joints.front().mass, joints.front().damping, period, 0, world::Motion::rotary);
+  GateDevice device =
+      rigid_device(joints.front().mass, joints.front().damping, period, 0, world::Motion::rotary);
   device.axes = std::move(joints);
   device.axis_names = {"q1", "q2"};
   device.pantograph = world::PantographKinematics(world::PantographGeometry{});
@@ -207,8 +208,7 @@ TEST(TaskGate, APantographsPlaneWallIsJudgedAtItsLightestConfigurationAndSaysItI
                              std::vector<JointModel>{{3e-4, 0.0}, {8e-4, 0.0}}}) {
     for (const auto& normal : {std::vector<double>{0, -1}, std::vector<double>{1, 1}}) {
       const GateDevice device = pantograph(joints, box);
-      const DirectionalModel worst =
-          pantograph_along(*device.pantograph, joints, direction(normal), box);
+      const DirectionalModel worst = pantograph_along(*device.pantograph, joints, direction(normal), box);
       const GateRefusal refusal = refused_plane(device, normal, 1.0, 1);
       SCOPED_TRACE(refusal.message);
       // The limit is the one-axis limit with the worst case's m_n.
@@ -243,11 +243,13 @@ TEST(TaskGate, APantographsSphereIsJudgedAlongTheLightestDirectionAnywhere) {
   const DirectionalModel lightest = pantograph_lightest(*device.pantograph, joints, box, n);
   // Lighter than along any one direction's worst case.
   for (const auto& d : {std::vector<double>{1, 0}, std::vector<double>{0, 1}, std::vector<double>{1, 1}}) {
-    EXPECT_LE(lightest.mass, pantograph_along(*device.pantograph, joints, direction(d), box).mass * (1 + 1e-9));
+    EXPECT_LE(lightest.mass,
+              pantograph_along(*device.pantograph, joints, direction(d), box).mass * (1 + 1e-9));
   }
   EXPECT_NEAR(pantograph_along(*device.pantograph, joints, n, box).mass / lightest.mass, 1.0, 1e-3)
       << "along its own direction the worst case is the same configuration";
-  const auto outcome = gate_scene("sphere", {{"stiffness", 1e7}, {"damping", 1.0}, {"delay", 1.0}}, device, false);
+  const auto outcome =
+      gate_scene("sphere", {{"stiffness", 1e7}, {"damping", 1.0}, {"delay", 1.0}}, device, false);
   ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
   const auto& refusal = std::get<GateRefusal>(outcome);
   EXPECT_NE(refusal.message.find("the lightest direction ("), std::string::npos) << refusal.message;
@@ -269,16 +271,16 @@ TEST(TaskGate, AxisSpringsIsJudgedPerAxisExactlyAndRefusedNamingTheAxisAndItsLim
   // integrator with relative damping is stable up to a limit that depends
   // on the axis' mass: the lighter axis fails first.
   const GateDevice device = stage({{0.3, 0.0}, {0.05, 0.0}, {1.0, 0.0}});
-  const world::ParameterSet springs{{"stiffness", 2e4}, {"mass", 0.5}, {"damping", 20.0}};
+  const world::ParameterSet springs{{"stiffness", 5e4}, {"mass", 0.5}, {"damping", 30.0}};
   const auto outcome = gate_scene("axis-springs", springs, device, false);
-  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome)) << "K = 2e4 N/m with B = 20 on 0.05 kg";
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome)) << "K = 5e4 N/m with B = 30 on 0.05 kg";
   const GateRefusal& refusal = std::get<GateRefusal>(outcome);
   EXPECT_TRUE(refusal.message.starts_with(
       "axis-springs on axis y (m = 0.05 kg, b = 0 N s/m, exact: the axes decouple): "))
       << refusal.message;
   // The limit is the one-axis gate's for spring-mass on that axis alone.
-  const auto alone = gate_scene("spring-mass", springs, rigid_device(0.05, 0.0, period, 0, world::Motion::linear),
-                                false);
+  const auto alone =
+      gate_scene("spring-mass", springs, rigid_device(0.05, 0.0, period, 0, world::Motion::linear), false);
   ASSERT_TRUE(std::holds_alternative<GateRefusal>(alone));
   const GateRefusal& one_axis = std::get<GateRefusal>(alone);
   ASSERT_TRUE(one_axis.stiffness_limit.has_value());
@@ -293,20 +295,22 @@ TEST(TaskGate, AxisSpringsIsJudgedPerAxisExactlyAndRefusedNamingTheAxisAndItsLim
     at["stiffness"] = k;
     bool every_axis = true;
     for (const double m : {0.3, 0.05, 1.0}) {
-      every_axis = every_axis && std::holds_alternative<GateAccepted>(gate_scene(
-                                     "spring-mass", at, rigid_device(m, 0.0, period, 0, world::Motion::linear), false));
+      every_axis = every_axis &&
+                   std::holds_alternative<GateAccepted>(gate_scene(
+                       "spring-mass", at, rigid_device(m, 0.0, period, 0, world::Motion::linear), false));
     }
     EXPECT_EQ(std::holds_alternative<GateAccepted>(gate_scene("axis-springs", at, device, false)), every_axis)
         << "K = " << k;
   }
   // The heaviest axis is named when it is the one that fails (damping per axis).
   const GateDevice damped = stage({{0.05, 5.0}, {0.4, 0.0}});
-  const auto heavy = gate_scene("axis-springs", {{"stiffness", 1e5}, {"mass", 0.5}, {"damping", 20.0}}, damped, false);
+  const auto heavy =
+      gate_scene("axis-springs", {{"stiffness", 1e5}, {"mass", 0.5}, {"damping", 20.0}}, damped, false);
   if (std::holds_alternative<GateRefusal>(heavy)) {
     const auto& message = std::get<GateRefusal>(heavy).message;
-    const bool x_fails = std::holds_alternative<GateRefusal>(gate_scene(
-        "spring-mass", {{"stiffness", 1e5}, {"mass", 0.5}, {"damping", 20.0}},
-        rigid_device(0.05, 5.0, period, 0, world::Motion::linear), false));
+    const bool x_fails = std::holds_alternative<GateRefusal>(
+        gate_scene("spring-mass", {{"stiffness", 1e5}, {"mass", 0.5}, {"damping", 20.0}},
+                   rigid_device(0.05, 5.0, period, 0, world::Motion::linear), false));
     EXPECT_NE(message.find(x_fails ? "on axis x (m = 0.05 kg, b = 5 N s/m" : "on axis y (m = 0.4 kg"),
               std::string::npos)
         << message;

@@ -283,10 +283,11 @@ TEST(ConfigErrors, AxisNamesAndKinematicsNameTheKeyAndWhatIsAccepted) {
             "\"pantograph\"");
   // A pantograph only where a driver provides one (the loopback's linkage),
   // saying why not; and the loopback's linkage only with its kinematics.
-  EXPECT_EQ(error_of("[device]\nkinematics = \"pantograph\""),
-            "t.toml:2:14: device.kinematics = \"pantograph\" is not accepted here: the loopback simulates a "
-            "pantograph only with [device.loopback] linkage = \"pantograph\"; accepted: \"cartesian\", or the "
-            "loopback with [device.loopback] linkage = \"pantograph\"");
+  EXPECT_EQ(
+      error_of("[device]\nkinematics = \"pantograph\""),
+      "t.toml:2:14: device.kinematics = \"pantograph\" is not accepted here: the loopback simulates a "
+      "pantograph only with [device.loopback] linkage = \"pantograph\"; accepted: \"cartesian\", or the "
+      "loopback with [device.loopback] linkage = \"pantograph\"");
   EXPECT_EQ(error_of("[device]\ndriver = \"canopen\"\nkinematics = \"pantograph\"").substr(0, 125),
             "t.toml:3:14: device.kinematics = \"pantograph\" is not accepted here: the canopen driver cannot "
             "provide a pantograph: it drives");

@@ -77,8 +77,8 @@ TEST(LoopbackPantograph, TwoRotaryJointsAtTheStartWithTheLinkageInTheModel) {
 }
 
 TEST(LoopbackPantograph, AHandForceOnTheHandleMovesTheJointsByJTransposeF) {
-  LoopbackDevice device(loopback::loopback_stage_from(
-      keys({{"hand", "direction=1,1 mode=force force=2"}, {"counts", 1e12}})));
+  LoopbackDevice device(
+      loopback::loopback_stage_from(keys({{"hand", "direction=1,1 mode=force force=2"}, {"counts", 1e12}})));
   device.configure({1e-3});
   const auto& g = device.model().pantograph->geometry;
   const world::PantographKinematics k(g);
@@ -100,8 +100,8 @@ TEST(LoopbackPantograph, AHandForceOnTheHandleMovesTheJointsByJTransposeF) {
         << "joint " << i + 1;
   }
   // The motors' torques add to the hand's: the same step with -tau written is rest.
-  LoopbackDevice still(loopback::loopback_stage_from(
-      keys({{"hand", "direction=1,1 mode=force force=2"}, {"counts", 1e12}})));
+  LoopbackDevice still(
+      loopback::loopback_stage_from(keys({{"hand", "direction=1,1 mode=force force=2"}, {"counts", 1e12}})));
   still.configure({1e-3});
   ASSERT_EQ(still.write_axes(std::array<double, 2>{-tau(0), -tau(1)}), IoResult::ok);
   ASSERT_EQ(still.read_axes(r), IoResult::ok);
@@ -164,8 +164,8 @@ TEST(LoopbackPantograph, RefusesWhatALinkageCannotTakeNamingTheKey) {
   EXPECT_NE(refusal({{"hand", "mode=impedance"}}).find("stiffness"), std::string::npos);
   // And a stage refuses the pantograph's keys.
   try {
-    loopback::loopback_stage_from(
-        DriverParameters("loopback", loopback::loopback_parameters(), {{"axes", 2.0}, {"links", "1,1,1,1,1"}}));
+    loopback::loopback_stage_from(DriverParameters("loopback", loopback::loopback_parameters(),
+                                                   {{"axes", 2.0}, {"links", "1,1,1,1,1"}}));
     ADD_FAILURE() << "links accepted on a stage";
   } catch (const ParameterError& e) {
     EXPECT_EQ(e.key(), "links");

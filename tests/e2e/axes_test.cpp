@@ -190,7 +190,7 @@ TEST(Axes, AxisSpringsOnATwoAxisStageThroughTheDaemon) {
                 "[device.loopback]\naxes = 2\naxis_mass = \"0.3,0.05\"\naxis_damping = \"0,0\"\n"
                 "hands = \"mode=hold; mode=hold\"\n[scene]\nname = \"free\"\n");
   // Refused on the light axis, y, with the one-axis limit there.
-  const auto refused = daemon.ctl({"load", "axis-springs", "stiffness=2e4", "mass=0.5", "damping=20"});
+  const auto refused = daemon.ctl({"load", "axis-springs", "stiffness=5e4", "mass=0.5", "damping=30"});
   EXPECT_EQ(refused.exit_code, 1);
   EXPECT_NE(refused.err.find("axis-springs on axis y (m = 0.05 kg, b = 0 N s/m, exact: the axes decouple): "),
             std::string::npos)
@@ -203,8 +203,8 @@ TEST(Axes, AxisSpringsOnATwoAxisStageThroughTheDaemon) {
   ASSERT_EQ(daemon.ctl({"record", "start", "--path", "springs.csv"}).exit_code, 0);
   // The hand steps x by 5 mm and holds it; y stays held at 0.
   ASSERT_EQ(daemon
-                .ctl({"device", "call", "hand.set", "axis=1", "mode=hold", "trajectory=step", "amplitude=0.005",
-                      "at=0.05"})
+                .ctl({"device", "call", "hand.set", "axis=1", "mode=hold", "trajectory=step",
+                      "amplitude=0.005", "at=0.05"})
                 .exit_code,
             0);
   std::this_thread::sleep_for(std::chrono::milliseconds(400));

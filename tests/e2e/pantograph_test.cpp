@@ -64,8 +64,7 @@ TEST(Pantograph, CheckConfigShowsTheGatesBoundWithItsWorstCaseConfiguration) {
                              "y 0.07 to 0.12 m"),
             std::string::npos)
       << checked.out;
-  EXPECT_NE(checked.out.find("stability: along the normal (0, -1), its worst case at ("),
-            std::string::npos)
+  EXPECT_NE(checked.out.find("stability: along the normal (0, -1), its worst case at ("), std::string::npos)
       << checked.out;
   EXPECT_NE(checked.out.find("a bound, not exact): stable"), std::string::npos) << checked.out;
 }
@@ -83,16 +82,16 @@ TEST(Pantograph, APlaneWallAndASphereOnTheLoopbackPantograph) {
 
   // Refused with the bound along n and its configuration; the limit is the
   // one `hapticctl analyze plane-wall --pantograph` finds for that bound.
-  const auto refused =
-      daemon.ctl({"load", "plane-wall", "normal=0,-1", "offset=-0.1", "stiffness=1e6", "damping=2", "delay=0"});
+  const auto refused = daemon.ctl(
+      {"load", "plane-wall", "normal=0,-1", "offset=-0.1", "stiffness=1e6", "damping=2", "delay=0"});
   EXPECT_EQ(refused.exit_code, 1);
   EXPECT_NE(refused.err.find("plane-wall along the normal (0, -1), its worst case at ("), std::string::npos)
       << refused.err;
   EXPECT_NE(refused.err.find("a bound, not exact"), std::string::npos) << refused.err;
   const auto bound = run(hapticctl_binary(),
-                         {"analyze", "plane-wall", "--normal", "0,-1", "--pantograph", "0.07,0.09,0.09,0.07,0.0381",
-                          "--joint-inertia", "0.0005,0.0005", "--workspace", "-0.02,0.06,0.07,0.12", "--period",
-                          "1ms", "--delay", "0", "--json"});
+                         {"analyze", "plane-wall", "--normal", "0,-1", "--pantograph",
+                          "0.07,0.09,0.09,0.07,0.0381", "--joint-inertia", "0.0005,0.0005", "--workspace",
+                          "-0.02,0.06,0.07,0.12", "--period", "1ms", "--delay", "0", "--json"});
   ASSERT_EQ(bound.exit_code, 0) << bound.err;
   const json b = json::parse(bound.out);
   EXPECT_NEAR(number_after(refused.err, "m_n = "), b["mass_along_normal"].get<double>(),
@@ -104,8 +103,8 @@ TEST(Pantograph, APlaneWallAndASphereOnTheLoopbackPantograph) {
       << b.dump();
 
   // The plane wall at y = 0.1 m, its free side below; the hand reaches 3 mm in.
-  const auto loaded = daemon.ctl({"load", "plane-wall", "normal=0,-1", "offset=-0.1", "stiffness=1000",
-                                  "damping=2", "delay=0"});
+  const auto loaded = daemon.ctl(
+      {"load", "plane-wall", "normal=0,-1", "offset=-0.1", "stiffness=1000", "damping=2", "delay=0"});
   ASSERT_EQ(loaded.exit_code, 0) << loaded.err;
   ASSERT_EQ(daemon.ctl({"record", "start", "--path", "plane.csv"}).exit_code, 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -122,10 +121,11 @@ TEST(Pantograph, APlaneWallAndASphereOnTheLoopbackPantograph) {
   ASSERT_EQ(daemon.ctl({"record", "stop"}).exit_code, 0) << daemon.log();
 
   // The hand as a 200 N/m spring to a point 1 cm inside the plane wall.
-  ASSERT_EQ(daemon.ctl({"load", "plane-wall", "normal=0,-1", "offset=-0.1", "stiffness=1000", "damping=2",
-                        "delay=0"})
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      daemon
+          .ctl({"load", "plane-wall", "normal=0,-1", "offset=-0.1", "stiffness=1000", "damping=2", "delay=0"})
+          .exit_code,
+      0);
   const auto hand = daemon.ctl({"device", "call", "hand.set", "mode=impedance", "stiffness=200", "damping=2",
                                 "direction=0,1", "trajectory=constant", "position=0.015"});
   ASSERT_EQ(hand.exit_code, 0) << hand.err;
@@ -150,7 +150,8 @@ TEST(Pantograph, APlaneWallAndASphereOnTheLoopbackPantograph) {
       if (!armed && depth > 0.0) continue;
       armed = true;
       // Hulin's law on n . x at the handle the kinematics put there, along n.
-      const double along = depth > 0.0 ? std::max(0.0, k_wall * depth - b_wall * (s - s_before) / period) : 0.0;
+      const double along =
+          depth > 0.0 ? std::max(0.0, k_wall * depth - b_wall * (s - s_before) / period) : 0.0;
       ASSERT_NEAR(fx[i], 0.0, 1e-12) << "row " << i;
       ASSERT_NEAR(fy[i], -along, 1e-9) << "row " << i;
       EXPECT_NEAR(penetration[i], std::max(0.0, depth), 1e-15);
@@ -177,7 +178,8 @@ TEST(Pantograph, APlaneWallAndASphereOnTheLoopbackPantograph) {
       if (!armed && depth > 0.0) continue;
       armed = true;
       // Towards the centre, K times the depth plus B on the radial speed, never pulling.
-      const double along = depth > 0.0 ? std::max(0.0, k_wall * depth + b_wall * (r - r_before) / period) : 0.0;
+      const double along =
+          depth > 0.0 ? std::max(0.0, k_wall * depth + b_wall * (r - r_before) / period) : 0.0;
       ASSERT_NEAR(fx[i], -along * dx / r, 1e-9) << "row " << i;
       ASSERT_NEAR(fy[i], -along * dy / r, 1e-9) << "row " << i;
       EXPECT_NEAR(penetration[i], std::max(0.0, depth), 1e-12);

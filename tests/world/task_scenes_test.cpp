@@ -152,7 +152,9 @@ TEST(TaskScenes, AxisSpringsIsSpringMassOnEachAxisSampleBySample) {
   for (const char* damping : {"0", "3", "auto"}) {
     for (const char* reference : {"relative", "absolute"}) {
       SCOPED_TRACE(std::string(damping) + " " + reference);
-      const ParameterSet given{{"stiffness", 400.0}, {"mass", 0.2}, {"damping", std::string(damping)},
+      const ParameterSet given{{"stiffness", 400.0},
+                               {"mass", 0.2},
+                               {"damping", std::string(damping)},
                                {"damping_reference", std::string(reference)}};
       const ScenePlan plan = planned("axis-springs", given, 3);
       ASSERT_TRUE(plan.per_axis.has_value());
