@@ -240,7 +240,7 @@ LoopbackStage pantograph_from(const DriverParameters& p) {
     throw ParameterError("hand",
                          std::string("device.loopback.hand (on the pantograph's handle): ") + e.what());
   }
-  stage.pantograph = std::move(linkage);
+  stage.pantograph = linkage;
   return stage;
 }
 
