@@ -291,7 +291,7 @@ TEST(ConfigErrors, AxisNamesAndKinematicsNameTheKeyAndWhatIsAccepted) {
   EXPECT_EQ(error_of("[device]\ndriver = \"canopen\"\nkinematics = \"pantograph\"").substr(0, 125),
             "t.toml:3:14: device.kinematics = \"pantograph\" is not accepted here: the canopen driver cannot "
             "provide a pantograph: it drives");
-  EXPECT_EQ(error_of("[device]\n[device.loopback]\nlinkage = \"pantograph\"").substr(0, 87),
+  EXPECT_EQ(error_of("[device]\n[device.loopback]\nlinkage = \"pantograph\"").substr(0, 88),
             "t.toml:3:11: device.loopback.linkage = \"pantograph\" reads joint angles of a linkage; it ");
   const auto pantograph = parse_config(
       "[device]\nkinematics = \"pantograph\"\n[device.loopback]\nlinkage = \"pantograph\"", "t.toml");
