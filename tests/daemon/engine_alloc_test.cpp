@@ -660,7 +660,8 @@ TEST(EngineAlloc, PantographEveryTaskSceneAndItsKinematicsFaultAllocateNothing) 
   // damped, no encoder jump), along a line in joint space (equal joints):
   // the left arm stretches until J all but loses a direction.
   plant.simulator(0).set_hand("mode=impedance stiffness=0.05 damping=0.005 trajectory=constant position=3.3");
-  plant.simulator(1).set_hand("mode=impedance stiffness=0.05 damping=0.005 trajectory=constant position=-0.2");
+  plant.simulator(1).set_hand(
+      "mode=impedance stiffness=0.05 damping=0.005 trajectory=constant position=-0.2");
   world::TaskState there;
   world::AxisVector q(2);
   q << 3.3, -0.2;
