@@ -199,9 +199,10 @@ GateDevice rigid_device(double mass, double damping, double period_s, int delay_
 }
 
 SceneStability check_scene_stability(const world::ScenePlan& plan, const GateDevice& device) {
-  if (plan.task_wall) {
+  if (plan.task_wall || plan.per_axis) {
     try {
-      return check_task_wall_stability(plan, device);
+      return plan.task_wall ? check_task_wall_stability(plan, device)
+                            : check_per_axis_stability(plan, device);
     } catch (const std::invalid_argument& e) {
       SceneStability v;
       v.checked = true;
@@ -270,6 +271,8 @@ GateOutcome gate_scene(std::string_view scene, const world::ParameterSet& parame
   }
   if (std::get<world::ScenePlan>(outcome).task_wall)
     return gate_task_wall(std::move(std::get<world::ScenePlan>(outcome)), device, force);
+  if (std::get<world::ScenePlan>(outcome).per_axis)
+    return gate_per_axis(std::move(std::get<world::ScenePlan>(outcome)), device, force);
   GateAccepted accepted{std::move(std::get<world::ScenePlan>(outcome)), {}, false};
   accepted.stability = check_scene_stability(accepted.plan, device);
   if (accepted.stability.stable) return accepted;

@@ -40,6 +40,11 @@ struct GateDevice {
   /// along their directions with these (analysis/task_gate.hpp).
   std::vector<JointModel> axes;
   std::vector<std::string> axis_names;
+  /// A pantograph: `axes` are its two motor joints (inertia, damping); its
+  /// task-space walls are judged at their worst case over `workspace`
+  /// (analysis/task_space.hpp: a bound, not exact).
+  std::optional<world::PantographKinematics> pantograph;
+  TaskBox workspace;
   /// 1, or the number of axes.
   int axis_count() const noexcept { return axes.empty() ? 1 : static_cast<int>(axes.size()); }
   /// "J = 0.01 kg m^2, b = 0 N m s/rad, T = 1 ms, d = 0" (or m = ... kg for a linear device).

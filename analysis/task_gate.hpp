@@ -44,4 +44,15 @@ SceneStability check_task_wall_stability(const world::ScenePlan& plan, const Gat
 /// The gate's answer for a planned task-space wall.
 GateOutcome gate_task_wall(world::ScenePlan plan, const GateDevice& device, bool force);
 
+/// A scene on each axis of a Cartesian stage (StabilityRule::per_axis,
+/// axis-springs): the plan's one-axis scene judged on each axis with that
+/// axis' mass and damping (the axes decouple: exact). The verdict of the
+/// worst axis, its summary naming the axis. Throws std::invalid_argument
+/// for a device whose axes are not a Cartesian stage's (a pantograph).
+SceneStability check_per_axis_stability(const world::ScenePlan& plan, const GateDevice& device);
+
+/// The gate's answer for such a scene: a refusal names the axis and the
+/// limit that would hold there (the one-axis gate's, on that axis).
+GateOutcome gate_per_axis(world::ScenePlan plan, const GateDevice& device, bool force);
+
 }  // namespace hapticd::analysis

@@ -91,10 +91,12 @@ struct Candidate {
   AxisMatrix jacobian;
 };
 
-/// The lightest configuration on an n x n grid over the box; throws for a
-/// point outside the workspace.
-Candidate lightest_on_grid(const world::PantographKinematics& k, std::span<const JointModel> joints,
-                           const AxisVector& n, const TaskBox& box, int steps) {
+/// The lightest configuration on an n x n grid over the box by `mass_at`
+/// (the mass a configuration's Jacobian gives); throws for a point outside
+/// the workspace.
+template <class MassAt>
+Candidate lightest_on_grid(const world::PantographKinematics& k, const TaskBox& box, int steps,
+                           const MassAt& mass_at) {
   Candidate best;
   for (int i = 0; i <= steps; ++i) {
     for (int j = 0; j <= steps; ++j) {
@@ -106,11 +108,42 @@ Candidate lightest_on_grid(const world::PantographKinematics& k, std::span<const
       if (!q || s.status != world::KinematicsStatus::ok)
         throw std::invalid_argument("the workspace point (" + num(x(0)) + ", " + num(x(1)) + ") m is " +
                                     std::string(q ? to_string(s.status) : "out of the pantograph's reach"));
-      const double m = mass_along(s.jacobian, joints, n);
+      const double m = mass_at(s.jacobian);
       if (m < best.mass) best = {m, *q, s.position, s.jacobian};
     }
   }
   return best;
+}
+
+/// A 40 x 40 grid, then two finer grids around the lightest cell.
+template <class MassAt>
+Candidate lightest_over(const world::PantographKinematics& kinematics, const TaskBox& box,
+                        const MassAt& mass_at) {
+  if (!(box.x_min <= box.x_max && box.y_min <= box.y_max) ||
+      !std::isfinite(box.x_min + box.x_max + box.y_min + box.y_max))
+    throw std::invalid_argument("the workspace box must be finite with min <= max");
+  Candidate best = lightest_on_grid(kinematics, box, 40, mass_at);
+  TaskBox around = box;
+  for (int round = 0; round < 2; ++round) {
+    const double dx = (around.x_max - around.x_min) / 40, dy = (around.y_max - around.y_min) / 40;
+    around = {std::max(box.x_min, best.position(0) - dx), std::min(box.x_max, best.position(0) + dx),
+              std::max(box.y_min, best.position(1) - dy), std::min(box.y_max, best.position(1) + dy)};
+    const Candidate finer = lightest_on_grid(kinematics, around, 20, mass_at);
+    if (finer.mass < best.mass) best = finer;
+  }
+  return best;
+}
+
+std::string configuration_text(const Candidate& best) {
+  return "(" + num(best.position(0)) + ", " + num(best.position(1)) + ") m, q = (" + num(best.joints(0)) +
+         ", " + num(best.joints(1)) + ") rad";
+}
+
+/// The task-space inverse inertia J M^-1 J^T.
+Eigen::Matrix2d inverse_inertia(const AxisMatrix& jacobian, std::span<const JointModel> joints) {
+  const Eigen::Matrix2d j = jacobian.topLeftCorner<2, 2>();
+  const Eigen::Vector2d inverse_mass(1.0 / joints[0].mass, 1.0 / joints[1].mass);
+  return j * inverse_mass.asDiagonal() * j.transpose();
 }
 
 }  // namespace
@@ -120,29 +153,45 @@ DirectionalModel pantograph_along(const world::PantographKinematics& kinematics,
                                   const TaskBox& box) {
   check_joints(joints, 2);
   const AxisVector n = unit_direction(direction, 2);
-  if (!(box.x_min <= box.x_max && box.y_min <= box.y_max) ||
-      !std::isfinite(box.x_min + box.x_max + box.y_min + box.y_max))
-    throw std::invalid_argument("the workspace box must be finite with min <= max");
-  // A 40 x 40 grid, then two finer grids around the lightest cell.
-  Candidate best = lightest_on_grid(kinematics, joints, n, box, 40);
-  TaskBox around = box;
-  for (int round = 0; round < 2; ++round) {
-    const double dx = (around.x_max - around.x_min) / 40, dy = (around.y_max - around.y_min) / 40;
-    around = {std::max(box.x_min, best.position(0) - dx), std::min(box.x_max, best.position(0) + dx),
-              std::max(box.y_min, best.position(1) - dy), std::min(box.y_max, best.position(1) + dy)};
-    const Candidate finer = lightest_on_grid(kinematics, joints, n, around, 20);
-    if (finer.mass < best.mass) best = finer;
-  }
+  const Candidate best =
+      lightest_over(kinematics, box, [&](const AxisMatrix& j) { return mass_along(j, joints, n); });
   DirectionalModel out;
   out.mass = best.mass;
   out.damping = damping_per_mass(best.jacobian, joints, n).first * best.mass;
   out.exact = false;
   out.joints = best.joints;
   out.position = best.position;
-  out.basis = "the lightest m_n over the workspace, " + num(out.mass) + " kg at (" + num(best.position(0)) +
-              ", " + num(best.position(1)) +
-              ") m: a bound, not exact (the linkage's mass changes with its configuration); damping " +
+  out.basis = "the lightest m_n over the workspace, " + num(out.mass) + " kg at " + configuration_text(best) +
+              ": a bound, not exact (the linkage's mass changes with its configuration); damping " +
               num(out.damping) + " N s/m, the joints' least damping per unit inertia";
+  return out;
+}
+
+DirectionalModel pantograph_lightest(const world::PantographKinematics& kinematics,
+                                     std::span<const JointModel> joints, const TaskBox& box,
+                                     AxisVector& direction) {
+  check_joints(joints, 2);
+  // At one configuration the lightest direction is the eigenvector of the
+  // largest eigenvalue of J M^-1 J^T, and m = 1 / that eigenvalue.
+  const auto lightest = [&](const AxisMatrix& j) {
+    return 1.0 / Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(inverse_inertia(j, joints)).eigenvalues()(1);
+  };
+  const Candidate best = lightest_over(kinematics, box, lightest);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(inverse_inertia(best.jacobian, joints));
+  direction = AxisVector(2);
+  direction << eigen.eigenvectors()(0, 1), eigen.eigenvectors()(1, 1);
+  DirectionalModel out;
+  out.mass = best.mass;
+  double least = std::numeric_limits<double>::infinity();
+  for (const auto& j : joints) least = std::min(least, j.damping / j.mass);
+  out.damping = least * best.mass;
+  out.exact = false;
+  out.joints = best.joints;
+  out.position = best.position;
+  out.basis = "the lightest m_n over every direction and the workspace, " + num(out.mass) + " kg along (" +
+              num(direction(0)) + ", " + num(direction(1)) + ") at " + configuration_text(best) +
+              ": a bound, not exact; damping " + num(out.damping) +
+              " N s/m, the joints' least damping per unit inertia";
   return out;
 }
 

@@ -59,4 +59,12 @@ DirectionalModel pantograph_along(const world::PantographKinematics& kinematics,
                                   std::span<const JointModel> joints, const world::AxisVector& direction,
                                   const TaskBox& box);
 
+/// The pantograph's worst case over `box` and over every direction (a
+/// sphere's radius may point anywhere): the smallest m_n, 1 / the largest
+/// eigenvalue of J M^-1 J^T, and that direction (out). Throws as
+/// pantograph_along.
+DirectionalModel pantograph_lightest(const world::PantographKinematics& kinematics,
+                                     std::span<const JointModel> joints, const TaskBox& box,
+                                     world::AxisVector& direction);
+
 }  // namespace hapticd::analysis

@@ -24,6 +24,10 @@ analysis::GateDevice DeviceModel::gate() const {
   device.motion = motion();
   for (const auto& axis : info.axes) device.axes.push_back({axis.mass, axis.damping});
   device.axis_names = axis_names;
+  if (const auto& p = info.pantograph) {
+    device.pantograph = world::PantographKinematics(p->geometry);
+    device.workspace = {p->x_min, p->x_max, p->y_min, p->y_max};
+  }
   return device;
 }
 
@@ -262,7 +266,11 @@ std::string markdown_stability(world::StabilityRule rule) {
              "undamped device";
     case world::StabilityRule::task_wall:
       return "Hulin's one-axis wall along each judged direction, with the mass and damping the device has "
-             "there (m_n = 1 / (n^T J M^-1 J^T n))";
+             "there (m_n = 1 / (n^T J M^-1 J^T n)); on a pantograph its worst case over the workspace (a "
+             "bound)";
+    case world::StabilityRule::per_axis:
+      return "the one-axis scene on each axis of a Cartesian stage with that axis' own mass and damping "
+             "(exact: the axes decouple); refused naming the axis and its limit";
   }
   return {};
 }

@@ -93,8 +93,11 @@ engine::PositionStepRule position_rule_for(const config::DaemonConfig& cfg,
 
 /// The axes' names of a device with several ([device] axis_names, else x,
 /// y, z, a, b, c); ConfigError when the names do not fit the device.
-std::vector<std::string> axis_names_for(const config::DeviceConfig& device, int axes) {
+std::vector<std::string> axis_names_for(const config::DeviceConfig& device, int axes, bool linkage) {
   static const std::vector<std::string> defaults{"x", "y", "z", "a", "b", "c"};
+  // A linkage's axes are its motor joints, not the task axes x and y.
+  static const std::vector<std::string> joints{"q1", "q2"};
+  if (device.axis_names.empty() && linkage && axes == 2) return joints;
   if (device.axis_names.empty()) return {defaults.begin(), defaults.begin() + axes};
   if (static_cast<int>(device.axis_names.size()) != axes) {
     throw config::ConfigError(device.axis_names_where, "device.axis_names",
@@ -107,13 +110,20 @@ std::vector<std::string> axis_names_for(const config::DeviceConfig& device, int 
 
 /// The channels a device with several axes adds before the scene's, in the
 /// engine's order (daemon/engine/task_axes.hpp): every position, every task
-/// force, every joint output.
-std::vector<world::ChannelDescription> axis_channels(const std::vector<std::string>& names, bool rotary) {
+/// force, every joint output; a linkage's task forces are along x and y (N)
+/// and the handle's position follows (m).
+std::vector<world::ChannelDescription> axis_channels(const std::vector<std::string>& names, bool rotary,
+                                                     bool linkage) {
+  static const std::vector<std::string> task{"x", "y"};
+  const auto& forces = linkage ? task : names;
   std::vector<world::ChannelDescription> out;
-  out.reserve(3 * names.size());
+  out.reserve(3 * names.size() + 2);
   for (const auto& n : names) out.push_back({"position_" + n, rotary ? "rad" : "m"});
-  for (const auto& n : names) out.push_back({"force_" + n, rotary ? "N m" : "N"});
+  for (const auto& n : forces) out.push_back({"force_" + n, rotary && !linkage ? "N m" : "N"});
   for (const auto& n : names) out.push_back({"output_" + n, rotary ? "N m" : "N"});
+  if (linkage) {
+    for (const auto& n : task) out.push_back({"handle_" + n, "m"});
+  }
   return out;
 }
 
@@ -189,7 +199,16 @@ void Service::resolve_axes() {
                                " axes but its model describes " + std::to_string(model_.info.axis_count()) +
                                "; each axis needs its mass and damping for the stability gate");
   }
-  model_.axis_names = axis_names_for(options_.config.device, axes);
+  const auto& kinematics = options_.config.device.kinematics;
+  const bool linkage = model_.info.pantograph.has_value();
+  if (linkage != (kinematics == "pantograph")) {
+    throw drivers::DeviceError(
+        options_.config.device.driver + (linkage ? " simulates a pantograph" : " provides no linkage") +
+        " and device.kinematics is \"" + kinematics +
+        "\"; accepted: kinematics = \"pantograph\" exactly for a " +
+        "device that reports its pantograph linkage (the loopback with linkage = \"pantograph\")");
+  }
+  model_.axis_names = axis_names_for(options_.config.device, axes, linkage);
   // The origin is one number for one axis (docs/config.md, "Calibration"):
   // a stage's positions are its own; no origin is taken, kept or required.
   const auto& device = options_.config.device;
@@ -233,10 +252,17 @@ std::string Service::describe() const {
   }
   if (cfg.device.require_calibration) out << "; required before any scene renders";
   if (!model_.axis_names.empty()) {
+    const bool rotary = model_.info.motion == drivers::Motion::rotary;
     out << "\naxes: " << options_.config.device.kinematics;
     for (std::size_t i = 0; i < model_.axis_names.size(); ++i)
-      out << (i == 0 ? " " : ", ") << model_.axis_names[i] << " (" << model_.info.axes[i].mass << " kg, "
-          << model_.info.axes[i].damping << " N s/m)";
+      out << (i == 0 ? " " : ", ") << model_.axis_names[i] << " (" << model_.info.axes[i].mass
+          << (rotary ? " kg m^2, " : " kg, ") << model_.info.axes[i].damping
+          << (rotary ? " N m s/rad)" : " N s/m)");
+    if (const auto& p = model_.info.pantograph) {
+      out << "; links " << p->geometry.a1 << ", " << p->geometry.a2 << ", " << p->geometry.a3 << ", "
+          << p->geometry.a4 << ", " << p->geometry.a5 << " m; workspace x " << p->x_min << " to " << p->x_max
+          << " m, y " << p->y_min << " to " << p->y_max << " m";
+    }
     for (const auto& note : overlay_.notes) out << "\n" << note;
   }
   return out.str();
@@ -294,7 +320,8 @@ CurrentScene Service::scene_from(const PlannedScene& planned, const world::Param
   next.resolved = planned.plan.parameters;
   next.channels = planned.plan.channels;
   if (!model_.axis_names.empty()) {
-    auto axes = axis_channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary);
+    auto axes = axis_channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary,
+                              model_.info.pantograph.has_value());
     const auto overlay = overlay_.channels(model_.axis_names);
     axes.insert(axes.end(), overlay.begin(), overlay.end());
     next.channels.insert(next.channels.begin(), axes.begin(), axes.end());
@@ -398,6 +425,8 @@ void Service::start_engine() {
   if (cfg.loop.duration_s) eo.duration = nanos(*cfg.loop.duration_s);
   eo.telemetry_capacity = power_of_two_at_least(cfg.recorder.ring_capacity(cfg.loop.period_s));
   eo.wait_for_telemetry_space = virtual_clock;
+  if (const auto& linkage = model_.info.pantograph)
+    eo.kinematics = world::PantographKinematics(linkage->geometry);
   engine_ = std::make_unique<engine::Engine>(eo, *device_.device, *clock_);
 }
 

@@ -33,6 +33,7 @@
 
 #include "drivers/stop_request.hpp"
 #include "rpc/params.hpp"
+#include "world/kinematics.hpp"
 #include "world/parameter.hpp"
 #include "world/plant.hpp"
 
@@ -97,6 +98,14 @@ struct DeviceModel {
   std::vector<Axis> axes;
   /// 1 for a one-axis model, else axes.size().
   int axis_count() const noexcept { return axes.empty() ? 1 : static_cast<int>(axes.size()); }
+  /// A pantograph (issue 22): its axes are the two motor joints, linked to
+  /// the handle by this linkage (world/kinematics.hpp), and the task-space
+  /// box it is used in (m), over which the gate takes its worst case.
+  struct Pantograph {
+    world::PantographGeometry geometry;
+    double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;
+  };
+  std::optional<Pantograph> pantograph;
 };
 
 /// A reference search the device ran itself before the loop (CiA 402

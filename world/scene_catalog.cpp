@@ -123,6 +123,8 @@ std::string_view to_string(StabilityRule rule) noexcept {
       return "hulin_wall";
     case StabilityRule::task_wall:
       return "task_wall";
+    case StabilityRule::per_axis:
+      return "per_axis";
   }
   return "none";
 }

@@ -39,6 +39,13 @@ struct SceneError {
   std::string parameter{};
 };
 
+/// A scene judged one axis at a time (StabilityRule::per_axis): the
+/// one-axis scene `scene` with `parameters` on each axis of the device.
+struct PerAxisJudgement {
+  std::string scene;
+  ParameterSet parameters;
+};
+
 struct ScenePlan {
   std::string scene;
   const SceneDescription* description = nullptr;  ///< the catalog's entry (lives as long as the program)
@@ -49,6 +56,8 @@ struct ScenePlan {
   AnyTaskScene task_object;
   /// A task-space wall: what the stability gate judges (StabilityRule::task_wall).
   std::optional<TaskWallJudgement> task_wall;
+  /// A scene on each axis of a stage: what the gate judges on each (StabilityRule::per_axis).
+  std::optional<PerAxisJudgement> per_axis;
   std::vector<ChannelDescription> channels;
   std::optional<DiscreteLinearScene> linear;  ///< spring scenes; wall: the in-contact law
   std::vector<std::string> notes;             ///< e.g. how damping=auto was resolved

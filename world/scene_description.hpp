@@ -35,8 +35,14 @@ enum class StabilityRule {
   /// plan's TaskWallJudgement, and the gate judges Hulin's one-axis wall
   /// along each of its directions with the mass the device has there.
   task_wall,
+  /// A scene on each axis of a Cartesian stage (axis-springs): the factory
+  /// sets the plan's PerAxisJudgement, and the gate judges that one-axis
+  /// scene on each axis with the axis' own mass and damping (exact: the
+  /// axes decouple), refusing with the axis and its limit.
+  per_axis,
 };
-std::string_view to_string(StabilityRule rule) noexcept;  ///< "none", "linear", "hulin_wall", "task_wall"
+std::string_view to_string(
+    StabilityRule rule) noexcept;  ///< "none", "linear", "hulin_wall", "task_wall", "per_axis"
 
 /// Where a scene lives: on one axis (position and force scalars), in task
 /// space (a device with several axes), or either (free).

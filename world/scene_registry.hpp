@@ -20,6 +20,6 @@ template <class... Entries>
 struct SceneList {};
 
 using SceneRegistry = SceneList<SpringWheelEntry, SpringMassEntry, WallEntry, RelayEntry, ChirpEntry,
-                                FreeEntry, PlaneWallEntry, SphereEntry, BoxEntry>;
+                                FreeEntry, PlaneWallEntry, SphereEntry, BoxEntry, AxisSpringsEntry>;
 
 }  // namespace hapticd::world

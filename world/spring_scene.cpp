@@ -3,6 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "world/scene_catalog.hpp"
 #include "world/text.hpp"
@@ -195,6 +196,33 @@ void build_spring(ScenePlan& plan, const SceneContext& context) {
   }
 }
 
+void build_axis_springs(ScenePlan& plan, const SceneContext& context) {
+  ParameterSet& p = plan.parameters;
+  SpringParameters sp;
+  sp.stiffness = number_of(p, "stiffness");
+  sp.inertia = number_of(p, "mass");
+  if (std::holds_alternative<std::string>(p["damping"])) {  // "auto"
+    sp.damping = context.period_s * sp.stiffness;
+    p["damping"] = sp.damping;
+    plan.notes.push_back("damping auto = T k = " + text::format_quantity(sp.damping, "N s/m") +
+                         " on every axis (Freudenberg 2.24)");
+  } else {
+    sp.damping = number_of(p, "damping");
+  }
+  sp.integrator = *parse_integrator(text_of(p, "integrator"));
+  const double t = context.period_s;
+  const Eigen::Index n = context.axes;
+  if (sp.damping == 0.0) {
+    set_task_scene(plan, AxisSpringsScene<SpringDamping::none>(sp, t, n));
+  } else if (text_of(p, "damping_reference") == "absolute") {
+    set_task_scene(plan, AxisSpringsScene<SpringDamping::absolute>(sp, t, n));
+  } else {
+    set_task_scene(plan, AxisSpringsScene<SpringDamping::relative>(sp, t, n));
+  }
+  // Judged per axis: spring-mass with these parameters (auto resolved) on each.
+  plan.per_axis = PerAxisJudgement{"spring-mass", p};
+}
+
 constexpr const char* spring_hint =
     "try damping=auto, i.e. b = T k (Freudenberg 2.24), or another integrator";
 
@@ -210,6 +238,44 @@ SceneDescription SpringWheelEntry::describe() {
           .unstable_hint = spring_hint,
           .build = build_spring};
 }
+
+SceneDescription AxisSpringsEntry::describe() {
+  // spring-mass' parameters without the passivity option (one observer per axis is not built).
+  std::vector<ParameterSpec> parameters;
+  for (auto& spec : spring_parameters(false)) {
+    if (!spec.name.starts_with("passivity")) parameters.push_back(std::move(spec));
+  }
+  return {
+      .name = "axis-springs",
+      .reference = "Freudenberg 2, 2.19-2.24 on each axis (issue 22)",
+      .summary = "spring-mass on each axis of a Cartesian stage: axis i's virtual mass on a spring to x_i",
+      .parameters = std::move(parameters),
+      .fixed_motion = Motion::linear,
+      .stability = StabilityRule::per_axis,
+      .unstable_hint = spring_hint,
+      .build = build_axis_springs,
+      .space = SceneSpace::task};
+}
+
+template <SpringDamping D>
+std::array<SpringScene<D>, max_axes> AxisSpringsScene<D>::make_springs(const SpringParameters& parameters,
+                                                                       double period_s) {
+  return [&]<std::size_t... i>(std::index_sequence<i...>) {
+    return std::array<SpringScene<D>, max_axes>{((void)i, SpringScene<D>(parameters, period_s))...};
+  }
+  (std::make_index_sequence<max_axes>{});
+}
+
+template <SpringDamping D>
+AxisSpringsScene<D>::AxisSpringsScene(const SpringParameters& parameters, double period_s, Eigen::Index axes)
+    : axes_(axes), springs_(make_springs(parameters, period_s)) {
+  if (axes < 1 || axes > max_axes)
+    throw std::invalid_argument("axis-springs: 1 to " + std::to_string(max_axes) + " axes");
+}
+
+template class AxisSpringsScene<SpringDamping::none>;
+template class AxisSpringsScene<SpringDamping::absolute>;
+template class AxisSpringsScene<SpringDamping::relative>;
 
 SceneDescription SpringMassEntry::describe() {
   return {.name = "spring-mass",

@@ -23,6 +23,7 @@
 #include <type_traits>
 
 #include "world/integrator.hpp"
+#include "world/kinematics.hpp"
 #include "world/passivity_scene.hpp"
 #include "world/scene.hpp"
 #include "world/state_space.hpp"
@@ -149,6 +150,47 @@ struct SpringWheelEntry {
 };
 struct SpringMassEntry {
   using alternatives = SpringWheelEntry::alternatives;
+  static SceneDescription describe();
+};
+
+/// `axis-springs` (issue 22): today's spring-mass on each task axis of a
+/// Cartesian stage, axis i's virtual mass tied to x_i alone, so the force
+/// on axis i is axis i's spring-mass force. Every axis takes the same law;
+/// the springs beyond the device's axes are built and never stepped (no
+/// allocation). The gate judges it per axis, exactly (StabilityRule::per_axis).
+template <SpringDamping D>
+class AxisSpringsScene {
+ public:
+  static constexpr std::size_t channel_count = 0;
+  static constexpr std::array<std::string_view, channel_count> channel_names{};
+  /// Throws std::invalid_argument as SpringScene, or for axes outside 1..max_axes.
+  AxisSpringsScene(const SpringParameters& parameters, double period_s, Eigen::Index axes);
+  void reset(const AxisVector& x) noexcept {
+    for (Eigen::Index i = 0; i < axes_; ++i) springs_[static_cast<std::size_t>(i)].reset(x(i));
+  }
+  void step(const AxisVector& x, AxisVector& force) noexcept {
+    force.resize(axes_);
+    for (Eigen::Index i = 0; i < axes_; ++i) force(i) = springs_[static_cast<std::size_t>(i)].step(x(i));
+  }
+  void channels(std::span<double> /*out*/) const noexcept {}
+  const SpringScene<D>& axis(std::size_t i) const { return springs_.at(i); }
+
+ private:
+  static std::array<SpringScene<D>, max_axes> make_springs(const SpringParameters& parameters,
+                                                           double period_s);
+  Eigen::Index axes_;
+  std::array<SpringScene<D>, max_axes> springs_;
+};
+
+extern template class AxisSpringsScene<SpringDamping::none>;
+extern template class AxisSpringsScene<SpringDamping::absolute>;
+extern template class AxisSpringsScene<SpringDamping::relative>;
+
+struct AxisSpringsEntry {
+  using alternatives = std::tuple<>;
+  using task_alternatives =
+      std::tuple<AxisSpringsScene<SpringDamping::none>, AxisSpringsScene<SpringDamping::absolute>,
+                 AxisSpringsScene<SpringDamping::relative>>;
   static SceneDescription describe();
 };
 

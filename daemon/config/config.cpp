@@ -361,17 +361,42 @@ class Parser {
     return names;
   }
 
-  /// [device] kinematics: "cartesian"; "pantograph" is not simulated yet.
+  /// [device] kinematics: "cartesian" or "pantograph" (checked against the
+  /// driver once the whole [device] table is read: check_kinematics).
   std::string get_kinematics(const toml::node& node, const std::string& key) const {
-    std::string value = get_string(node, key, "\"cartesian\"");
-    if (value == "pantograph")
-      fail(node.source(), key,
-           key +
-               " = \"pantograph\" is not simulated yet: the pantograph's kinematics exist "
-               "(world/kinematics.hpp, analysis/task_space.hpp) but no driver simulates its linkage; "
-               "accepted: \"cartesian\"");
-    if (value != "cartesian") out_of_range(node, key, "\"cartesian\"");
+    std::string value = get_string(node, key, "\"cartesian\" or \"pantograph\"");
+    if (value != "cartesian" && value != "pantograph")
+      out_of_range(node, key, "\"cartesian\" or \"pantograph\"");
     return value;
+  }
+
+  /// A pantograph needs a driver that simulates or drives one: today the
+  /// loopback with [device.loopback] linkage = "pantograph"; and such a
+  /// loopback needs kinematics = "pantograph" (its axes are joint angles).
+  void check_kinematics(const toml::table& table, const DeviceConfig& device) const {
+    const Parameter* linkage = nullptr;
+    for (const auto& p : device.parameters) {
+      if (p.key == "linkage") linkage = &p;
+    }
+    const auto* text = linkage == nullptr ? nullptr : std::get_if<std::string>(&linkage->value);
+    const bool simulated = device.driver == "loopback" && text != nullptr && *text == "pantograph";
+    const auto* node = table.get("kinematics");
+    if (device.kinematics == "pantograph" && !simulated) {
+      const std::string why =
+          device.driver == "loopback"
+              ? "the loopback simulates a pantograph only with [device.loopback] linkage = \"pantograph\""
+              : "the " + device.driver +
+                    " driver cannot provide a pantograph: it drives its axes one joint per task axis and "
+                    "reports no linkage (world/kinematics.hpp); only the loopback simulates one";
+      fail(node->source(), "device.kinematics",
+           "device.kinematics = \"pantograph\" is not accepted here: " + why +
+               "; accepted: \"cartesian\", or the loopback with [device.loopback] linkage = \"pantograph\"");
+    }
+    if (simulated && device.kinematics != "pantograph") {
+      throw ConfigError(linkage->where, "device.loopback.linkage",
+                        "device.loopback.linkage = \"pantograph\" reads joint angles of a linkage; it needs "
+                        "[device] kinematics = \"pantograph\" (accepted: that, or linkage = \"cartesian\")");
+    }
   }
 
   void parse_device(const toml::table& table, DeviceConfig& device) const {
@@ -427,6 +452,7 @@ class Parser {
         unknown_key(*key, "device", accepted);
       }
     }
+    check_kinematics(table, device);
   }
 
   void parse_scene(const toml::table& table, SceneConfig& scene) const {

@@ -97,8 +97,8 @@ struct DeviceConfig {
   std::vector<std::string> axis_names;
   SourcePosition axis_names_where;  ///< position of device.axis_names' value
   /// Joints to task space on several axes: "cartesian" (one task axis per
-  /// joint). The pantograph's kinematics exist (world/kinematics.hpp) but no
-  /// driver simulates one: refused.
+  /// joint) or "pantograph" (the five-bar linkage, world/kinematics.hpp;
+  /// only with the loopback's linkage = "pantograph", which provides it).
   std::string kinematics = "cartesian";
   /// A model file (`hapticctl identify --apply`) replacing the driver's model
   /// for the stability gate; resolved against the config file's directory. Empty: none.

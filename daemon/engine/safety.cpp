@@ -26,7 +26,9 @@ std::string_view to_string(FaultReason reason) noexcept {
     case FaultReason::encoder_jump:
       return "encoder jump / velocity limit";
     case FaultReason::kinematics:
-      return "kinematics: out of the workspace or at a singularity";
+      return "kinematics: out of the workspace (the linkage cannot close at these joint angles)";
+    case FaultReason::kinematics_singular:
+      return "kinematics: at a singular configuration of the linkage (no force can be rendered there)";
   }
   return "unknown";
 }

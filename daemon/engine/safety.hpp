@@ -25,7 +25,8 @@ enum class FaultReason : std::uint8_t {
   write_error,          ///< the driver could not apply the output
   overrun_streak,       ///< too many consecutive late cycles
   encoder_jump,         ///< the position stepped beyond max_velocity x interval + one count
-  kinematics,           ///< several axes: the joints are out of the workspace or at a singularity
+  kinematics,           ///< several axes: the joints are out of the linkage's workspace
+  kinematics_singular,  ///< several axes: the joints are at a singular configuration of the linkage
 };
 
 std::string_view to_string(FaultReason reason) noexcept;

@@ -23,8 +23,10 @@ static_assert(drivers::max_axes == world::max_axes, "the drivers' and the kinema
 /// The telemetry channels a device with several axes adds before the
 /// scene's: each axis' position, then its task force (the scene's and the
 /// workspace wall's, before the limit), then its joint output (sent to the
-/// device); then, with [gravity], each axis' feedforward (before the limit)
-/// and, with [workspace], the workspace wall's penetration.
+/// device); a linkage whose joints are not its task axes (the pantograph)
+/// adds the handle's task position after them; then, with [gravity], each
+/// axis' feedforward (before the limit) and, with [workspace], the workspace
+/// wall's penetration.
 inline constexpr std::size_t channels_per_axis = 3;
 
 struct TaskAxes {
@@ -46,6 +48,13 @@ struct TaskAxes {
   /// [workspace]: the wall held on top of every scene, and its force this period.
   std::optional<world::AnyTaskScene> workspace;
   world::AxisVector workspace_force;
+  /// The pantograph: its task position is not its joints' (telemetry shows both).
+  bool linkage = false;
+  /// Channels before the scene's: 3 per axis (+ the task position of a linkage).
+  std::size_t axis_channels() const noexcept {
+    return channels_per_axis * static_cast<std::size_t>(axes) +
+           (linkage ? static_cast<std::size_t>(force.size()) : 0);
+  }
 };
 
 }  // namespace hapticd::daemon::engine

@@ -27,7 +27,8 @@ TaskAxes::TaskAxes(int n, world::Kinematics k, PositionStepRule rule)
       output(world::AxisVector::Zero(n)),
       limits(world::AxisVector::Zero(n)),
       feedforward(world::AxisVector::Zero(n)),
-      workspace_force(world::AxisVector::Zero(world::task_dimensions(kinematics))) {
+      workspace_force(world::AxisVector::Zero(world::task_dimensions(kinematics))),
+      linkage(std::holds_alternative<world::PantographKinematics>(kinematics)) {
   if (world::joint_count(kinematics) != n)
     throw std::invalid_argument("the kinematics has " + std::to_string(world::joint_count(kinematics)) +
                                 " joints; the device has " + std::to_string(n) + " axes");
@@ -66,7 +67,8 @@ bool Engine::read_task_position(const rt::WakeUp& wake, TelemetrySample& sample)
   if (jumped) return false;
   world::solve(a.kinematics, a.joints, a.task);
   if (a.task.status != world::KinematicsStatus::ok) {
-    latch(FaultReason::kinematics);
+    latch(a.task.status == world::KinematicsStatus::singular ? FaultReason::kinematics_singular
+                                                             : FaultReason::kinematics);
     return false;
   }
   if (reset_pending_ && plan_ != nullptr) {
@@ -126,7 +128,9 @@ void Engine::run_task_cycle(const rt::WakeUp& wake) noexcept {
   note_write(device_.write_axes(std::span<const double>(a.output.data(), n)), sample);
   // The first axis in the one-axis fields, for clients that read one.
   sample.position = a.joints(0);
-  sample.command = a.force(0);
+  // A linkage's first joint: its torque J^T F before the limit (N m, as the
+  // column says), not the task force along x.
+  sample.command = a.linkage ? a.task.jacobian.col(0).dot(a.force) : a.force(0);
   sample.applied = a.output(0);
   finish_sample(wake, sample, output_latched);
 }
@@ -141,6 +145,14 @@ void Engine::task_channels(TelemetrySample& sample) const noexcept {
     sample.channels[2 * n + i] = a.output(k);
   }
   std::size_t count = channels_per_axis * n;
+  if (a.linkage) {
+    // The handle where the kinematics put it (0 when they could not).
+    for (Eigen::Index k = 0; k < a.force.size(); ++k)
+      sample.channels[count + static_cast<std::size_t>(k)] =
+          a.task.status == world::KinematicsStatus::ok && k < a.task.position.size() ? a.task.position(k)
+                                                                                     : 0.0;
+    count = a.axis_channels();
+  }
   if (a.gravity) {
     for (std::size_t i = 0; i < n; ++i)
       sample.channels[count + i] = a.feedforward(static_cast<Eigen::Index>(i));

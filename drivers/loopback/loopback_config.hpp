@@ -5,6 +5,8 @@
 /// how. SI units throughout: for motion = rotary, "mass" is an inertia in
 /// kg m^2, forces are torques in N m and positions are angles in rad.
 
+#include <array>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -12,6 +14,7 @@
 
 #include "drivers/driver_description.hpp"
 #include "drivers/simulation/hand_script.hpp"
+#include "drivers/simulation/pantograph_hand.hpp"
 #include "drivers/simulation/plant_config.hpp"
 
 namespace hapticd::drivers::loopback {
@@ -41,6 +44,14 @@ simulation::HandScript hand_script_from(const DriverParameters& parameters);
 struct LoopbackStage {
   std::vector<LoopbackConfig> axes;           ///< 1 to max_axes
   std::vector<simulation::HandScript> hands;  ///< one per axis
+  /// linkage = "pantograph": the two axes are its motor joints (rigid,
+  /// rotary: joint_inertia, joint_damping), the hand holds the handle.
+  struct Pantograph {
+    DeviceModel::Pantograph model;    ///< links and workspace
+    std::array<double, 2> start{};    ///< the handle at start-up, m
+    simulation::TaskHandScript hand;  ///< the `hand` key, on the handle
+  };
+  std::optional<Pantograph> pantograph;
 };
 
 /// From checked parameters; throws ParameterError naming the key (axes,

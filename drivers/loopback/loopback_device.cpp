@@ -26,6 +26,24 @@ LoopbackDevice::LoopbackDevice(const LoopbackStage& stage) {
                                 " axes, each with its hand");
   for (std::size_t i = 0; i < stage.axes.size(); ++i)
     simulators_.push_back(std::make_unique<simulation::PlantSimulator>(stage.axes[i], stage.hands[i]));
+  if (stage.pantograph) {
+    if (stage.axes.size() != 2) throw std::invalid_argument("loopback: a pantograph has two joints");
+    pantograph_ = stage.pantograph;
+    linkage_ = std::make_unique<simulation::PantographHand>(pantograph_->model.geometry, pantograph_->hand,
+                                                            stage.axes[0].period_s);
+    start_pantograph();
+  }
+}
+
+LoopbackDevice::~LoopbackDevice() = default;
+
+void LoopbackDevice::start_pantograph() {
+  world::AxisVector x(2);
+  x << pantograph_->start[0], pantograph_->start[1];
+  const auto q = linkage_->kinematics().inverse(x);
+  if (!q) throw std::invalid_argument("loopback: the pantograph's start is out of its reach");
+  for (std::size_t i = 0; i < 2; ++i)
+    simulators_[i]->set_initial_state((*q)(static_cast<Eigen::Index>(i)), 0.0);
 }
 
 std::unique_ptr<Device> make_loopback_device(const LoopbackConfig& config, const HandScript& hand) {
@@ -43,6 +61,10 @@ void LoopbackDevice::configure(const LoopContext& loop) {
       config.period_s = loop.period_s;
       axis = std::make_unique<simulation::PlantSimulator>(config, axis->hand());
     }
+  }
+  if (linkage_) {
+    linkage_->set_period(loop.period_s);
+    start_pantograph();
   }
 }
 
@@ -88,6 +110,15 @@ IoResult LoopbackDevice::read_axes(std::span<Reading> out) noexcept {
 
 IoResult LoopbackDevice::write_axes(std::span<const double> forces) noexcept {
   IoResult result = IoResult::ok;
+  if (linkage_ && forces.size() == 2) {
+    // The hand on the handle, from the joints' true state at the period's start.
+    const std::array<double, 2> q{simulators_[0]->body_position(), simulators_[1]->body_position()};
+    const std::array<double, 2> qd{simulators_[0]->body_velocity(), simulators_[1]->body_velocity()};
+    std::array<simulation::JointDrive, 2> drives{};
+    linkage_->drives(q, qd, steps_++, drives);
+    for (std::size_t i = 0; i < 2; ++i) result = worse(result, simulators_[i]->step(forces[i], drives[i]));
+    return result;
+  }
   for (std::size_t i = 0; i < forces.size() && i < simulators_.size(); ++i)
     result = worse(result, simulators_[i]->step(forces[i]));
   return result;
@@ -108,6 +139,13 @@ DeviceModel LoopbackDevice::model() const {
   if (simulators_.size() == 1) return m;
   // A stage: every axis, and the lightest one in the one-axis fields.
   m.description = "linear, Cartesian stage of " + std::to_string(simulators_.size()) + " rigid axes";
+  if (pantograph_) {
+    const auto& g = pantograph_->model.geometry;
+    m.pantograph = pantograph_->model;
+    m.description = "pantograph: two rigid rotary joints, links " + to_text(ParameterValue(g.a1)) + ", " +
+                    to_text(ParameterValue(g.a2)) + ", " + to_text(ParameterValue(g.a3)) + ", " +
+                    to_text(ParameterValue(g.a4)) + ", " + to_text(ParameterValue(g.a5)) + " m";
+  }
   for (const auto& axis : simulators_) {
     m.axes.push_back({axis->config().mass, axis->config().damping});
     if (axis->config().mass < m.effective_mass) {
@@ -226,6 +264,24 @@ json without_axis(json params) {
 
 }  // namespace
 
+json LoopbackDevice::set_pantograph_hand(const json& params) {
+  try {
+    if (params.contains("axis")) {
+      // A joint's own script, as on a stage.
+      const auto [first, last] = target_axes("hand.set", params, simulators_.size());
+      const std::string text = hand_text(without_axis(params));
+      for (std::size_t i = first; i < last; ++i) simulators_[i]->set_hand(text);
+    } else {
+      linkage_->set_script(simulation::parse_task_hand_script(hand_text(params), pantograph_->start));
+    }
+  } catch (const std::invalid_argument& e) {
+    throw RpcError(code::invalid_params, e.what());
+  }
+  json joints = json::array();
+  for (const auto& axis : simulators_) joints.push_back(axis->hand().to_text());
+  return json{{"hand", linkage_->script().to_text()}, {"joints", joints}};
+}
+
 std::vector<DeviceMethod> LoopbackDevice::methods() {
   const bool stage = simulators_.size() > 1;
   rpc::ParamMembers hand_keys = hand_members();
@@ -234,8 +290,13 @@ std::vector<DeviceMethod> LoopbackDevice::methods() {
     hand_keys.push_back({"axis", rpc::ParamType::number});
     fault_keys.push_back({"axis", rpc::ParamType::number});
   }
+  if (linkage_) {
+    hand_keys.push_back({"direction", rpc::ParamType::string});
+    hand_keys.push_back({"origin", rpc::ParamType::string});
+  }
   DeviceMethod hand{"hand.set", true, "script the simulated hand (docs/protocol.md)",
                     [this, stage](const json& params) {
+                      if (linkage_) return set_pantograph_hand(params);
                       const auto [first, last] = target_axes("hand.set", params, simulators_.size());
                       try {
                         const std::string text = hand_text(without_axis(params));

@@ -34,8 +34,11 @@ class LoopbackDevice final : public DeviceHooks {
   /// period differs).
   explicit LoopbackDevice(const LoopbackConfig& config, const HandScript& hand = {});
   /// A Cartesian stage: one simulator per axis (stage.axes.size() of them,
-  /// 1 to max_axes); one axis is the constructor above.
+  /// 1 to max_axes); one axis is the constructor above. A pantograph
+  /// (stage.pantograph): one simulator per motor joint, at the joint angles
+  /// of the handle's start, and the hand on the handle.
   explicit LoopbackDevice(const LoopbackStage& stage);
+  ~LoopbackDevice() override;
 
   void configure(const LoopContext& loop) override;
   void enable() override;
@@ -58,6 +61,8 @@ class LoopbackDevice final : public DeviceHooks {
   const simulation::PlantSimulator& simulator() const noexcept { return *simulators_.front(); }
   /// Axis `index`'s simulator, 0-based.
   simulation::PlantSimulator& simulator(std::size_t index) { return *simulators_.at(index); }
+  /// A pantograph's hand on the handle (nullptr for a stage or one axis).
+  simulation::PantographHand* pantograph_hand() noexcept { return linkage_.get(); }
 
   // The simulator's own calls, for tests and tools.
   const LoopbackConfig& config() const noexcept { return simulator().config(); }
@@ -80,7 +85,15 @@ class LoopbackDevice final : public DeviceHooks {
   }
 
  private:
+  /// hand.set on a pantograph: the handle (no axis) or a joint's own script.
+  nlohmann::json set_pantograph_hand(const nlohmann::json& params);
+  /// The joints at the handle's start, at rest.
+  void start_pantograph();
+
   std::vector<std::unique_ptr<simulation::PlantSimulator>> simulators_;  ///< one per axis
+  std::optional<LoopbackStage::Pantograph> pantograph_;                  ///< linkage = pantograph
+  std::unique_ptr<simulation::PantographHand> linkage_;                  ///< its hand on the handle
+  std::uint64_t steps_ = 0;                                              ///< write_axes() calls (RT)
 };
 
 /// The framework's Device around a loopback driver (tests, tools).

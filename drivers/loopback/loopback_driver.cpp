@@ -32,7 +32,26 @@ std::vector<ParameterSpec> stage_parameters() {
           .defaults_to(""),
       P::text("hands",
               "axes > 1: one hand script per axis, separated by ';' (\"mode=hold trajectory=ramp to=0.01 "
-              "rate=0.01; mode=free\"); unset: the hand table on every axis")
+              "rate=0.01; mode=free\"); unset: the hand table on every axis (a pantograph: free joints)")
+          .defaults_to(""),
+      P::choice("linkage", {"cartesian", "pantograph"},
+                "cartesian (axes independent: a stage) or pantograph (the planar five-bar linkage of "
+                "Hapkit/Haply 2-DOF devices: two rotary motor joints, the hand on the handle; set "
+                "[device] kinematics = \"pantograph\")")
+          .defaults_to("cartesian"),
+      P::text("links",
+              "pantograph: a1,a2,a3,a4,a5 in m (Campion et al. 2005: proximal left, distal left, distal "
+              "right, proximal right, the motors' distance)")
+          .defaults_to("0.07,0.09,0.09,0.07,0.0381"),
+      P::text("joint_inertia", "pantograph: each motor joint's inertia in kg m^2, comma-separated")
+          .defaults_to("0.0005,0.0005"),
+      P::text("joint_damping", "pantograph: each motor joint's viscous damping in N m s/rad, comma-separated")
+          .defaults_to("0,0"),
+      P::text("workspace",
+              "pantograph: the task-space box x_min,x_max,y_min,y_max in m it is used in (the gate's worst "
+              "case is over it; it must be reachable and away from singularities everywhere)")
+          .defaults_to("-0.02,0.06,0.07,0.12"),
+      P::text("start", "pantograph: the handle's position x,y at start-up, m; unset: the workspace's centre")
           .defaults_to(""),
   };
 }

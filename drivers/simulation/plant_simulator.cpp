@@ -201,7 +201,7 @@ double PlantSimulator::friction_mass_load(const std::array<double, 4>& x, double
   return load;
 }
 
-void PlantSimulator::advance_plant(double u) noexcept {
+void PlantSimulator::advance_plant(double u, const JointDrive& drive) noexcept {
   const PreparedHand* hand = acquire_hand();
   if (hand->id != active_hand_id_) {
     active_hand_id_ = hand->id;
@@ -213,12 +213,15 @@ void PlantSimulator::advance_plant(double u) noexcept {
   const HandScript& script = hand->script;
   released_ = script.released(t);
   const HandKind kind = released_ ? HandKind::free : hand->kind;
-  if (kind == HandKind::constraint) {
+  if (drive.pinned) {
+    step_along_trajectory(u, drive.reference);
+  } else if (kind == HandKind::constraint) {
     step_along_trajectory(u, script.trajectory.at_time(t_next));
   } else {
     const bool impedance = kind == HandKind::impedance;
     HandPull pull;
     pull.external = (kind == HandKind::force ? script.force_at_time(t) : 0.0) + config_.weight;
+    if (drive.external != 0.0) pull.external += drive.external;
     if (impedance) {
       pull.stiffness = hand->stiffness;
       pull.damping = hand->damping;
@@ -354,7 +357,7 @@ IoResult PlantSimulator::sense(double& position) noexcept {
   return IoResult::ok;
 }
 
-IoResult PlantSimulator::step(double force) noexcept {
+IoResult PlantSimulator::step(double force, const JointDrive& drive) noexcept {
   auto end_period = [this]() noexcept {
     count_down(read_error_left_);
     count_down(stall_left_);
@@ -386,7 +389,7 @@ IoResult PlantSimulator::step(double force) noexcept {
   const std::size_t delay = static_cast<std::size_t>(config_.delay);
   applied_ = faulted ? 0.0 : delay_line_[(delay_head_ + length - delay) % length];
   delay_head_ = (delay_head_ + 1) % length;
-  advance_plant(applied_);
+  advance_plant(applied_, drive);
   ++period_;
   end_period();
   publish_snapshot();

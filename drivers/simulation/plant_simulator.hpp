@@ -84,6 +84,16 @@ struct SimulatorCounters {
   std::uint64_t faults = 0;        ///< sense() or step() returned fault
 };
 
+/// What a linkage's hand does to one joint over one period, besides the
+/// joint's own script (drivers/simulation/pantograph_simulator.hpp): a
+/// torque J^T F_hand added to the body, or the joint pinned to a reference
+/// (the handle held ideally: every joint follows it, its script waits).
+struct JointDrive {
+  double external = 0.0;  ///< N or N m on the body, added to the script's hand
+  bool pinned = false;
+  Trajectory::Sample reference{};  ///< pinned: the body's position and velocity at the period's end
+};
+
 class PlantSimulator {
  public:
   /// Validates the config (throws std::invalid_argument) and discretizes the plant.
@@ -96,7 +106,13 @@ class PlantSimulator {
   IoResult sense(double& position) noexcept;
   /// Commands `force` (saturated; zero while faulted; non-finite: zero and an
   /// error) and advances the plant one period through the output delay line.
-  IoResult step(double force) noexcept;
+  IoResult step(double force) noexcept { return step(force, JointDrive{}); }
+  /// step() with a linkage's hand on this joint as well.
+  IoResult step(double force, const JointDrive& drive) noexcept;
+  /// The true (unquantized) body position and velocity: for the thread that
+  /// steps the plant (a linkage computing its hand), between steps.
+  double body_position() const noexcept { return x_[pos_body_]; }
+  double body_velocity() const noexcept { return x_[vel_body_]; }
   /// Empties the delay line and zeroes the commanded and applied force (an
   /// amplifier switched on again applies nothing stale).
   void reset_actuator() noexcept;
@@ -154,7 +170,7 @@ class PlantSimulator {
   const detail::PreparedHand* acquire_hand() noexcept;
   void release_hand() noexcept;
   /// One period of the plant under the hand's current script (RT path).
-  void advance_plant(double motor_force) noexcept;
+  void advance_plant(double motor_force, const JointDrive& drive) noexcept;
   /// x_ = ad x0 + bd [motor force, body force, reference, reference rate].
   void step_model(const detail::StepModel& m, const std::array<double, 4>& x0, double motor_force,
                   double body_force, double reference, double reference_rate) noexcept;

@@ -188,4 +188,143 @@ TEST(TaskGate, AxesThatCannotBeJudgedGiveNoVerdictEvenForced) {
 
 }  // namespace
 
+// ---- the pantograph: the worst case over the workspace, a bound ----
+
+namespace {
+
+GateDevice pantograph(std::vector<JointModel> joints, const TaskBox& box) {
+  GateDevice device =
+      rigid_device(joints.front().mass, joints.front().damping, period, 0, world::Motion::rotary);
+  device.axes = std::move(joints);
+  device.axis_names = {"q1", "q2"};
+  device.pantograph = world::PantographKinematics(world::PantographGeometry{});
+  device.workspace = box;
+  return device;
+}
+
+}  // namespace
+
+TEST(TaskGate, APantographsPlaneWallIsJudgedAtItsLightestConfigurationAndSaysItIsABound) {
+  const TaskBox box{-0.02, 0.06, 0.07, 0.12};
+  for (const auto& joints : {std::vector<JointModel>{{5e-4, 0.0}, {5e-4, 0.0}},
+                             std::vector<JointModel>{{3e-4, 0.0}, {8e-4, 0.0}}}) {
+    for (const auto& normal : {std::vector<double>{0, -1}, std::vector<double>{1, 1}}) {
+      const GateDevice device = pantograph(joints, box);
+      const DirectionalModel worst = pantograph_along(*device.pantograph, joints, direction(normal), box);
+      const GateRefusal refusal = refused_plane(device, normal, 1.0, 1);
+      SCOPED_TRACE(refusal.message);
+      // The limit is the one-axis limit with the worst case's m_n.
+      const WallVerdict one_axis = analyze_wall(worst.mass, period, 1, 1e7, 1.0);
+      ASSERT_TRUE(refusal.hulin.has_value());
+      EXPECT_NEAR(refusal.hulin->k_max / one_axis.k_max, 1.0, 1e-9);
+      EXPECT_NE(refusal.message.find("a bound, not exact"), std::string::npos);
+      EXPECT_NE(refusal.message.find("its worst case at ("), std::string::npos) << "with the configuration";
+      // The bound is the worst case: no configuration of the box is lighter along n.
+      const world::PantographKinematics k{world::PantographGeometry{}};
+      const world::AxisVector n = direction(normal).normalized();
+      for (int i = 0; i <= 10; ++i) {
+        for (int j = 0; j <= 10; ++j) {
+          world::AxisVector x(2);
+          x << box.x_min + (box.x_max - box.x_min) * i / 10, box.y_min + (box.y_max - box.y_min) * j / 10;
+          world::TaskState s;
+          k.solve(*k.inverse(x), s);
+          const world::AxisVector jt_n = s.jacobian.transpose() * n;
+          const double m_n = 1.0 / (jt_n(0) * jt_n(0) / joints[0].mass + jt_n(1) * jt_n(1) / joints[1].mass);
+          EXPECT_GE(m_n, worst.mass * (1 - 1e-12)) << "at " << x.transpose();
+        }
+      }
+    }
+  }
+}
+
+TEST(TaskGate, APantographsSphereIsJudgedAlongTheLightestDirectionAnywhere) {
+  const TaskBox box{-0.02, 0.06, 0.07, 0.12};
+  const std::vector<JointModel> joints{{5e-4, 0.0}, {5e-4, 0.0}};
+  const GateDevice device = pantograph(joints, box);
+  world::AxisVector n;
+  const DirectionalModel lightest = pantograph_lightest(*device.pantograph, joints, box, n);
+  // Lighter than along any one direction's worst case.
+  for (const auto& d : {std::vector<double>{1, 0}, std::vector<double>{0, 1}, std::vector<double>{1, 1}}) {
+    EXPECT_LE(lightest.mass,
+              pantograph_along(*device.pantograph, joints, direction(d), box).mass * (1 + 1e-9));
+  }
+  EXPECT_NEAR(pantograph_along(*device.pantograph, joints, n, box).mass / lightest.mass, 1.0, 1e-3)
+      << "along its own direction the worst case is the same configuration";
+  const auto outcome =
+      gate_scene("sphere", {{"stiffness", 1e7}, {"damping", 1.0}, {"delay", 1.0}}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+  const auto& refusal = std::get<GateRefusal>(outcome);
+  EXPECT_NE(refusal.message.find("the lightest direction ("), std::string::npos) << refusal.message;
+  EXPECT_NEAR(refusal.hulin->k_max / analyze_wall(lightest.mass, period, 1, 1e7, 1.0).k_max, 1.0, 1e-9);
+}
+
+TEST(TaskGate, APantographWorkspaceOutOfReachCannotBeAssessed) {
+  const GateDevice device = pantograph({{5e-4, 0.0}, {5e-4, 0.0}}, TaskBox{-0.02, 0.06, 0.07, 0.3});
+  const auto outcome = gate_scene("plane-wall", {{"normal", "0,1"}, {"stiffness", 100.0}}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+  EXPECT_FALSE(std::get<GateRefusal>(outcome).assessed);
+  EXPECT_NE(std::get<GateRefusal>(outcome).message.find("out of the pantograph's reach"), std::string::npos);
+}
+
+// ---- axis-springs: spring-mass judged on each axis with its own mass ----
+
+TEST(TaskGate, AxisSpringsIsJudgedPerAxisExactlyAndRefusedNamingTheAxisAndItsLimit) {
+  // Undamped spring-mass with forward Euler grows on any mass; the exact
+  // integrator with relative damping is stable up to a limit that depends
+  // on the axis' mass: the lighter axis fails first.
+  const GateDevice device = stage({{0.3, 0.0}, {0.05, 0.0}, {1.0, 0.0}});
+  const world::ParameterSet springs{{"stiffness", 5e4}, {"mass", 0.5}, {"damping", 30.0}};
+  const auto outcome = gate_scene("axis-springs", springs, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome)) << "K = 5e4 N/m with B = 30 on 0.05 kg";
+  const GateRefusal& refusal = std::get<GateRefusal>(outcome);
+  EXPECT_TRUE(refusal.message.starts_with(
+      "axis-springs on axis y (m = 0.05 kg, b = 0 N s/m, exact: the axes decouple): "))
+      << refusal.message;
+  // The limit is the one-axis gate's for spring-mass on that axis alone.
+  const auto alone =
+      gate_scene("spring-mass", springs, rigid_device(0.05, 0.0, period, 0, world::Motion::linear), false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(alone));
+  const GateRefusal& one_axis = std::get<GateRefusal>(alone);
+  ASSERT_TRUE(one_axis.stiffness_limit.has_value());
+  ASSERT_TRUE(refusal.stiffness_limit.has_value());
+  EXPECT_EQ(*refusal.stiffness_limit, *one_axis.stiffness_limit);
+  EXPECT_EQ(refusal.message.substr(refusal.message.find("decouple): ") + 11), one_axis.message.substr(13))
+      << "the one-axis reason after 'spring-mass: '";
+  // Each axis exactly: accepted iff every axis alone accepts it.
+  for (const double k : {0.5 * *one_axis.stiffness_limit, 0.99 * *one_axis.stiffness_limit,
+                         1.01 * *one_axis.stiffness_limit}) {
+    world::ParameterSet at = springs;
+    at["stiffness"] = k;
+    bool every_axis = true;
+    for (const double m : {0.3, 0.05, 1.0}) {
+      every_axis = every_axis &&
+                   std::holds_alternative<GateAccepted>(gate_scene(
+                       "spring-mass", at, rigid_device(m, 0.0, period, 0, world::Motion::linear), false));
+    }
+    EXPECT_EQ(std::holds_alternative<GateAccepted>(gate_scene("axis-springs", at, device, false)), every_axis)
+        << "K = " << k;
+  }
+  // The heaviest axis is named when it is the one that fails (damping per axis).
+  const GateDevice damped = stage({{0.05, 5.0}, {0.4, 0.0}});
+  const auto heavy =
+      gate_scene("axis-springs", {{"stiffness", 1e5}, {"mass", 0.5}, {"damping", 20.0}}, damped, false);
+  if (std::holds_alternative<GateRefusal>(heavy)) {
+    const auto& message = std::get<GateRefusal>(heavy).message;
+    const bool x_fails = std::holds_alternative<GateRefusal>(
+        gate_scene("spring-mass", {{"stiffness", 1e5}, {"mass", 0.5}, {"damping", 20.0}},
+                   rigid_device(0.05, 5.0, period, 0, world::Motion::linear), false));
+    EXPECT_NE(message.find(x_fails ? "on axis x (m = 0.05 kg, b = 5 N s/m" : "on axis y (m = 0.4 kg"),
+              std::string::npos)
+        << message;
+  }
+}
+
+TEST(TaskGate, AxisSpringsOnAPantographCannotBeAssessedSayingWhy) {
+  const GateDevice device = pantograph({{5e-4, 0.0}, {5e-4, 0.0}}, TaskBox{-0.02, 0.06, 0.07, 0.12});
+  const auto outcome = gate_scene("axis-springs", {}, device, false);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+  EXPECT_FALSE(std::get<GateRefusal>(outcome).assessed);
+  EXPECT_NE(std::get<GateRefusal>(outcome).message.find("needs a Cartesian stage"), std::string::npos);
+}
+
 }  // namespace task_gate_test

@@ -279,9 +279,23 @@ TEST(ConfigErrors, AxisNamesAndKinematicsNameTheKeyAndWhatIsAccepted) {
   EXPECT_EQ(error_of("[device]\naxis_names = [\"a\",\"b\",\"c\",\"d\",\"e\",\"f\",\"g\"]"),
             "t.toml:2:14: device.axis_names = [...] is out of range; accepted: " + names);
   EXPECT_EQ(error_of("[device]\nkinematics = \"scara\""),
-            "t.toml:2:14: device.kinematics = \"scara\" is out of range; accepted: \"cartesian\"");
-  EXPECT_EQ(error_of("[device]\nkinematics = \"pantograph\"").substr(0, 74),
-            "t.toml:2:14: device.kinematics = \"pantograph\" is not simulated yet: the pa");
+            "t.toml:2:14: device.kinematics = \"scara\" is out of range; accepted: \"cartesian\" or "
+            "\"pantograph\"");
+  // A pantograph only where a driver provides one (the loopback's linkage),
+  // saying why not; and the loopback's linkage only with its kinematics.
+  EXPECT_EQ(
+      error_of("[device]\nkinematics = \"pantograph\""),
+      "t.toml:2:14: device.kinematics = \"pantograph\" is not accepted here: the loopback simulates a "
+      "pantograph only with [device.loopback] linkage = \"pantograph\"; accepted: \"cartesian\", or the "
+      "loopback with [device.loopback] linkage = \"pantograph\"");
+  EXPECT_EQ(error_of("[device]\ndriver = \"canopen\"\nkinematics = \"pantograph\"").substr(0, 125),
+            "t.toml:3:14: device.kinematics = \"pantograph\" is not accepted here: the canopen driver cannot "
+            "provide a pantograph: it drives");
+  EXPECT_EQ(error_of("[device]\n[device.loopback]\nlinkage = \"pantograph\"").substr(0, 88),
+            "t.toml:3:11: device.loopback.linkage = \"pantograph\" reads joint angles of a linkage; it ");
+  const auto pantograph = parse_config(
+      "[device]\nkinematics = \"pantograph\"\n[device.loopback]\nlinkage = \"pantograph\"", "t.toml");
+  EXPECT_EQ(pantograph.device.kinematics, "pantograph");
   const auto config =
       parse_config("[device]\naxis_names = [\"left\", \"up_2\"]\nkinematics = \"cartesian\"", "t.toml");
   EXPECT_EQ(config.device.axis_names, (std::vector<std::string>{"left", "up_2"}));

@@ -38,6 +38,7 @@ TEST(ShippedConfigs, EveryFileParsesWithTheExpectedDriverAndScene) {
       {"loopback-wheel.toml", {"loopback", "spring-wheel"}},
       {"loopback-linear-wall.toml", {"loopback", "wall"}},
       {"loopback-two-mass.toml", {"loopback", "relay"}},
+      {"loopback-pantograph.toml", {"loopback", "plane-wall"}},
       {"usb-hid.toml", {"usb-hid", "spring-wheel"}},
       {"canopen.toml", {"canopen", "spring-wheel"}},
       {"modbus.toml", {"modbus", "spring-wheel"}},

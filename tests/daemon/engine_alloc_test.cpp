@@ -494,6 +494,10 @@ std::vector<NamedPlan> every_task_plan() {
       add("box", box, "box" + tag);
     }
   }
+  add("axis-springs", {{"stiffness", 200.0}, {"damping", 0.0}}, "axis-springs");
+  add("axis-springs", {{"stiffness", 200.0}, {"damping", 2.0}, {"damping_reference", "absolute"}},
+      "axis-springs absolute");
+  add("axis-springs", {{"stiffness", 200.0}, {"damping", 2.0}}, "axis-springs relative");
   add("free", {}, "free");
   return out;
 }
@@ -518,13 +522,14 @@ TEST(EngineAlloc, SixAxesEveryTaskSceneFaultsAndClearsAllocateNothing) {
   };
   std::vector<TelemetrySample> buffer(4096);
   auto plans = every_task_plan();
-  ASSERT_EQ(plans.size(), 13u);
+  ASSERT_EQ(plans.size(), 16u);
   std::set<std::size_t> alternatives;
   for (auto& named : plans) alternatives.insert(named.plan->task_scene.index());
   EXPECT_EQ(alternatives.size(), std::variant_size_v<world::AnyTaskScene>);
   for (auto& named : plans) {
     SCOPED_TRACE(named.label);
     const bool is_free = named.label == "free";
+    const bool no_channels = is_free || named.label.starts_with("axis-springs");
     engine.publish(std::move(named.plan));
     EXPECT_EQ(guarded(1), 0u) << "the install";
     EXPECT_EQ(guarded(2000), 0u);
@@ -537,7 +542,7 @@ TEST(EngineAlloc, SixAxesEveryTaskSceneFaultsAndClearsAllocateNothing) {
     EXPECT_EQ(guarded(1500), 0u);
     EXPECT_EQ(engine.fault(), FaultReason::none);
     const DrainSummary s = drain_all(engine, buffer);
-    EXPECT_EQ(s.channel_counts, (std::set<std::uint32_t>{is_free ? 18u : 19u})) << "6 x 3 + the scene's";
+    EXPECT_EQ(s.channel_counts, (std::set<std::uint32_t>{no_channels ? 18u : 19u})) << "6 x 3 + the scene's";
     if (is_free) {
       EXPECT_EQ(s.nonzero_applied, 0u);
     } else {
@@ -546,6 +551,131 @@ TEST(EngineAlloc, SixAxesEveryTaskSceneFaultsAndClearsAllocateNothing) {
     }
   }
   EXPECT_GT(engine.counters().telemetry_dropped, 0u) << "the ring filled and dropped";
+  device->disable();
+}
+
+// ---- the pantograph (issue 22): FK, J^T F and its faults on the RT thread ----
+
+namespace {
+
+/// The loopback pantograph of the default links, its handle held on a 1 Hz
+/// sine along y through the scenes' surfaces.
+std::unique_ptr<hapticd::drivers::Device> pantograph_device() {
+  loopback::LoopbackStage stage;
+  auto joint = loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::rotary);
+  joint.mass = 5e-4;
+  joint.damping = 0.0;
+  stage.axes = {joint, joint};
+  stage.hands.resize(2);
+  loopback::LoopbackStage::Pantograph linkage;
+  linkage.model.x_min = -0.02, linkage.model.x_max = 0.06, linkage.model.y_min = 0.07,
+  linkage.model.y_max = 0.12;
+  linkage.start = {0.02, 0.095};
+  linkage.hand = hapticd::drivers::simulation::parse_task_hand_script(
+      "direction=0,1 mode=hold trajectory=sine amplitude=0.01 frequency=1", linkage.start);
+  stage.pantograph = linkage;
+  return std::make_unique<hapticd::drivers::Device>("loopback",
+                                                    std::make_unique<loopback::LoopbackDevice>(stage));
+}
+
+/// Every task-space alternative on the pantograph's plane.
+std::vector<NamedPlan> every_pantograph_plan() {
+  std::vector<NamedPlan> out;
+  const auto add = [&](const std::string& scene, world::ParameterSet parameters, const std::string& label) {
+    auto outcome = world::plan_scene(scene, parameters, period_s, world::Motion::linear, 2);
+    if (const auto* error = std::get_if<world::SceneError>(&outcome)) {
+      ADD_FAILURE() << scene << ": " << error->message;
+      return;
+    }
+    auto plan = std::make_unique<LoopPlan>();
+    plan->task_scene = std::get<world::ScenePlan>(outcome).task_object;
+    plan->torque_limit = 0.05;
+    out.push_back({label, std::move(plan)});
+  };
+  for (const double damping : {0.0, 5.0}) {
+    for (const double delay : {0.0, 2.0}) {
+      const world::ParameterSet law{{"stiffness", 500.0}, {"damping", damping}, {"delay", delay}};
+      const std::string tag = " B=" + std::to_string(damping) + " d=" + std::to_string(delay);
+      auto plane = law;
+      plane.emplace("normal", "0,-1");
+      plane.emplace("offset", -0.1);  // the wall at y = 0.1 m
+      add("plane-wall", plane, "plane-wall" + tag);
+      auto sphere = law;
+      sphere.emplace("center", "0.02,0.095");
+      sphere.emplace("radius", 0.007);
+      sphere.emplace("side", "inside");
+      add("sphere", sphere, "sphere" + tag);
+      auto box = law;
+      box.emplace("low", "-0.01,0.09");
+      box.emplace("high", "0.05,0.1");
+      add("box", box, "box" + tag);
+    }
+  }
+  add("free", {}, "free");
+  return out;
+}
+
+}  // namespace
+
+TEST(EngineAlloc, PantographEveryTaskSceneAndItsKinematicsFaultAllocateNothing) {
+  rt::VirtualClock clock;
+  auto device = pantograph_device();
+  EngineOptions options = quiet_options(1u << 12);
+  options.position_rule.resolution = 2 * 3.14159265358979 / 16384;
+  options.position_rule.rotary = true;
+  options.kinematics = world::PantographKinematics(world::PantographGeometry{});
+  Engine engine(options, *device, clock);
+  rt::PeriodicSchedule schedule(clock, rt::Nanos{1'000'000});
+  device->configure({period_s});
+  device->enable();
+  schedule.start();
+  auto& plant = device->hooks_as<loopback::LoopbackDevice>();
+  const auto guarded = [&](int n) {
+    AllocationGuard guard;
+    for (int i = 0; i < n; ++i) engine.run_cycle(schedule.wait_next());
+    return guard.count();
+  };
+  std::vector<TelemetrySample> buffer(4096);
+  auto plans = every_pantograph_plan();
+  ASSERT_EQ(plans.size(), 13u);
+  for (auto& named : plans) {
+    SCOPED_TRACE(named.label);
+    const bool is_free = named.label == "free";
+    engine.publish(std::move(named.plan));
+    EXPECT_EQ(guarded(1), 0u) << "the install";
+    EXPECT_EQ(guarded(2000), 0u);
+    EXPECT_EQ(engine.fault(), FaultReason::none);
+    const DrainSummary s = drain_all(engine, buffer);
+    EXPECT_EQ(s.channel_counts, (std::set<std::uint32_t>{is_free ? 8u : 9u}))
+        << "2 x 3 + the handle's x and y + the scene's";
+    if (is_free) {
+      EXPECT_EQ(s.nonzero_applied, 0u);
+    } else {
+      EXPECT_GT(s.nonzero_applied, 100u) << "the scene pushed while the hand crossed its surface";
+    }
+  }
+  // The joints taken where the linkage is singular: the fault latches on
+  // the RT thread, with nothing allocated, and the output is zero.
+  plant.pantograph_hand()->set_script(
+      hapticd::drivers::simulation::parse_task_hand_script("mode=free", {0.02, 0.095}));
+  // Springs pull the joints towards (3.3, -0.2) rad, slowly (10 rad/s, half
+  // damped, no encoder jump), along a line in joint space (equal joints):
+  // the left arm stretches until J all but loses a direction.
+  plant.simulator(0).set_hand("mode=impedance stiffness=0.05 damping=0.005 trajectory=constant position=3.3");
+  plant.simulator(1).set_hand(
+      "mode=impedance stiffness=0.05 damping=0.005 trajectory=constant position=-0.2");
+  world::TaskState there;
+  world::AxisVector q(2);
+  q << 3.3, -0.2;
+  world::PantographKinematics(world::PantographGeometry{}).solve(q, there);
+  ASSERT_EQ(there.status, world::KinematicsStatus::singular) << "the joints' goal is not a place to render";
+  EXPECT_EQ(guarded(1500), 0u);
+  EXPECT_EQ(engine.fault(), FaultReason::kinematics_singular) << to_string(engine.fault());
+  drain_all(engine, buffer);
+  EXPECT_EQ(guarded(50), 0u);
+  const DrainSummary after = drain_all(engine, buffer);
+  EXPECT_EQ(after.nonzero_applied, 0u);
+  EXPECT_EQ(after.fault_latched, after.samples);
   device->disable();
 }
 

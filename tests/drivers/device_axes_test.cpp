@@ -183,7 +183,7 @@ TEST(LoopbackStage, AxesOneOrAbsentIsExactlyTodaysLoopback) {
   EXPECT_EQ(absent.axes[0].motion, today.motion);
   // Sample by sample against the one-axis constructor, under a hand.
   const auto hand = hapticd::drivers::simulation::parse_hand_script("mode=force force=0.3");
-  LoopbackDevice stage_device(LoopbackStage{{today}, {hand}});
+  LoopbackDevice stage_device(LoopbackStage{{today}, {hand}, std::nullopt});
   LoopbackDevice today_device(today, hand);
   stage_device.configure({1e-3});
   today_device.configure({1e-3});

@@ -29,8 +29,8 @@ TEST(SceneCatalog, ListsTheFiveScenes) {
   std::vector<std::string> names;
   for (const auto& s : scene_catalog()) names.push_back(s.name);
   EXPECT_EQ(names, (std::vector<std::string>{"spring-wheel", "spring-mass", "wall", "relay", "chirp", "free",
-                                             "plane-wall", "sphere", "box"}));
-  // A one-axis device takes the first six; the last three are in task space (several axes).
+                                             "plane-wall", "sphere", "box", "axis-springs"}));
+  // A one-axis device takes the first six; the last four are in task space (several axes).
   EXPECT_EQ(scene_names_for(1), "spring-wheel, spring-mass, wall, relay, chirp, free");
   EXPECT_TRUE(find_scene("free")->parameters.empty());
   const auto* wall = find_scene("wall");

@@ -58,8 +58,11 @@ TEST(SceneRegistry, ALinearRuleComesWithALinearModel) {
       const auto& plan = std::get<ScenePlan>(result);
       EXPECT_EQ(plan.description, &scene);
       const bool task_wall = scene.stability == StabilityRule::task_wall;
-      EXPECT_EQ(plan.linear.has_value(), scene.stability != StabilityRule::none && !task_wall) << scene.name;
+      const bool per_axis = scene.stability == StabilityRule::per_axis;
+      EXPECT_EQ(plan.linear.has_value(), scene.stability != StabilityRule::none && !task_wall && !per_axis)
+          << scene.name;
       EXPECT_EQ(plan.task_wall.has_value(), task_wall) << scene.name;
+      EXPECT_EQ(plan.per_axis.has_value(), per_axis) << scene.name;
     }
   }
 }

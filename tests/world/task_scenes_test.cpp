@@ -10,6 +10,7 @@
 #include <cmath>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "world/scene_catalog.hpp"
 
@@ -133,7 +134,8 @@ TEST(TaskScenes, EachDeviceTakesOnlyTheScenesThatMeanSomethingOnIt) {
             "plane-wall is a task-space scene for a device with several axes; this device has one axis; "
             "accepted: spring-wheel, spring-mass, wall, relay, chirp, free");
   EXPECT_EQ(refusal("wall", {}, 2),
-            "wall renders on one axis; this device has 2 axes; accepted: free, plane-wall, sphere, box");
+            "wall renders on one axis; this device has 2 axes; accepted: free, plane-wall, sphere, box, "
+            "axis-springs");
   EXPECT_EQ(refusal("spring-wheel", {}, 3).substr(0, 34), "spring-wheel renders on one axis; ");
   const ScenePlan free_on_two = planned("free", {}, 2);
   ASSERT_TRUE(std::holds_alternative<TaskFreeScene>(free_on_two.task_object));
@@ -143,7 +145,60 @@ TEST(TaskScenes, EachDeviceTakesOnlyTheScenesThatMeanSomethingOnIt) {
   EXPECT_EQ(f, vec(0, 0)) << "free: zero force on every axis";
   EXPECT_EQ(refusal("free", {}, 1), "accepted");
   EXPECT_EQ(refusal("free", {}, 7), "axes: 7 is not accepted; 1 to 6");
-  EXPECT_EQ(scene_names_for(2), "free, plane-wall, sphere, box");
+  EXPECT_EQ(scene_names_for(2), "free, plane-wall, sphere, box, axis-springs");
+}
+
+// ---- axis-springs: today's spring-mass on each axis ----
+
+TEST(TaskScenes, AxisSpringsIsSpringMassOnEachAxisSampleBySample) {
+  for (const char* damping : {"0", "3", "auto"}) {
+    for (const char* reference : {"relative", "absolute"}) {
+      SCOPED_TRACE(std::string(damping) + " " + reference);
+      const ParameterSet given{{"stiffness", 400.0},
+                               {"mass", 0.2},
+                               {"damping", std::string(damping)},
+                               {"damping_reference", std::string(reference)}};
+      const ScenePlan plan = planned("axis-springs", given, 3);
+      ASSERT_TRUE(plan.per_axis.has_value());
+      EXPECT_EQ(plan.per_axis->scene, "spring-mass");
+      EXPECT_TRUE(plan.channels.empty());
+      // The one-axis scene the gate judges runs on each axis, unchanged.
+      AnyTaskScene scene = plan.task_object;
+      std::vector<AnyScene> one;
+      for (int i = 0; i < 3; ++i) {
+        auto outcome = plan_scene("spring-mass", plan.per_axis->parameters, period, Motion::linear, 1);
+        ASSERT_TRUE(std::holds_alternative<ScenePlan>(outcome));
+        one.push_back(std::get<ScenePlan>(outcome).scene_object);
+      }
+      AxisVector x(3);
+      x << 0.01, -0.02, 0.005;
+      reset(scene, x);
+      for (int i = 0; i < 3; ++i) reset(one[static_cast<std::size_t>(i)], x(i));
+      AxisVector f;
+      for (int n = 0; n < 500; ++n) {
+        x << 0.01 + 0.02 * std::sin(0.01 * n), -0.02 + 0.01 * std::cos(0.03 * n), 0.005;
+        step(scene, x, f);
+        ASSERT_EQ(f.size(), 3);
+        for (int i = 0; i < 3; ++i)
+          ASSERT_EQ(f(i), step(one[static_cast<std::size_t>(i)], x(i))) << "axis " << i << ", step " << n;
+      }
+    }
+  }
+}
+
+TEST(TaskScenes, AxisSpringsCarriesOnlyWhatItUsesAndRunsOnlyOnAStage) {
+  EXPECT_TRUE(std::holds_alternative<AxisSpringsScene<SpringDamping::none>>(
+      planned("axis-springs", {{"damping", 0.0}}, 2).task_object));
+  EXPECT_TRUE(std::holds_alternative<AxisSpringsScene<SpringDamping::absolute>>(
+      planned("axis-springs", {{"damping", 1.0}, {"damping_reference", "absolute"}}, 2).task_object));
+  EXPECT_TRUE(std::holds_alternative<AxisSpringsScene<SpringDamping::relative>>(
+      planned("axis-springs", {{"damping", 1.0}}, 2).task_object));
+  EXPECT_EQ(refusal("axis-springs", {{"passivity", "observer"}}, 2).substr(0, 45),
+            "unknown parameter 'passivity' for scene axis-");
+  EXPECT_EQ(refusal("axis-springs", {}, 1).substr(0, 60),
+            "axis-springs is a task-space scene for a device with several");
+  const ScenePlan resolved = planned("axis-springs", {{"stiffness", 500.0}, {"damping", "auto"}}, 2);
+  EXPECT_EQ(std::get<double>(resolved.per_axis->parameters.at("damping")), 0.5) << "T k, as on one axis";
 }
 
 }  // namespace
