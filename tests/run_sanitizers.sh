@@ -38,13 +38,10 @@ command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 # Unity builds (CMake, 16 sources a unit) for the project's libraries and
 # programs: the heavy headers are parsed once a unit instead of once a file.
 # As in the Release build (scripts/build.sh); scripts/lint.sh checks that each
-# source compiles by itself; the test targets are not unity builds
-# (tests/CMakeLists.txt).
+# source compiles by itself. The test targets are unity builds of 8 files a
+# unit with the precompiled framework headers (tests/CMakeLists.txt) in both
+# sanitizer builds.
 unity=(-DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=16)
-# The test files are compiled with precompiled framework headers
-# (tests/CMakeLists.txt, HAPTICD_TEST_PCH), except in the TSan build: there
-# each of its tests compiles by itself, so a test file that leans on the
-# precompiled header for an include it lacks fails here.
 
 # TSan's shadow memory breaks with the high mmap randomization of recent
 # kernels ("FATAL: ThreadSanitizer: unexpected memory mapping"); running
@@ -143,7 +140,7 @@ fuzz() {
 tsan_build_targets() {
   cmake -S "$here" -B "$tsan_build" -G Ninja "${launcher[@]}" \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1" "${unity[@]}" \
-    -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF -DHAPTICD_TEST_PCH=OFF >/dev/null && ninja -C "$tsan_build" -j"$jobs" tsan_tests
+    -DHAPTICD_TSAN=ON -DHAPTICD_BENCH=OFF >/dev/null && ninja -C "$tsan_build" -j"$jobs" tsan_tests
 }
 # Each binary directly, not through ctest: the TSan build lists its tests at
 # test time (CMakeLists.txt), and the umockdev ones must not be started
