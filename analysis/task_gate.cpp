@@ -222,7 +222,7 @@ AxisVerdicts judge_axes(const world::ScenePlan& plan, const GateDevice& device) 
   for (std::size_t i = 0; i < device.axes.size(); ++i) {
     out.devices.push_back(rigid_device(device.axes[i].mass, device.axes[i].damping, device.period_s,
                                        device.delay_samples, world::Motion::linear));
-    auto planned = world::plan_scene(per.scene, per.parameters, device.period_s, world::Motion::linear);
+    auto planned = world::plan_scene(per.scene, per.on_axis(i), device.period_s, world::Motion::linear);
     if (const auto* error = std::get_if<world::SceneError>(&planned))
       throw std::invalid_argument(error->message);
     out.verdicts.push_back(check_scene_stability(std::get<world::ScenePlan>(planned), out.devices.back()));
@@ -270,7 +270,7 @@ GateOutcome gate_per_axis(world::ScenePlan plan, const GateDevice& device, bool 
   }
   // The one-axis gate on the failing axis: its limit, with the axis named.
   const world::PerAxisJudgement& per = *accepted.plan.per_axis;
-  GateOutcome one = gate_scene(per.scene, per.parameters, judged.devices[judged.worst], false);
+  GateOutcome one = gate_scene(per.scene, per.on_axis(judged.worst), judged.devices[judged.worst], false);
   GateRefusal refusal = std::holds_alternative<GateRefusal>(one) ? std::get<GateRefusal>(one) : GateRefusal{};
   const std::string prefix = per.scene + ": ";
   const std::string reason =

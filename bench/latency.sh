@@ -71,10 +71,27 @@ if [[ "$axes" != 0 ]]; then
   variants+=("axes$axes")
 fi
 
-# ---- one slice of each kind: writes one line "p50 p99 p999 max late_per_10k cycles [compute_p50 compute_p99]"
+# ---- the RT CPU's own accounting (/proc/stat, USER_HZ ticks): how busy it
+# was and how much time the host stole from it over a slice. A vCPU that
+# runs is preempted by the host; one that sleeps (HLT) mostly is not: the
+# late cycles follow what the loop costs the CPU, not the wake-up path
+# (README, "Wake-up latency with six axes").
+cpu_ticks() {  # prints "busy steal total" of the RT CPU so far
+  awk -v c="cpu$cpu" '$1 == c { t = 0; for (i = 2; i <= NF; i++) t += $i; print $2 + $3 + $4 + $7 + $8, $9, t }' /proc/stat
+}
+cpu_since() {  # "busy steal total" before -> "busy_pct steal_ms_per_s" since
+  local now; now="$(cpu_ticks)"
+  awk -v a="$1" -v b="$now" -v hz="$(getconf CLK_TCK)" 'BEGIN { split(a, x, " "); split(b, y, " ")
+    t = y[3] - x[3]; if (t <= 0) t = 1
+    printf "%.2f %.2f\n", 100 * (y[1] - x[1]) / t, 1000 * (y[2] - x[2]) / t }'
+}
+# ---- one slice of each kind: writes one line "p50 p99 p999 max late_per_10k cycles [compute_p50 compute_p99]",
+# and "busy_pct steal_ms_per_s" of the RT CPU over the slice to FILE.cpu
 cyclictest_slice() {  # period_us file
-  local period="$1" result="$2" hist=$((2 * $1 > 2000 ? 2 * $1 : 2000))
+  local period="$1" result="$2" hist=$((2 * $1 > 2000 ? 2 * $1 : 2000)) before
+  before="$(cpu_ticks)"
   cyclictest -m -q -p"$prio" -a"$cpu" -t1 -i"$period" -D"$slice" -h"$hist" >"$work/ct.txt" 2>&1 || true
+  cpu_since "$before" >"$result.cpu"
   awk -v H="$hist" -v T="$period" '
     /^[0-9]+[ \t]+[0-9]+/ { c[$1 + 0] = $2 + 0; n += $2; if ($1 + 0 >= T) late += $2 }
     /# Max Latencies:/ { max = $4 + 0 }
@@ -160,8 +177,10 @@ hapticd_slice() {  # period_us variant file
   fi
   sleep "$warmup"
   "${ctl[@]}" device call stats.reset >/dev/null
+  local before; before="$(cpu_ticks)"
   sleep "$slice"
   "${ctl[@]}" stats --json >"$dir/stats.json"
+  cpu_since "$before" >"$result.cpu"
   local load_ok=1
   if [[ -n "$loadpid" ]]; then
     wait "$loadpid" || load_ok=0
@@ -242,6 +261,17 @@ for period in $periods; do
     lost=$(for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$v-$r.lost"; done | awk '$1 != 0 { bad++ } END { print bad + 0 }')
     printf '  %-16s late per 10,000 cycles over all rounds: %s (cyclictest %s); slices that lost recorded samples: %s\n' \
       "" "$(late "$v")" "$(late cyclictest)" "$lost"
+    # The late cycles come in bursts (a host stall of milliseconds makes one
+    # late wake-up; a cluster of them fills one slice): the per-slice counts'
+    # median and spread say whether a variant loses more, the total above
+    # is dominated by its worst slices.
+    late_slices() { for ((r = 1; r <= rounds; r++)); do awk '{ printf "%.0f\n", $5 * $6 / 1e4 }' "$out/$period-$1-$r"; done | median_spread; }
+    printf '  %-16s late cycles per slice: %s (cyclictest %s), median (min-max)\n' "" "$(late_slices "$v")" \
+      "$(late_slices cyclictest)"
+    cpu_col() { for ((r = 1; r <= rounds; r++)); do awk -v c="$2" '{ print $c }' "$out/$period-$1-$r.cpu"; done | median_of; }
+    printf '  %-16s the RT CPU busy %s %% (cyclictest %s %%, hapticd %s %%), stolen by the host %s ms/s (%s, %s); medians of the slices\n' \
+      "" "$(cpu_col "$v" 1)" "$(cpu_col cyclictest 1)" "$(cpu_col hapticd 1)" "$(cpu_col "$v" 2)" \
+      "$(cpu_col cyclictest 2)" "$(cpu_col hapticd 2)"
     if [[ "$v" == loaded* ]]; then
       for ((r = 1; r <= rounds; r++)); do cat "$out/$period-$v-$r.load"; done | jq -s -r '"  " + "                 " +
         "param.set sent \(map(.sets_sent) | add), acknowledged with a cycle \(map(.sets_acknowledged) | add), " +

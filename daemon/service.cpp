@@ -191,8 +191,24 @@ Service::Service(ServiceOptions options)
 
 Service::~Service() { shutdown(); }
 
+namespace {
+/// [device] axis_torque_limit: one limit per axis of a device with several.
+void check_axis_torque_limit(const config::DeviceConfig& device, int axes) {
+  const auto given = static_cast<int>(device.axis_torque_limit.size());
+  if (given == 0 || given == axes) return;
+  throw config::ConfigError(device.axis_torque_limit_where, "device.axis_torque_limit",
+                            axes == 1
+                                ? "device.axis_torque_limit is for a device with several axes; this one (" +
+                                      device.driver + ") has one; accepted: torque_limit alone"
+                                : "device.axis_torque_limit gives " + std::to_string(given) +
+                                      " limits for the " + std::to_string(axes) + " axes of " +
+                                      device.driver + "; accepted: one per axis, in order");
+}
+}  // namespace
+
 void Service::resolve_axes() {
   const int axes = device_.device->axes();
+  check_axis_torque_limit(options_.config.device, axes);
   if (axes == 1) return;
   if (model_.info.axis_count() != axes) {
     throw drivers::DeviceError(options_.config.device.driver + ": the device has " + std::to_string(axes) +
@@ -231,9 +247,13 @@ std::string Service::device_label() const {
 std::string Service::describe() const {
   const auto& cfg = options_.config;
   std::ostringstream out;
+  const std::string unit = model_.info.motion == drivers::Motion::rotary ? " N m" : " N";
   out << "device: " << device_label() << ", " << model_.describe() << ", torque limit "
-      << cfg.device.torque_limit << (model_.info.motion == drivers::Motion::rotary ? " N m" : " N")
-      << "\nloop: period " << cfg.loop.period_s * 1e3 << " ms, clock " << config::to_string(cfg.loop.clock)
+      << cfg.device.torque_limit << unit;
+  for (std::size_t i = 0; i < cfg.device.axis_torque_limit.size() && i < model_.axis_names.size(); ++i)
+    out << (i == 0 ? " (" : ", ") << model_.axis_names[i] << " " << cfg.device.axis_limit(i) << unit
+        << (i + 1 == cfg.device.axis_torque_limit.size() ? ")" : "");
+  out << "\nloop: period " << cfg.loop.period_s * 1e3 << " ms, clock " << config::to_string(cfg.loop.clock)
       << "\nplausibility: " << engine::describe_rule(position_rule_, cfg.device.max_velocity.has_value())
       << "\nscene: " << initial_.plan.scene;
   for (const auto& [k, v] : initial_.plan.parameters) out << " " << k << "=" << to_text(v);
@@ -322,7 +342,7 @@ CurrentScene Service::scene_from(const PlannedScene& planned, const world::Param
   if (!model_.axis_names.empty()) {
     auto axes = axis_channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary,
                               model_.info.pantograph.has_value());
-    const auto overlay = overlay_.channels(model_.axis_names);
+    const auto overlay = overlay_.channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary);
     axes.insert(axes.end(), overlay.begin(), overlay.end());
     next.channels.insert(next.channels.begin(), axes.begin(), axes.end());
   }
@@ -337,6 +357,12 @@ std::uint64_t Service::publish(const PlannedScene& planned) {
   plan->scene = planned.plan.scene_object;
   plan->task_scene = planned.plan.task_object;
   plan->torque_limit = options_.config.device.torque_limit;
+  if (!options_.config.device.axis_torque_limit.empty()) {
+    const auto n = static_cast<Eigen::Index>(options_.config.device.axis_torque_limit.size());
+    plan->axis_torque_limits.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i)
+      plan->axis_torque_limits(i) = options_.config.device.axis_limit(static_cast<std::size_t>(i));
+  }
   plan->unstable_forced = planned.forced;
   return engine_->publish(std::move(plan)).seq;
 }

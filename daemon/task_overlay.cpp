@@ -1,6 +1,7 @@
 #include "daemon/task_overlay.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "world/text.hpp"
 
@@ -22,7 +23,7 @@ std::string axis_list(const std::vector<std::string>& names) {
 
 /// [gravity] on a Cartesian stage: +m g on the vertical axis (the force that
 /// holds it, dV/dq with V = m g q for an axis pointing up), 0 elsewhere.
-void add_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, TaskOverlay& out) {
+void add_stage_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, TaskOverlay& out) {
   const config::GravityConfig& g = cfg.gravity;
   const auto& names = device.axis_names;
   const auto it = std::find(names.begin(), names.end(), g.axis);
@@ -31,14 +32,14 @@ void add_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, Tas
         g.axis_where, "gravity.axis",
         "gravity.axis = \"" + g.axis + "\" names no axis of the device; accepted: " + axis_list(names));
   const double weight = g.mass * g.acceleration;  // N
-  if (weight > cfg.device.torque_limit)
+  const auto axis = static_cast<Eigen::Index>(it - names.begin());
+  const double limit = cfg.device.axis_limit(static_cast<std::size_t>(axis));
+  if (weight > limit)
     throw ConfigError(g.mass_where, "gravity.mass",
                       "gravity.mass = " + overlay_number(g.mass) + " kg weighs " + overlay_number(weight) +
-                          " N, more than device.torque_limit = " + overlay_number(cfg.device.torque_limit) +
+                          " N, more than the torque limit of axis " + g.axis + ", " + overlay_number(limit) +
                           " N: the feedforward could not hold the axis; accepted: a mass up to " +
-                          overlay_number(cfg.device.torque_limit / g.acceleration) +
-                          " kg, or a larger torque_limit");
-  const auto axis = static_cast<Eigen::Index>(it - names.begin());
+                          overlay_number(limit / g.acceleration) + " kg, or a larger torque_limit");
   world::StageWeight stage{world::AxisVector::Zero(static_cast<Eigen::Index>(names.size()))};
   stage.holding(axis) = g.down_positive ? -weight : weight;
   out.gravity = stage;
@@ -52,6 +53,86 @@ void add_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, Tas
                       ", g = " + overlay_number(g.acceleration) + " m/s^2): a feedforward of " +
                       overlay_number(stage.holding(axis)) +
                       " N added after the scene, inside the torque limit (gravity_" + g.axis + ")");
+}
+
+/// The holding torque nearest its joint's limit over the pantograph's
+/// workspace box (41 x 41 points, as the loopback checks the box): the
+/// feedforward must fit the torque limits everywhere the handle is used.
+struct WorstHolding {
+  double torque = 0.0;  ///< N m, |tau_g,i| of the joint nearest its limit
+  double share = 0.0;   ///< that torque over its joint's limit
+  Eigen::Index joint = 0;
+  double x = 0.0, y = 0.0;
+};
+
+WorstHolding worst_holding(const drivers::DeviceModel::Pantograph& p, const world::PantographMasses& masses,
+                           const config::DeviceConfig& limits) {
+  const world::PantographKinematics kinematics(p.geometry);
+  WorstHolding worst;
+  constexpr int steps = 40;
+  for (int i = 0; i <= steps; ++i) {
+    for (int j = 0; j <= steps; ++j) {
+      world::AxisVector x(2);
+      x << p.x_min + (p.x_max - p.x_min) * i / steps, p.y_min + (p.y_max - p.y_min) * j / steps;
+      const auto q = kinematics.inverse(x);
+      if (!q) continue;  // the driver checked the box is reached
+      world::TaskState state;
+      kinematics.solve(*q, state);
+      const world::AxisVector tau = world::pantograph_gravity_torques(kinematics, masses, *q, state);
+      for (Eigen::Index k = 0; k < tau.size(); ++k) {
+        const double share = std::abs(tau(k)) / limits.axis_limit(static_cast<std::size_t>(k));
+        if (share > worst.share) worst = {std::abs(tau(k)), share, k, x(0), x(1)};
+      }
+    }
+  }
+  return worst;
+}
+
+/// [gravity] on the pantograph in a vertical plane (y up): the links' and
+/// the handle's masses; the holding torques dV/dq follow the configuration
+/// (world/gravity.hpp) and must fit the torque limits over the workspace.
+void add_pantograph_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, TaskOverlay& out) {
+  const config::GravityConfig& g = cfg.gravity;
+  const auto& m = g.link_masses;
+  const world::PantographMasses masses{m[0], m[1], m[2], m[3], g.handle_mass, g.acceleration};
+  const WorstHolding worst = worst_holding(*device.info.pantograph, masses, cfg.device);
+  const std::string& joint = device.axis_names.at(static_cast<std::size_t>(worst.joint));
+  const double limit = cfg.device.axis_limit(static_cast<std::size_t>(worst.joint));
+  if (worst.share > 1.0)
+    throw ConfigError(g.link_masses_where, "gravity.link_masses",
+                      "gravity.link_masses: holding the links takes up to " + overlay_number(worst.torque) +
+                          " N m on " + joint + " (the handle at (" + overlay_number(worst.x) + ", " +
+                          overlay_number(worst.y) + ") m), more than its torque limit " +
+                          overlay_number(limit) + " N m; accepted: lighter links, or a larger torque_limit");
+  out.gravity = masses;
+  out.status["gravity"] = {
+      {"link_masses", m},
+      {"handle_mass", g.handle_mass},
+      {"acceleration", g.acceleration},
+      {"worst_case", {{"torque", worst.torque}, {"joint", joint}, {"handle", {worst.x, worst.y}}}}};
+  out.notes.push_back("gravity: the pantograph's links " + overlay_number(m[0]) + ", " +
+                      overlay_number(m[1]) + ", " + overlay_number(m[2]) + ", " + overlay_number(m[3]) +
+                      " kg and " + overlay_number(g.handle_mass) +
+                      " kg at the handle in a vertical plane (y up, g = " + overlay_number(g.acceleration) +
+                      " m/s^2): a joint feedforward up to " + overlay_number(worst.torque) + " N m on " +
+                      joint + " (" + overlay_number(100.0 * worst.share) +
+                      " % of its limit) over the workspace, added " + "after the scene (gravity_<joint>)");
+}
+
+/// [gravity]: the stage's or the pantograph's model, each with its own keys.
+void add_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, TaskOverlay& out) {
+  const config::GravityConfig& g = cfg.gravity;
+  const bool pantograph = device.info.pantograph.has_value();
+  if (pantograph && g.link_masses.empty())
+    throw ConfigError(g.axis_where.line != 0 ? g.axis_where : g.table_where, "gravity.axis",
+                      "[gravity] on the pantograph: its weight is in its links; accepted: link_masses "
+                      "(four masses in kg) and handle_mass, not axis, mass or down");
+  if (!pantograph && !g.link_masses.empty())
+    throw ConfigError(g.link_masses_where, "gravity.link_masses",
+                      "gravity.link_masses is for the pantograph ([device] kinematics = \"pantograph\"); "
+                      "accepted on a Cartesian stage: axis, mass and down");
+  if (pantograph) return add_pantograph_gravity(cfg, device, out);
+  add_stage_gravity(cfg, device, out);
 }
 
 const config::Parameter* workspace_key(const config::WorkspaceConfig& w, std::string_view key) {
@@ -98,11 +179,11 @@ void add_workspace(const config::DaemonConfig& cfg, const DeviceModel& device, T
 
 }  // namespace
 
-std::vector<world::ChannelDescription> TaskOverlay::channels(
-    const std::vector<std::string>& axis_names) const {
+std::vector<world::ChannelDescription> TaskOverlay::channels(const std::vector<std::string>& axis_names,
+                                                             bool rotary) const {
   std::vector<world::ChannelDescription> out;
   if (gravity) {
-    for (const auto& n : axis_names) out.push_back({"gravity_" + n, "N"});
+    for (const auto& n : axis_names) out.push_back({"gravity_" + n, rotary ? "N m" : "N"});
   }
   if (workspace) out.push_back({"workspace_penetration", "m"});
   return out;

@@ -2,8 +2,9 @@
 /// \file
 /// What the config adds on top of every scene of a device with several axes
 /// (issue 22 item 7), as the vendor SDKs have it: gravity compensation
-/// ([gravity]: the constant force that holds a vertical axis of a stage,
-/// added after the scene as a joint feedforward) and a workspace ([workspace]:
+/// ([gravity]: the constant force that holds a vertical axis of a stage, or
+/// the torques that hold the pantograph's links in a vertical plane, added
+/// after the scene as a joint feedforward) and a workspace ([workspace]:
 /// a box or a sphere the device is held inside, a task-space wall stepped
 /// beside the scene, before J^T). Built once at start-up, off the RT thread;
 /// the workspace wall passes the stability gate as the scene's walls do.
@@ -28,8 +29,10 @@ struct TaskOverlay {
   nlohmann::json status;                       ///< status' "gravity" and "workspace" (only those configured)
   std::vector<std::string> notes;              ///< one line each for a recording's header
   /// The channels the engine writes after each axis' three: gravity_<axis>
-  /// (N, the feedforward before the limit) and workspace_penetration (m).
-  std::vector<world::ChannelDescription> channels(const std::vector<std::string>& axis_names) const;
+  /// (N, or N m on rotary joints: the feedforward before the limit) and
+  /// workspace_penetration (m).
+  std::vector<world::ChannelDescription> channels(const std::vector<std::string>& axis_names,
+                                                  bool rotary) const;
 };
 
 /// [gravity] and [workspace] for `device`. Throws config::ConfigError naming

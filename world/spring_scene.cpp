@@ -1,11 +1,14 @@
 #include "world/spring_scene.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 #include "world/scene_catalog.hpp"
+#include "world/task_scenes.hpp"
 #include "world/text.hpp"
 
 namespace hapticd::world {
@@ -196,31 +199,72 @@ void build_spring(ScenePlan& plan, const SceneContext& context) {
   }
 }
 
+/// axis_stiffness: each axis' k, N/m; "" gives `stiffness` on every axis.
+AxisVector axis_stiffness(const ParameterSet& p, Eigen::Index axes) {
+  const double k = number_of(p, "stiffness");
+  const AxisVector out = parse_axis_vector("axis_stiffness", text_of(p, "axis_stiffness"),
+                                           static_cast<int>(axes), AxisVector::Constant(axes, k));
+  for (Eigen::Index i = 0; i < axes; ++i) {
+    if (!(out(i) >= 0.0 && out(i) <= parameter_range::max_stiffness))
+      throw std::invalid_argument(
+          "axis_stiffness: each axis' k from 0 to " +
+          text::format_significant(parameter_range::max_stiffness, text::precision::message) +
+          " N/m, one per axis");
+  }
+  return out;
+}
+
+/// What the gate judges on axis i: spring-mass with that axis' k and b.
+PerAxisJudgement per_axis_judgement(const ParameterSet& p, const std::array<SpringParameters, max_axes>& axes,
+                                    Eigen::Index n, bool differ) {
+  PerAxisJudgement per{"spring-mass", p};
+  per.parameters.erase("axis_stiffness");  // spring-mass has one k
+  if (!differ) return per;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    ParameterSet own = per.parameters;
+    own["stiffness"] = axes[static_cast<std::size_t>(i)].stiffness;
+    own["damping"] = axes[static_cast<std::size_t>(i)].damping;
+    per.axes.push_back(std::move(own));
+  }
+  return per;
+}
+
 void build_axis_springs(ScenePlan& plan, const SceneContext& context) {
   ParameterSet& p = plan.parameters;
+  const Eigen::Index n = context.axes;
+  const AxisVector k = axis_stiffness(p, n);
+  const bool auto_damping = std::holds_alternative<std::string>(p["damping"]);
   SpringParameters sp;
   sp.stiffness = number_of(p, "stiffness");
   sp.inertia = number_of(p, "mass");
-  if (std::holds_alternative<std::string>(p["damping"])) {  // "auto"
-    sp.damping = context.period_s * sp.stiffness;
+  sp.damping = auto_damping ? context.period_s * sp.stiffness : number_of(p, "damping");
+  sp.integrator = *parse_integrator(text_of(p, "integrator"));
+  if (auto_damping) {
     p["damping"] = sp.damping;
     plan.notes.push_back("damping auto = T k = " + text::format_quantity(sp.damping, "N s/m") +
-                         " on every axis (Freudenberg 2.24)");
-  } else {
-    sp.damping = number_of(p, "damping");
+                         " on every axis (Freudenberg 2.24)" +
+                         (text_of(p, "axis_stiffness").empty() ? "" : ", T k_i with axis_stiffness"));
   }
-  sp.integrator = *parse_integrator(text_of(p, "integrator"));
+  std::array<SpringParameters, max_axes> axes;
+  axes.fill(sp);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    auto& a = axes[static_cast<std::size_t>(i)];
+    a.stiffness = k(i);
+    if (auto_damping) a.damping = context.period_s * k(i);
+  }
+  std::fill(axes.begin() + n, axes.end(), axes[0]);  // built, never stepped: of the same kind
   const double t = context.period_s;
-  const Eigen::Index n = context.axes;
-  if (sp.damping == 0.0) {
-    set_task_scene(plan, AxisSpringsScene<SpringDamping::none>(sp, t, n));
+  const bool undamped =
+      std::all_of(axes.begin(), axes.begin() + n, [](const auto& a) { return a.damping == 0.0; });
+  if (undamped) {
+    set_task_scene(plan, AxisSpringsScene<SpringDamping::none>(axes, t, n));
   } else if (text_of(p, "damping_reference") == "absolute") {
-    set_task_scene(plan, AxisSpringsScene<SpringDamping::absolute>(sp, t, n));
+    set_task_scene(plan, AxisSpringsScene<SpringDamping::absolute>(axes, t, n));
   } else {
-    set_task_scene(plan, AxisSpringsScene<SpringDamping::relative>(sp, t, n));
+    set_task_scene(plan, AxisSpringsScene<SpringDamping::relative>(axes, t, n));
   }
   // Judged per axis: spring-mass with these parameters (auto resolved) on each.
-  plan.per_axis = PerAxisJudgement{"spring-mass", p};
+  plan.per_axis = per_axis_judgement(p, axes, n, !text_of(p, "axis_stiffness").empty());
 }
 
 constexpr const char* spring_hint =
@@ -245,6 +289,12 @@ SceneDescription AxisSpringsEntry::describe() {
   for (auto& spec : spring_parameters(false)) {
     if (!spec.name.starts_with("passivity")) parameters.push_back(std::move(spec));
   }
+  ParameterSpec own_k = ParameterSpec::text("axis_stiffness",
+                                            "each axis' spring k, comma-separated (\"400,100\"), 0 to the "
+                                            "stiffness range each; empty: stiffness on every axis")
+                            .defaults_to("");
+  own_k.unit = "N/m";
+  parameters.insert(parameters.begin() + 1, std::move(own_k));
   return {
       .name = "axis-springs",
       .reference = "Freudenberg 2, 2.19-2.24 on each axis (issue 22)",
@@ -258,20 +308,30 @@ SceneDescription AxisSpringsEntry::describe() {
 }
 
 template <SpringDamping D>
-std::array<SpringScene<D>, max_axes> AxisSpringsScene<D>::make_springs(const SpringParameters& parameters,
+std::array<SpringScene<D>, max_axes> AxisSpringsScene<D>::make_springs(const AxisParameters& parameters,
                                                                        double period_s) {
   return [&]<std::size_t... i>(std::index_sequence<i...>) {
-    return std::array<SpringScene<D>, max_axes>{((void)i, SpringScene<D>(parameters, period_s))...};
+    return std::array<SpringScene<D>, max_axes>{SpringScene<D>(parameters[i], period_s)...};
   }
   (std::make_index_sequence<max_axes>{});
 }
 
 template <SpringDamping D>
-AxisSpringsScene<D>::AxisSpringsScene(const SpringParameters& parameters, double period_s, Eigen::Index axes)
+AxisSpringsScene<D>::AxisSpringsScene(const AxisParameters& parameters, double period_s, Eigen::Index axes)
     : axes_(axes), springs_(make_springs(parameters, period_s)) {
   if (axes < 1 || axes > max_axes)
     throw std::invalid_argument("axis-springs: 1 to " + std::to_string(max_axes) + " axes");
 }
+
+template <SpringDamping D>
+AxisSpringsScene<D>::AxisSpringsScene(const SpringParameters& parameters, double period_s, Eigen::Index axes)
+    : AxisSpringsScene(
+          [&] {
+            AxisParameters every;
+            every.fill(parameters);
+            return every;
+          }(),
+          period_s, axes) {}
 
 template class AxisSpringsScene<SpringDamping::none>;
 template class AxisSpringsScene<SpringDamping::absolute>;

@@ -155,16 +155,20 @@ struct SpringMassEntry {
 
 /// `axis-springs` (issue 22): today's spring-mass on each task axis of a
 /// Cartesian stage, axis i's virtual mass tied to x_i alone, so the force
-/// on axis i is axis i's spring-mass force. Every axis takes the same law;
-/// the springs beyond the device's axes are built and never stepped (no
-/// allocation). The gate judges it per axis, exactly (StabilityRule::per_axis).
+/// on axis i is axis i's spring-mass force. Every axis takes the same law
+/// but for its own stiffness (axis_stiffness); the springs beyond the
+/// device's axes are built and never stepped (no allocation). The gate
+/// judges it per axis, exactly (StabilityRule::per_axis).
 template <SpringDamping D>
 class AxisSpringsScene {
  public:
   static constexpr std::size_t channel_count = 0;
   static constexpr std::array<std::string_view, channel_count> channel_names{};
+  using AxisParameters = std::array<SpringParameters, max_axes>;
   /// Throws std::invalid_argument as SpringScene, or for axes outside 1..max_axes.
   AxisSpringsScene(const SpringParameters& parameters, double period_s, Eigen::Index axes);
+  /// Axis i with parameters[i] (the entries beyond `axes` are built, never stepped).
+  AxisSpringsScene(const AxisParameters& parameters, double period_s, Eigen::Index axes);
   void reset(const AxisVector& x) noexcept {
     for (Eigen::Index i = 0; i < axes_; ++i) springs_[static_cast<std::size_t>(i)].reset(x(i));
   }
@@ -176,8 +180,7 @@ class AxisSpringsScene {
   const SpringScene<D>& axis(std::size_t i) const { return springs_.at(i); }
 
  private:
-  static std::array<SpringScene<D>, max_axes> make_springs(const SpringParameters& parameters,
-                                                           double period_s);
+  static std::array<SpringScene<D>, max_axes> make_springs(const AxisParameters& parameters, double period_s);
   Eigen::Index axes_;
   std::array<SpringScene<D>, max_axes> springs_;
 };

@@ -361,6 +361,23 @@ class Parser {
     return names;
   }
 
+  /// [device] axis_torque_limit: 1 to 6 limits greater than 0, N or N m.
+  std::vector<double> get_axis_limits(const toml::node& node, const std::string& key) const {
+    const std::string accepted =
+        "an array of 1 to 6 numbers greater than 0, each axis' limit in N or N m (rotary joints), in the "
+        "driver's axis order, e.g. [2.0, 5.0]";
+    const auto* array = node.as_array();
+    if (array == nullptr) wrong_type(node, key, accepted);
+    if (array->empty() || array->size() > 6) out_of_range(node, key, accepted);
+    std::vector<double> limits;
+    for (const auto& entry : *array) {
+      const double limit = get_number(entry, key, accepted);
+      if (!(limit > 0.0)) out_of_range(entry, key, accepted);
+      limits.push_back(limit);
+    }
+    return limits;
+  }
+
   /// [device] kinematics: "cartesian" or "pantograph" (checked against the
   /// driver once the whole [device] table is read: check_kinematics).
   std::string get_kinematics(const toml::node& node, const std::string& key) const {
@@ -401,7 +418,9 @@ class Parser {
 
   void parse_device(const toml::table& table, DeviceConfig& device) const {
     static const std::string accepted =
-        "driver, torque_limit, max_velocity, model, axis_names, kinematics, encoder, origin, origin_file, "
+        "driver, torque_limit, axis_torque_limit, max_velocity, model, axis_names, kinematics, encoder, "
+        "origin, "
+        "origin_file, "
         "require_calibration, and a table [device.<driver>] for the selected driver";
     const std::string drivers = driver_list();
     // The driver first: the driver table's name is checked against it.
@@ -422,6 +441,9 @@ class Parser {
         const std::string range = "a number greater than 0 (N or N m)";
         device.torque_limit = get_number(*node, dotted, range);
         if (!(device.torque_limit > 0.0)) out_of_range(*node, dotted, range);
+      } else if (name == "axis_torque_limit") {
+        device.axis_torque_limit = get_axis_limits(*node, dotted);
+        device.axis_torque_limit_where = position(node->source());
       } else if (name == "max_velocity") {
         device.max_velocity = get_max_velocity(*node, dotted);
         device.max_velocity_where = position(node->source());
@@ -468,41 +490,99 @@ class Parser {
     collect(table, "", "scene", scene.parameters, "name");
   }
 
-  /// [gravity]: axis, mass, acceleration, down (docs/config.md, "Gravity and a workspace").
+  /// [gravity]: a stage's vertical axis (axis, mass, down) or the
+  /// pantograph's links (link_masses, handle_mass), and acceleration
+  /// (docs/config.md, "Gravity and a workspace").
   void parse_gravity(const toml::table& table, GravityConfig& gravity) const {
-    static const std::string accepted = join({"axis", "mass", "acceleration", "down"});
+    static const std::string accepted =
+        join({"axis", "mass", "down", "link_masses", "handle_mass", "acceleration"});
     gravity.configured = true;
-    bool has_axis = false, has_mass = false;
+    const toml::node* stage_key = nullptr;  // the first of axis, mass, down
+    const toml::node* handle = nullptr;
     for (const auto& [key, node] : in_file_order(table)) {
       const std::string_view name = key->str();
       const std::string dotted = "gravity." + std::string(name);
-      if (name == "axis") {
-        gravity.axis = get_string(*node, dotted, "the name of the vertical axis (device.axis_names)");
-        gravity.axis_where = position(node->source());
-        has_axis = true;
-      } else if (name == "mass") {
-        const std::string range = "a mass in kg greater than 0 and at most 100";
-        gravity.mass = get_number(*node, dotted, range);
-        if (!(gravity.mass > 0.0 && gravity.mass <= 100.0)) out_of_range(*node, dotted, range);
-        gravity.mass_where = position(node->source());
-        has_mass = true;
+      if (name == "axis" || name == "mass" || name == "down") {
+        if (stage_key == nullptr) stage_key = node;
+        parse_stage_gravity_key(name, *node, dotted, gravity);
+      } else if (name == "link_masses") {
+        gravity.link_masses = get_link_masses(*node, dotted);
+        gravity.link_masses_where = position(node->source());
+      } else if (name == "handle_mass") {
+        gravity.handle_mass = get_number(*node, dotted, link_mass_range);
+        if (!(gravity.handle_mass >= 0.0 && gravity.handle_mass <= 10.0))
+          out_of_range(*node, dotted, link_mass_range);
+        handle = node;
       } else if (name == "acceleration") {
         const std::string range = "m/s^2 greater than 0 and at most 30 (9.80665 on Earth)";
         gravity.acceleration = get_number(*node, dotted, range);
         if (!(gravity.acceleration > 0.0 && gravity.acceleration <= 30.0)) out_of_range(*node, dotted, range);
-      } else if (name == "down") {
-        const std::string range = "\"negative\" (the axis points up) or \"positive\"";
-        const std::string value = get_string(*node, dotted, range);
-        if (value != "negative" && value != "positive") out_of_range(*node, dotted, range);
-        gravity.down_positive = value == "positive";
       } else {
         unknown_key(*key, "gravity", accepted);
       }
     }
+    check_gravity_model(table, gravity, stage_key, handle);
+  }
+
+  static constexpr std::string_view link_mass_range = "a mass in kg from 0 to 10";
+
+  /// axis, mass or down: a stage's vertical axis.
+  void parse_stage_gravity_key(std::string_view name, const toml::node& node, const std::string& dotted,
+                               GravityConfig& gravity) const {
+    if (name == "axis") {
+      gravity.axis = get_string(node, dotted, "the name of the vertical axis (device.axis_names)");
+      gravity.axis_where = position(node.source());
+    } else if (name == "mass") {
+      const std::string range = "a mass in kg greater than 0 and at most 100";
+      gravity.mass = get_number(node, dotted, range);
+      if (!(gravity.mass > 0.0 && gravity.mass <= 100.0)) out_of_range(node, dotted, range);
+      gravity.mass_where = position(node.source());
+    } else {
+      const std::string range = "\"negative\" (the axis points up) or \"positive\"";
+      const std::string value = get_string(node, dotted, range);
+      if (value != "negative" && value != "positive") out_of_range(node, dotted, range);
+      gravity.down_positive = value == "positive";
+    }
+  }
+
+  /// gravity.link_masses: the pantograph's four links, kg (world::PantographMasses' order).
+  std::vector<double> get_link_masses(const toml::node& node, const std::string& key) const {
+    const std::string accepted =
+        "four masses in kg from 0 to 10: [proximal left, distal left, distal right, proximal right]";
+    const auto* array = node.as_array();
+    if (array == nullptr) wrong_type(node, key, accepted);
+    if (array->size() != 4) out_of_range(node, key, accepted);
+    std::vector<double> masses;
+    for (const auto& entry : *array) {
+      const double m = get_number(entry, key, accepted);
+      if (!(m >= 0.0 && m <= 10.0)) out_of_range(entry, key, accepted);
+      masses.push_back(m);
+    }
+    return masses;
+  }
+
+  /// Either a stage's model (axis and mass) or the pantograph's (link_masses), not both.
+  void check_gravity_model(const toml::table& table, const GravityConfig& gravity,
+                           const toml::node* stage_key, const toml::node* handle) const {
+    const std::string models =
+        "axis and mass (a stage's vertical axis; down), or link_masses (the pantograph in a vertical "
+        "plane; handle_mass); acceleration with either";
+    if (!gravity.link_masses.empty()) {
+      if (stage_key != nullptr)
+        fail(stage_key->source(), "gravity",
+             "[gravity] gives both a stage's axis, mass or down and the "
+             "pantograph's link_masses; accepted: " +
+                 models);
+      return;
+    }
+    if (handle != nullptr)
+      fail(handle->source(), "gravity.handle_mass",
+           "gravity.handle_mass goes with link_masses (the pantograph); accepted: " + models);
+    const bool has_axis = gravity.axis_where.line != 0, has_mass = gravity.mass_where.line != 0;
     if (!has_axis || !has_mass)
       fail(table.source(), has_axis ? "gravity.mass" : "gravity.axis",
            std::string("[gravity] needs ") + (has_axis ? "mass (kg)" : "axis (the vertical axis' name)") +
-               "; accepted keys: " + accepted);
+               "; accepted: " + models);
   }
 
   /// [workspace]: shape and the box's or sphere's parameters (checked by the scene planner).

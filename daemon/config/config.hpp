@@ -10,6 +10,7 @@
 /// them against the scene catalog / the driver's parameter list and report
 /// the file and line of a bad value.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -86,6 +87,15 @@ std::string_view to_string(OriginKeeping keeping) noexcept;
 struct DeviceConfig {
   std::string driver = "loopback";
   double torque_limit = 1.0;  ///< N (linear) or N m (rotary), > 0
+  /// Several axes: each axis' own limit, in the driver's order (a stage's
+  /// motors differ); empty: torque_limit on every axis. Checked against the
+  /// device's axes at start-up.
+  std::vector<double> axis_torque_limit;
+  SourcePosition axis_torque_limit_where;  ///< position of device.axis_torque_limit's value
+  /// Axis i's limit: the smaller of torque_limit and its own, if given.
+  double axis_limit(std::size_t i) const noexcept {
+    return i < axis_torque_limit.size() ? std::min(torque_limit, axis_torque_limit[i]) : torque_limit;
+  }
   /// Fastest plausible motion, m/s or rad/s, > 0: a reading that steps more
   /// than max_velocity x interval + one count latches "encoder jump /
   /// velocity limit". nullopt: derived from the device (docs/config.md).
@@ -126,7 +136,8 @@ struct DeviceConfig {
 };
 
 /// [gravity] (issue 22 item 7): the weight a vertical axis of a stage
-/// carries, held by a feedforward the engine adds after the scene.
+/// carries, or the pantograph's links in a vertical plane, held by a
+/// feedforward the engine adds after the scene.
 struct GravityConfig {
   bool configured = false;        ///< a [gravity] table was given
   std::string axis;               ///< the vertical axis' name (device.axis_names, else x, y, z, ...)
@@ -136,6 +147,12 @@ struct GravityConfig {
   SourcePosition table_where;     ///< position of the [gravity] key
   SourcePosition axis_where;      ///< position of gravity.axis' value
   SourcePosition mass_where;      ///< position of gravity.mass' value
+  /// The pantograph in a vertical plane (y up): its links' masses, kg, each
+  /// at the link's middle (proximal left, distal left, distal right,
+  /// proximal right: world::PantographMasses); empty for a stage.
+  std::vector<double> link_masses;
+  double handle_mass = 0.0;          ///< kg at the handle, with link_masses
+  SourcePosition link_masses_where;  ///< position of gravity.link_masses' value
   bool operator==(const GravityConfig&) const = default;
 };
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "world/any_scene.hpp"
+#include "world/kinematics.hpp"
 
 namespace hapticd::daemon::engine {
 
@@ -16,7 +17,10 @@ struct LoopPlan {
   world::AnyScene scene;
   /// What a device with several axes runs (task position in, task force out).
   world::AnyTaskScene task_scene;
-  double torque_limit = 0.0;     ///< N or N m, applied after the scene, always (each axis' on several)
+  double torque_limit = 0.0;  ///< N or N m, applied after the scene, always (each axis' on several)
+  /// Several axes: each joint's own limit ([device] axis_torque_limit, the
+  /// smaller of it and torque_limit); empty: torque_limit on every joint.
+  world::AxisVector axis_torque_limits;
   bool unstable_forced = false;  ///< loaded with force=true although analysis says unstable
 };
 

@@ -99,7 +99,11 @@ void Engine::render_task_force(TelemetrySample& sample, bool position_valid, boo
   // As on one axis: one read of the latch decides the output and the flag.
   output_latched = output_latched || latch_.latched();
   if (position_valid && plan_ != nullptr && !output_latched) {
-    a.limits.setConstant(plan_->torque_limit);
+    if (plan_->axis_torque_limits.size() == a.limits.size()) {
+      a.limits = plan_->axis_torque_limits;
+    } else {
+      a.limits.setConstant(plan_->torque_limit);
+    }
     // One common factor on the sum: the feedforward saturates with the scene.
     const double factor =
         a.gravity ? world::joint_torques(a.task.jacobian, a.force, a.feedforward, a.limits, a.output)

@@ -118,7 +118,8 @@ json Service::status() const {
     for (std::size_t i = 0; i < model_.axis_names.size(); ++i)
       axes.push_back({{"name", model_.axis_names[i]},
                       {"mass", model_.info.axes[i].mass},
-                      {"damping", model_.info.axes[i].damping}});
+                      {"damping", model_.info.axes[i].damping},
+                      {"torque_limit", cfg.device.axis_limit(i)}});
     out["device"]["axes"] = axes;
     out["device"]["kinematics"] = cfg.device.kinematics;
     // [gravity] and [workspace], only when configured.

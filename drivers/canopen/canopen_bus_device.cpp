@@ -11,6 +11,7 @@
 #include "drivers/canopen/canopen_device.hpp"
 #include "drivers/canopen/device_settings.hpp"
 #include "drivers/canopen/frame_links.hpp"
+#include "drivers/canopen/loop_handover.hpp"
 #include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
@@ -275,11 +276,7 @@ void CanopenBusDevice::disable() noexcept {
   try {
     disable_requested_.store(true, std::memory_order_release);
     if (loop_running()) {
-      const std::uint64_t seen = reads_.load(std::memory_order_acquire);
-      const auto deadline = Clock::now() + std::chrono::milliseconds(200);
-      while (Clock::now() < deadline && (disable_requested_.load(std::memory_order_acquire) ||
-                                         reads_.load(std::memory_order_acquire) < seen + 3))
-        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      await_loop_handover(disable_requested_, reads_);
     } else {
       for (auto& node : nodes_) node->exchange->set_enabled(false);
       disable_requested_.store(false);

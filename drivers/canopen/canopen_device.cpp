@@ -12,6 +12,7 @@
 #include "drivers/canopen/301/nmt.hpp"
 #include "drivers/canopen/device_settings.hpp"
 #include "drivers/canopen/frame_links.hpp"
+#include "drivers/canopen/loop_handover.hpp"
 #include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
@@ -309,11 +310,7 @@ void CanopenDevice::disable() noexcept {
     disable_requested_.store(true, std::memory_order_release);
     if (loop_running()) {
       // The loop takes the request at its next read(); give the Disable Voltage a few periods to go out.
-      const std::uint64_t seen = reads_.load(std::memory_order_acquire);
-      const auto deadline = Clock::now() + std::chrono::milliseconds(200);
-      while (Clock::now() < deadline && (disable_requested_.load(std::memory_order_acquire) ||
-                                         reads_.load(std::memory_order_acquire) < seen + 3))
-        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      await_loop_handover(disable_requested_, reads_);
     } else {
       exchange_->set_enabled(false);
       disable_requested_.store(false);

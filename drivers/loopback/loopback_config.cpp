@@ -240,6 +240,10 @@ LoopbackStage pantograph_from(const DriverParameters& p) {
     throw ParameterError("hand",
                          std::string("device.loopback.hand (on the pantograph's handle): ") + e.what());
   }
+  if (p.given("link_masses")) {
+    const auto w = per_axis_numbers("link_masses", p.text("link_masses"), 5, 0.0, 10.0, "kg");
+    linkage.weight = world::PantographMasses{w[0], w[1], w[2], w[3], w[4], world::standard_gravity};
+  }
   stage.pantograph = linkage;
   return stage;
 }
@@ -248,7 +252,7 @@ LoopbackStage pantograph_from(const DriverParameters& p) {
 
 LoopbackStage loopback_stage_from(const DriverParameters& p) {
   if (p.text("linkage") == "pantograph") return pantograph_from(p);
-  for (const char* key : {"links", "joint_inertia", "joint_damping", "workspace", "start"}) {
+  for (const char* key : {"links", "joint_inertia", "joint_damping", "workspace", "start", "link_masses"}) {
     if (p.given(key))
       throw ParameterError(key, "loopback: " + std::string(key) +
                                     " is for a pantograph; accepted with linkage = \"pantograph\"");

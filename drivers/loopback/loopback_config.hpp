@@ -16,6 +16,7 @@
 #include "drivers/simulation/hand_script.hpp"
 #include "drivers/simulation/pantograph_hand.hpp"
 #include "drivers/simulation/plant_config.hpp"
+#include "world/gravity.hpp"
 
 namespace hapticd::drivers::loopback {
 
@@ -50,6 +51,9 @@ struct LoopbackStage {
     DeviceModel::Pantograph model;    ///< links and workspace
     std::array<double, 2> start{};    ///< the handle at start-up, m
     simulation::TaskHandScript hand;  ///< the `hand` key, on the handle
+    /// link_masses: the linkage in a vertical plane (y up) weighs this;
+    /// unset: weightless (a horizontal plane).
+    std::optional<world::PantographMasses> weight;
   };
   std::optional<Pantograph> pantograph;
 };

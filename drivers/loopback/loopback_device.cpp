@@ -8,6 +8,7 @@
 
 #include "rpc/jsonrpc.hpp"
 #include "rpc/params.hpp"
+#include "world/gravity.hpp"
 
 namespace hapticd::drivers::loopback {
 
@@ -116,12 +117,27 @@ IoResult LoopbackDevice::write_axes(std::span<const double> forces) noexcept {
     const std::array<double, 2> qd{simulators_[0]->body_velocity(), simulators_[1]->body_velocity()};
     std::array<simulation::JointDrive, 2> drives{};
     linkage_->drives(q, qd, steps_++, drives);
+    if (pantograph_->weight) add_link_weight(q, drives);
     for (std::size_t i = 0; i < 2; ++i) result = worse(result, simulators_[i]->step(forces[i], drives[i]));
     return result;
   }
   for (std::size_t i = 0; i < forces.size() && i < simulators_.size(); ++i)
     result = worse(result, simulators_[i]->step(forces[i]));
   return result;
+}
+
+/// The links' weight on the joints, -dV/dq (world/gravity.hpp), at the
+/// period's start and held over it, as the hand's force is.
+void LoopbackDevice::add_link_weight(const std::array<double, 2>& q,
+                                     std::array<simulation::JointDrive, 2>& drives) const noexcept {
+  world::AxisVector joints(2);
+  joints << q[0], q[1];
+  world::TaskState state;
+  linkage_->kinematics().solve(joints, state);
+  const world::AxisVector holding =
+      world::pantograph_gravity_torques(linkage_->kinematics(), *pantograph_->weight, joints, state);
+  drives[0].external -= holding(0);
+  drives[1].external -= holding(1);
 }
 
 DeviceModel LoopbackDevice::model() const {
@@ -144,7 +160,8 @@ DeviceModel LoopbackDevice::model() const {
     m.pantograph = pantograph_->model;
     m.description = "pantograph: two rigid rotary joints, links " + to_text(ParameterValue(g.a1)) + ", " +
                     to_text(ParameterValue(g.a2)) + ", " + to_text(ParameterValue(g.a3)) + ", " +
-                    to_text(ParameterValue(g.a4)) + ", " + to_text(ParameterValue(g.a5)) + " m";
+                    to_text(ParameterValue(g.a4)) + ", " + to_text(ParameterValue(g.a5)) + " m" +
+                    (pantograph_->weight ? ", in a vertical plane (link_masses)" : "");
   }
   for (const auto& axis : simulators_) {
     m.axes.push_back({axis->config().mass, axis->config().damping});

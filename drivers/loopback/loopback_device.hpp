@@ -11,6 +11,7 @@
 /// the RT path; clear_fault(), methods(), health() and the simulator's
 /// thread-safe calls (set_hand, inject_fault, snapshot) may run at any time.
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <string>
@@ -89,6 +90,8 @@ class LoopbackDevice final : public DeviceHooks {
   nlohmann::json set_pantograph_hand(const nlohmann::json& params);
   /// The joints at the handle's start, at rest.
   void start_pantograph();
+  void add_link_weight(const std::array<double, 2>& q,
+                       std::array<simulation::JointDrive, 2>& drives) const noexcept;
 
   std::vector<std::unique_ptr<simulation::PlantSimulator>> simulators_;  ///< one per axis
   std::optional<LoopbackStage::Pantograph> pantograph_;                  ///< linkage = pantograph

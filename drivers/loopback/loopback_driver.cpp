@@ -53,6 +53,11 @@ std::vector<ParameterSpec> stage_parameters() {
           .defaults_to("-0.02,0.06,0.07,0.12"),
       P::text("start", "pantograph: the handle's position x,y at start-up, m; unset: the workspace's centre")
           .defaults_to(""),
+      P::text("link_masses",
+              "pantograph in a vertical plane (y up): the weights of the proximal left, distal left, "
+              "distal right and proximal right links (each at its middle) and of the handle, kg, "
+              "comma-separated, for [gravity]; their inertia is in joint_inertia; unset: weightless")
+          .defaults_to(""),
   };
 }
 

@@ -319,6 +319,39 @@ TEST(TaskGate, AxisSpringsIsJudgedPerAxisExactlyAndRefusedNamingTheAxisAndItsLim
   }
 }
 
+TEST(TaskGate, AxisSpringsWithEachAxisItsOwnStiffnessIsJudgedWithThatAxisK) {
+  // The light axis y carries a soft spring, the heavy x a stiff one: the
+  // gate judges each with its own k, and refuses naming the axis that fails.
+  const GateDevice device = stage({{0.3, 0.0}, {0.05, 0.0}});
+  const world::ParameterSet base{{"stiffness", 100.0}, {"mass", 0.5}, {"damping", 30.0}};
+  const auto limit_on = [&](double m) {
+    const auto one = gate_scene("spring-mass", {{"stiffness", 1e7}, {"mass", 0.5}, {"damping", 30.0}},
+                                rigid_device(m, 0.0, period, 0, world::Motion::linear), false);
+    EXPECT_TRUE(std::holds_alternative<GateRefusal>(one));
+    return *std::get<GateRefusal>(one).stiffness_limit;
+  };
+  const double kx = limit_on(0.3), ky = limit_on(0.05);
+  ASSERT_GT(kx, ky) << "the heavier axis holds a stiffer spring";
+  const auto with = [&](double x, double y) {
+    world::ParameterSet p = base;
+    p["axis_stiffness"] = std::to_string(x) + "," + std::to_string(y);
+    return gate_scene("axis-springs", p, device, false);
+  };
+  // Each axis below its own limit: accepted, although x's k is above y's limit.
+  EXPECT_TRUE(std::holds_alternative<GateAccepted>(with(0.9 * kx, 0.9 * ky)));
+  ASSERT_GT(0.9 * kx, ky);
+  const auto x_fails = with(1.1 * kx, 0.5 * ky);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(x_fails));
+  EXPECT_TRUE(std::get<GateRefusal>(x_fails).message.starts_with("axis-springs on axis x (m = 0.3 kg"))
+      << std::get<GateRefusal>(x_fails).message;
+  EXPECT_NEAR(*std::get<GateRefusal>(x_fails).stiffness_limit / kx, 1.0, 1e-6)
+      << "to the limit search's tolerance";
+  const auto y_fails = with(0.5 * kx, 1.1 * ky);
+  ASSERT_TRUE(std::holds_alternative<GateRefusal>(y_fails));
+  EXPECT_TRUE(std::get<GateRefusal>(y_fails).message.starts_with("axis-springs on axis y (m = 0.05 kg"))
+      << std::get<GateRefusal>(y_fails).message;
+}
+
 TEST(TaskGate, AxisSpringsOnAPantographCannotBeAssessedSayingWhy) {
   const GateDevice device = pantograph({{5e-4, 0.0}, {5e-4, 0.0}}, TaskBox{-0.02, 0.06, 0.07, 0.12});
   const auto outcome = gate_scene("axis-springs", {}, device, false);

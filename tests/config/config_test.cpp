@@ -256,11 +256,13 @@ TEST(ConfigErrors, UnknownKeysNameSectionAndAcceptedKeys) {
       error_of("[recorder]\ndir = \"x\""),
       "t.toml:2:1: unknown key 'dir' in [recorder]; accepted: directory, ring_seconds, flush_interval, cpu");
   EXPECT_EQ(error_of("[device]\nlimit = 1"),
-            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, max_velocity, "
+            "t.toml:2:1: unknown key 'limit' in [device]; accepted: driver, torque_limit, axis_torque_limit, "
+            "max_velocity, "
             "model, axis_names, kinematics, encoder, origin, origin_file, require_calibration, and a table "
             "[device.<driver>] for the selected driver");
   EXPECT_EQ(error_of("[device.serial]\nx = 1"),
-            "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, max_velocity, "
+            "t.toml:1:9: unknown key 'serial' in [device]; accepted: driver, torque_limit, "
+            "axis_torque_limit, max_velocity, "
             "model, axis_names, kinematics, encoder, origin, origin_file, require_calibration, and a table "
             "[device.<driver>] for the selected driver");
 }
@@ -319,6 +321,14 @@ TEST(ConfigValues, GravityAndWorkspaceParse) {
   ASSERT_EQ(config.workspace.parameters.size(), 2U);
   EXPECT_EQ(config.workspace.parameters[0].key, "low");
   EXPECT_EQ(config.workspace.parameters[1].value, ParameterValue(2000.0));
+  const DaemonConfig links = parse_config(
+      "[gravity]\nlink_masses = [0.02, 0.03, 0.03, 0.02]\nhandle_mass = 0.01\nacceleration = 9.8\n",
+      "t.toml");
+  EXPECT_EQ(links.gravity.link_masses, (std::vector<double>{0.02, 0.03, 0.03, 0.02}));
+  EXPECT_EQ(links.gravity.handle_mass, 0.01);
+  EXPECT_EQ(links.gravity.acceleration, 9.8);
+  EXPECT_EQ(links.gravity.link_masses_where, (SourcePosition{"t.toml", 2, 15}));
+  EXPECT_TRUE(links.gravity.axis.empty());
   const DaemonConfig none = parse_config("", "t.toml");
   EXPECT_FALSE(none.gravity.configured);
   EXPECT_TRUE(none.workspace.shape.empty());
@@ -335,10 +345,24 @@ TEST(ConfigErrors, GravityAndWorkspaceNameTheKeyAndWhatIsAccepted) {
       "\"positive\"");
   EXPECT_EQ(
       error_of("[gravity]\nmass = 1\n"),
-      "t.toml:1:1: [gravity] needs axis (the vertical axis' name); accepted keys: axis, mass, acceleration, "
-      "down");
+      "t.toml:1:1: [gravity] needs axis (the vertical axis' name); accepted: axis and mass (a stage's "
+      "vertical axis; down), or link_masses (the pantograph in a vertical plane; handle_mass); acceleration "
+      "with either");
   EXPECT_EQ(error_of("[gravity]\naxis = \"y\"\nmass = 1\nweight = 2\n"),
-            "t.toml:4:1: unknown key 'weight' in [gravity]; accepted: axis, mass, acceleration, down");
+            "t.toml:4:1: unknown key 'weight' in [gravity]; accepted: axis, mass, down, link_masses, "
+            "handle_mass, acceleration");
+  EXPECT_EQ(
+      error_of("[gravity]\nlink_masses = [0.1, -0.1, 0.1, 0.1]\n"),
+      "t.toml:2:21: gravity.link_masses = -0.1 is out of range; accepted: four masses in kg from 0 to 10: "
+      "[proximal left, distal left, distal right, proximal right]");
+  EXPECT_EQ(
+      error_of("[gravity]\nlink_masses = 0.1\n"),
+      "t.toml:2:15: gravity.link_masses = 0.1 has the wrong type; accepted: four masses in kg from 0 to 10: "
+      "[proximal left, distal left, distal right, proximal right]");
+  EXPECT_EQ(error_of("[gravity]\nlink_masses = [0.1, 0.1, 0.1, 0.1]\nmass = 1\n"),
+            "t.toml:3:8: [gravity] gives both a stage's axis, mass or down and the pantograph's link_masses; "
+            "accepted: axis and mass (a stage's vertical axis; down), or link_masses (the pantograph in a "
+            "vertical plane; handle_mass); acceleration with either");
   EXPECT_EQ(error_of("[workspace]\nlow = \"0,0\"\n"),
             "t.toml:1:1: [workspace] needs shape; accepted: \"box\" or \"sphere\"");
   EXPECT_EQ(error_of("[workspace]\nshape = \"cube\"\n"),

@@ -39,6 +39,7 @@ TEST(ShippedConfigs, EveryFileParsesWithTheExpectedDriverAndScene) {
       {"loopback-linear-wall.toml", {"loopback", "wall"}},
       {"loopback-two-mass.toml", {"loopback", "relay"}},
       {"loopback-pantograph.toml", {"loopback", "plane-wall"}},
+      {"loopback-pantograph-vertical.toml", {"loopback", "free"}},
       {"usb-hid.toml", {"usb-hid", "spring-wheel"}},
       {"canopen.toml", {"canopen", "spring-wheel"}},
       {"modbus.toml", {"modbus", "spring-wheel"}},

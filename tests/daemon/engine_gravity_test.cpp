@@ -4,7 +4,9 @@
 // added after the scene, holds y still with the free scene and no hand;
 // without it y falls; the feedforward saturates with the scene's force by
 // one common factor; the workspace box holds the device inside while the
-// scene is free and the hand pushes outward, penetrating F/K.
+// scene is free and the hand pushes outward, penetrating F/K. The
+// pantograph in a vertical plane: the link masses' feedforward dV/dq holds
+// its handle still; without it the handle falls.
 
 #include <gtest/gtest.h>
 
@@ -167,6 +169,29 @@ TEST(EngineGravity, TheFeedforwardSaturatesWithTheScenesForceByOneCommonFactor) 
   EXPECT_NE(s.flags & hapticd::daemon::flag_torque_limited, 0U);
 }
 
+TEST(EngineGravity, EachJointItsOwnLimitWithOneCommonFactor) {
+  // As above, with x's limit 20 N and y's 2 N ([device] axis_torque_limit):
+  // the sum (10, 2.94) N passes x's limit and not y's, so both are scaled
+  // by 2 / 2.94, the direction of the sum kept.
+  Rig rig(vertical_stage("mode=hold trajectory=constant position=-0.005", "mode=hold"),
+          options_with(y_up(), std::nullopt));
+  auto plan = plan_of("plane-wall", {{"normal", "1,0"}, {"stiffness", 2000.0}, {"damping", 0.0}}, 30.0);
+  plan->axis_torque_limits = world::AxisVector::Zero(2);
+  plan->axis_torque_limits << 20.0, 2.0;
+  rig.engine.publish(std::move(plan));
+  rig.run(5);
+  rig.plant.simulator(0).set_hand("mode=hold trajectory=ramp from=-0.005 to=0.001 rate=1");
+  rig.run(10);
+  rig.plant.simulator(0).set_hand("mode=hold trajectory=ramp from=0.001 to=-0.005 rate=1");
+  const auto samples = rig.run(10);
+  const auto& s = samples.back();
+  const double fx = s.channels[2], ox = s.channels[4], oy = s.channels[5];
+  ASSERT_NEAR(fx, 2000.0 * 0.005, 1e-6);
+  EXPECT_NEAR(oy, 2.0, 1e-12) << "y at its own limit";
+  EXPECT_NEAR(ox, fx * 2.0 / weight, 1e-9) << "x scaled by y's factor: the direction kept";
+  EXPECT_NE(s.flags & hapticd::daemon::flag_torque_limited, 0U);
+}
+
 TEST(EngineGravity, TheWorkspaceBoxHoldsTheDeviceInsideWhileTheHandPushesOut) {
   const double k = 2000.0, b = 20.0, push = 2.0, high = 0.01;
   auto workspace =
@@ -194,6 +219,71 @@ TEST(EngineGravity, TheWorkspaceBoxHoldsTheDeviceInsideWhileTheHandPushesOut) {
   EXPECT_LT(deepest, bound);
   EXPECT_GT(deepest, push / k) << "it did push into the wall";
   EXPECT_LE(std::abs(last.channels[1]), 1e-9) << "y held by the feedforward meanwhile";
+}
+
+/// The loopback pantograph of the default links in a vertical plane (y
+/// up): its links and handle weigh `masses`; the handle at the workspace's
+/// centre, no hand; 1e9 counts a revolution (6 nrad).
+loopback::LoopbackStage weighted_pantograph(const world::PantographMasses& masses) {
+  loopback::LoopbackStage stage;
+  auto joint = loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::rotary);
+  joint.mass = 5e-4;
+  joint.damping = 0.0;
+  joint.counts = 1e9;
+  stage.axes = {joint, joint};
+  stage.hands.resize(2);
+  loopback::LoopbackStage::Pantograph linkage;
+  linkage.model.x_min = -0.02, linkage.model.x_max = 0.06, linkage.model.y_min = 0.07,
+  linkage.model.y_max = 0.12;
+  linkage.start = {0.02, 0.095};
+  linkage.hand = simulation::parse_task_hand_script("mode=free", linkage.start);
+  linkage.weight = masses;
+  stage.pantograph = linkage;
+  return stage;
+}
+
+const world::PantographMasses link_masses{0.02, 0.03, 0.03, 0.02, 0.01, world::standard_gravity};
+
+EngineOptions pantograph_options(std::optional<world::GravityModel> gravity) {
+  EngineOptions options = options_with(std::move(gravity), std::nullopt);
+  options.position_rule.rotary = true;
+  options.kinematics = world::PantographKinematics(world::PantographGeometry{});
+  return options;
+}
+
+TEST(EngineGravity, TheFeedforwardHoldsThePantographsLinksStill) {
+  Rig rig(weighted_pantograph(link_masses), pantograph_options(link_masses));
+  rig.engine.publish(plan_of("free", {}, 1.0));
+  const auto samples = rig.run(2000);
+  ASSERT_EQ(samples.size(), 2000U);
+  const world::PantographKinematics k(world::PantographGeometry{});
+  double drift = 0.0;
+  for (const auto& s : samples) {
+    // position_q1, position_q2, force_x, force_y, output_q1, output_q2,
+    // handle_x, handle_y, gravity_q1, gravity_q2
+    ASSERT_EQ(s.channel_count, 10U);
+    world::AxisVector q(2);
+    q << s.channels[0], s.channels[1];
+    world::TaskState state;
+    k.solve(q, state);
+    const world::AxisVector holding = world::pantograph_gravity_torques(k, link_masses, q, state);
+    EXPECT_NEAR(s.channels[8], holding(0), 1e-15) << "dV/dq at the joints read";
+    EXPECT_NEAR(s.channels[9], holding(1), 1e-15);
+    EXPECT_EQ(s.channels[4], s.channels[8]) << "the feedforward sent as it is: below the limit";
+    EXPECT_GT(std::abs(s.channels[8]) + std::abs(s.channels[9]), 1e-3) << "the links do weigh";
+    drift = std::max(drift, std::hypot(s.channels[6] - 0.02, s.channels[7] - 0.095));
+  }
+  // The feedforward and the plant's weight are the same function of the
+  // same joints but for one count (6 nrad): the handle stays within 1 um.
+  EXPECT_LE(drift, 1e-6);
+}
+
+TEST(EngineGravity, WithoutTheFeedforwardThePantographsHandleFalls) {
+  Rig rig(weighted_pantograph(link_masses), pantograph_options(std::nullopt));
+  rig.engine.publish(plan_of("free", {}, 1.0));
+  const auto samples = rig.run(50);
+  ASSERT_EQ(samples.back().channel_count, 8U) << "no gravity channels without [gravity]";
+  EXPECT_LT(samples.back().channels[7], 0.095 - 1e-3) << "the handle 1 mm lower or more after 50 ms";
 }
 
 TEST(EngineGravity, GravityOnOneAxisIsRefused) {

@@ -3,7 +3,8 @@
 // handle, and the hand on the handle in task space (a force through J^T,
 // a spring, an ideal hold) or on a joint. The joints' motion is checked
 // against the equations it must follow: I q'' = J^T F for a hand force on
-// free joints, q = IK(r(t)) for a held handle.
+// free joints, q = IK(r(t)) for a held handle, I q'' = -dV/dq for the
+// links' weight in a vertical plane.
 
 #include <gtest/gtest.h>
 
@@ -18,6 +19,7 @@
 #include "drivers/loopback/loopback_device.hpp"
 #include "rpc/jsonrpc.hpp"
 #include "tests/support/alloc_counter.hpp"
+#include "world/gravity.hpp"
 #include "world/kinematics.hpp"
 
 namespace loopback_pantograph_test {
@@ -82,7 +84,8 @@ TEST(LoopbackPantograph, AHandForceOnTheHandleMovesTheJointsByJTransposeF) {
   LoopbackDevice device(
       loopback::loopback_stage_from(keys({{"hand", "direction=1,1 mode=force force=2"}, {"counts", 1e12}})));
   device.configure({1e-3});
-  const auto& g = device.model().pantograph->geometry;
+  const DeviceModel model = device.model();  // by value: a reference into it would dangle
+  const auto& g = model.pantograph->geometry;
   const world::PantographKinematics k(g);
   std::array<Reading, 2> r{};
   ASSERT_EQ(device.read_axes(r), IoResult::ok);
@@ -134,6 +137,41 @@ TEST(LoopbackPantograph, AHeldHandleFollowsItsReferenceAndWritingAllocatesNothin
   EXPECT_NEAR(x(1), 0.095 - 0.02, 0.2 * count) << "2 cm down the ramp";
 }
 
+TEST(LoopbackPantograph, LinkMassesWeighOnTheJointsAsMinusDVdqAndAllocateNothing) {
+  const std::map<std::string, ParameterValue, std::less<>> weighted{
+      {"link_masses", "0.02,0.03,0.03,0.02,0.01"}, {"counts", 1e12}};
+  LoopbackDevice device(loopback::loopback_stage_from(keys(weighted)));
+  device.configure({1e-3});
+  const world::PantographKinematics k(device.model().pantograph->geometry);
+  std::array<Reading, 2> r{};
+  ASSERT_EQ(device.read_axes(r), IoResult::ok);
+  world::AxisVector q0(2);
+  q0 << r[0].position, r[1].position;
+  world::TaskState s;
+  k.solve(q0, s);
+  const world::PantographMasses m{0.02, 0.03, 0.03, 0.02, 0.01};
+  const world::AxisVector holding = world::pantograph_gravity_torques(k, m, q0, s);
+  // One period from rest: dq = -tau_g T^2 / (2 I); the motors' +tau_g holds it.
+  {
+    hapticd::testing::AllocationGuard guard;
+    ASSERT_EQ(device.write_axes(std::array<double, 2>{0.0, 0.0}), IoResult::ok);
+    EXPECT_EQ(guard.count(), 0U);
+  }
+  ASSERT_EQ(device.read_axes(r), IoResult::ok);
+  for (int i = 0; i < 2; ++i) {
+    const double expected = -holding(i) * 1e-6 / (2 * 5e-4);
+    EXPECT_NEAR(r[static_cast<std::size_t>(i)].position - q0(i), expected, 1e-9 * std::abs(expected) + 1e-11)
+        << "joint " << i + 1;
+  }
+  LoopbackDevice held(loopback::loopback_stage_from(keys(weighted)));
+  held.configure({1e-3});
+  ASSERT_EQ(held.write_axes(std::array<double, 2>{holding(0), holding(1)}), IoResult::ok);
+  ASSERT_EQ(held.read_axes(r), IoResult::ok);
+  EXPECT_NEAR(r[0].position, q0(0), 1e-12);
+  EXPECT_NEAR(r[1].position, q0(1), 1e-12);
+  EXPECT_NE(held.model().description.find("vertical plane"), std::string::npos) << held.model().description;
+}
+
 TEST(LoopbackPantograph, HandSetActsOnTheHandleOrOnAJoint) {
   LoopbackDevice device(loopback::loopback_stage_from(keys({})));
   device.configure({1e-3});
@@ -164,6 +202,15 @@ TEST(LoopbackPantograph, RefusesWhatALinkageCannotTakeNamingTheKey) {
   EXPECT_NE(far.find("out of reach"), std::string::npos) << far;
   EXPECT_NE(refusal({{"start", "0.5,0.1"}}).find("start: "), std::string::npos);
   EXPECT_NE(refusal({{"hand", "mode=impedance"}}).find("stiffness"), std::string::npos);
+  EXPECT_NE(refusal({{"link_masses", "0.1,0.1,0.1,0.1"}}).find("link_masses: "), std::string::npos)
+      << "four links and the handle: five masses";
+  EXPECT_NE(refusal({{"link_masses", "0.1,0.1,-0.1,0.1,0"}}).find("link_masses: "), std::string::npos);
+  const auto weighted = loopback::loopback_stage_from(keys({{"link_masses", "0.02,0.03,0.03,0.02,0.01"}}));
+  ASSERT_TRUE(weighted.pantograph->weight.has_value());
+  EXPECT_EQ(weighted.pantograph->weight->distal_right, 0.03);
+  EXPECT_EQ(weighted.pantograph->weight->handle, 0.01);
+  EXPECT_FALSE(loopback::loopback_stage_from(keys({})).pantograph->weight.has_value())
+      << "weightless by default";
   // And a stage refuses the pantograph's keys.
   try {
     loopback::loopback_stage_from(DriverParameters("loopback", loopback::loopback_parameters(),

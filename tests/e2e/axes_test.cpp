@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -43,6 +44,43 @@ double number_after(const std::string& text, const std::string& prefix) {
   return std::stod(text.substr(at + prefix.size()));
 }
 
+TEST(Axes, EachAxisItsOwnTorqueLimit) {
+  TempDir dir;
+  const auto config = dir.path / "limits.toml";
+  const auto check = [&](const std::string& device_extra) {
+    std::FILE* f = std::fopen(config.c_str(), "w");
+    std::fputs(stage_config(device_extra).c_str(), f);
+    std::fclose(f);
+    return run(hapticd_binary(), {"--check-config", "-c", config.string()});
+  };
+  const auto fine = check("axis_torque_limit = [2.0, 20.0]\n");
+  ASSERT_EQ(fine.exit_code, 0) << fine.err;
+  EXPECT_NE(fine.out.find("torque limit 10 N (x 2 N, y 10 N)"), std::string::npos)
+      << "each axis the smaller of its own and torque_limit\n"
+      << fine.out;
+  const auto three = check("axis_torque_limit = [2.0, 3.0, 4.0]\n");
+  EXPECT_EQ(three.exit_code, 2);
+  EXPECT_NE(
+      three.err.find("device.axis_torque_limit gives 3 limits for the 2 axes of loopback; accepted: one "
+                     "per axis, in order"),
+      std::string::npos)
+      << three.err;
+  const auto zero = check("axis_torque_limit = [2.0, 0]\n");
+  EXPECT_EQ(zero.exit_code, 2);
+  EXPECT_NE(
+      zero.err.find("device.axis_torque_limit = 0 is out of range; accepted: an array of 1 to 6 numbers "
+                    "greater than 0"),
+      std::string::npos)
+      << zero.err;
+
+  Daemon daemon(dir, stage_config("axis_torque_limit = [2.0, 20.0]\n"));
+  const auto status = daemon.ctl({"status", "--json"});
+  ASSERT_EQ(status.exit_code, 0) << status.err << daemon.log();
+  const json st = json::parse(status.out);
+  EXPECT_EQ(st["device"]["axes"][0]["torque_limit"], 2.0) << st.dump();
+  EXPECT_EQ(st["device"]["axes"][1]["torque_limit"], 10.0);
+}
+
 TEST(Axes, APlaneWallOnATwoAxisStageThroughTheDaemon) {
   TempDir dir;
   Daemon daemon(dir, stage_config());
@@ -53,6 +91,7 @@ TEST(Axes, APlaneWallOnATwoAxisStageThroughTheDaemon) {
   ASSERT_EQ(st["device"]["axes"].size(), 2U) << st.dump();
   EXPECT_EQ(st["device"]["axes"][0]["name"], "x");
   EXPECT_EQ(st["device"]["axes"][1]["mass"], 0.3);
+  EXPECT_EQ(st["device"]["axes"][1]["torque_limit"], 10.0) << "torque_limit on every axis";
   EXPECT_EQ(st["device"]["kinematics"], "cartesian");
   EXPECT_EQ(st["scene"]["name"], "free");
 

@@ -6,6 +6,9 @@
 // inside while the scene is free and the hand pushes outward, F/K deep. A
 // workspace wall too stiff for the device is refused at --check-config
 // naming the limit, and the [gravity]/[workspace] errors name their key.
+// The pantograph in a vertical plane (the loopback's link_masses): the
+// links' feedforward holds the handle still once the hand lets go, and
+// links too heavy for the torque limit are refused with the worst case.
 
 #include <gtest/gtest.h>
 
@@ -150,6 +153,64 @@ TEST(Gravity, AWorkspaceBoxHoldsTheDeviceInsideWhileTheHandPushesOut) {
               x.size());
 }
 
+/// The loopback pantograph of the default links in a vertical plane: its
+/// links and handle weigh 0.02, 0.03, 0.03, 0.02 and 0.01 kg; the hand holds
+/// the handle at the workspace's centre to start; 1e9 counts a revolution.
+std::string vertical_pantograph(const std::string& sections, const std::string& torque_limit = "1.0") {
+  return "[loop]\nperiod = \"1ms\"\nclock = \"virtual\"\n"
+         "[device]\ndriver = \"loopback\"\nkinematics = \"pantograph\"\ntorque_limit = " +
+         torque_limit +
+         "\n[device.loopback]\nlinkage = \"pantograph\"\ncounts = 1e9\n"
+         "link_masses = \"0.02,0.03,0.03,0.02,0.01\"\nhand = \"mode=hold\"\n"
+         "[scene]\nname = \"free\"\n" +
+         sections;
+}
+
+const std::string gravity_of_the_links =
+    "[gravity]\nlink_masses = [0.02, 0.03, 0.03, 0.02]\nhandle_mass = 0.01\n";
+
+TEST(Gravity, TheFeedforwardHoldsThePantographsLinksStillWhenTheHandLetsGo) {
+  TempDir dir;
+  Daemon daemon(dir, vertical_pantograph(gravity_of_the_links));
+  const auto status = daemon.ctl({"status", "--json"});
+  ASSERT_EQ(status.exit_code, 0) << status.err << daemon.log();
+  const json st = json::parse(status.out);
+  EXPECT_EQ(st["gravity"]["link_masses"], json::parse("[0.02, 0.03, 0.03, 0.02]")) << st.dump();
+  EXPECT_EQ(st["gravity"]["handle_mass"], 0.01);
+  const double worst = st["gravity"]["worst_case"]["torque"].get<double>();
+  EXPECT_GT(worst, 0.0);
+  EXPECT_LT(worst, 1.0) << "within the torque limit, or the config is refused";
+
+  const Recording rec = record_after(daemon, dir, {"mode=free"}, 400);
+  const auto hx = rec.values("handle_x_m"), hy = rec.values("handle_y_m"), q1 = rec.values("position_q1_rad");
+  const auto g1 = rec.values("gravity_q1_n_m"), o1 = rec.values("output_q1_n_m"), flags = rec.values("flags");
+  ASSERT_GT(hy.size(), 20000U) << "20 s of loop time or more";
+  // The first row the joints moved in: the hand let go just before.
+  std::size_t moved = 0;
+  while (moved < q1.size() && q1[moved] == q1[0]) ++moved;
+  ASSERT_LT(moved + 10000, q1.size()) << "10 s of loop time after the hand let go";
+  double early = 0.0, drift = 0.0, largest = 0.0;
+  for (std::size_t i = 0; i < hy.size(); ++i) {
+    EXPECT_EQ(o1[i], g1[i]) << "the feedforward sent as it is, below the limit";
+    EXPECT_EQ(flags[i], 0.0) << "row " << i;
+    const double d = std::hypot(hx[i] - 0.02, hy[i] - 0.095);
+    if (i <= moved + 10000) early = std::max(early, d);
+    drift = std::max(drift, d);
+    largest = std::max(largest, std::abs(g1[i]));
+  }
+  EXPECT_GT(largest, 1e-3) << "the links do weigh";
+  EXPECT_LE(largest, worst * (1 + 1e-9)) << "the worst case over the workspace bounds it";
+  // The feedforward is the plant's weight at the joints read: the encoder
+  // reads up to one count (6 nrad) below the angle, so the joints feel a
+  // residual of about dtau/dq x 3 nrad, 1e-10 N m. On frictionless joints in
+  // neutral equilibrium it drifts as t^2: within 1 um over the first 10 s.
+  EXPECT_LE(early, 1e-6) << "over the 10 s after the hand let go";
+  std::printf(
+      "pantograph gravity: the handle within %.3g m over 10 s after the release, %.3g m over %zu rows "
+      "(%.0f s); holding torque up to %.4g N m\n",
+      early, drift, hy.size(), static_cast<double>(hy.size()) * 1e-3, largest);
+}
+
 TEST(Gravity, TheConfigsGravityAndWorkspaceErrorsNameTheKeyAndTheLimit) {
   TempDir dir;
   const auto config = dir.path / "bad.toml";
@@ -180,7 +241,7 @@ TEST(Gravity, TheConfigsGravityAndWorkspaceErrorsNameTheKeyAndTheLimit) {
   expect_error(vertical_stage("[gravity]\naxis = \"z\"\nmass = 0.3\n"),
                "bad.toml:17:8: gravity.axis = \"z\" names no axis of the device; accepted: x, y");
   expect_error(vertical_stage("[gravity]\naxis = \"y\"\nmass = 2\n"),
-               "gravity.mass = 2 kg weighs 19.61 N, more than device.torque_limit = 10 N");
+               "gravity.mass = 2 kg weighs 19.61 N, more than the torque limit of axis y, 10 N");
   expect_error(vertical_stage("[gravity]\naxis = \"y\"\nmass = -1\n"),
                "gravity.mass = -1 is out of range; accepted: a mass in kg greater than 0 and at most 100");
   expect_error(vertical_stage("[gravity]\naxis = \"y\"\nmass = nan\n"), "gravity.mass");
@@ -191,6 +252,18 @@ TEST(Gravity, TheConfigsGravityAndWorkspaceErrorsNameTheKeyAndTheLimit) {
       "[device]\ndriver = \"loopback\"\n[device.loopback]\nmotion = \"linear\"\n"
       "[scene]\nname = \"free\"\n[gravity]\naxis = \"x\"\nmass = 0.1\n",
       "[gravity] is for a device with several axes (issue 22); this one (loopback) has one");
+  expect_error(vertical_pantograph("[gravity]\nlink_masses = [1, 1, 1, 1]\n"),
+               "gravity.link_masses: holding the links takes up to ");
+  expect_error(vertical_pantograph("[gravity]\naxis = \"q1\"\nmass = 0.1\n"),
+               "[gravity] on the pantograph: its weight is in its links; accepted: link_masses");
+  expect_error(vertical_pantograph("[gravity]\nlink_masses = [0.1, 0.1, 0.1]\n"),
+               "gravity.link_masses = [...] is out of range; accepted: four masses in kg");
+  expect_error(vertical_pantograph("[gravity]\nlink_masses = [0.1, 0.1, 0.1, 0.1]\naxis = \"q1\"\n"),
+               "[gravity] gives both a stage's axis, mass or down and the pantograph's link_masses");
+  expect_error(vertical_stage("[gravity]\nlink_masses = [0.1, 0.1, 0.1, 0.1]\n"),
+               "gravity.link_masses is for the pantograph");
+  expect_error(vertical_stage("[gravity]\naxis = \"y\"\nmass = 0.3\nhandle_mass = 0.1\n"),
+               "gravity.handle_mass goes with link_masses");
   const auto fine = check(vertical_stage(gravity_on_y + "[workspace]\nshape = \"sphere\"\nradius = 0.02\n"
                                                         "stiffness = 2000\ndamping = 20\n"));
   EXPECT_EQ(fine.exit_code, 0) << fine.err;

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <string>
 #include <variant>
@@ -199,6 +200,55 @@ TEST(TaskScenes, AxisSpringsCarriesOnlyWhatItUsesAndRunsOnlyOnAStage) {
             "axis-springs is a task-space scene for a device with several");
   const ScenePlan resolved = planned("axis-springs", {{"stiffness", 500.0}, {"damping", "auto"}}, 2);
   EXPECT_EQ(std::get<double>(resolved.per_axis->parameters.at("damping")), 0.5) << "T k, as on one axis";
+  EXPECT_TRUE(resolved.per_axis->axes.empty()) << "one set for every axis";
+  EXPECT_EQ(resolved.per_axis->parameters.count("axis_stiffness"), 0U) << "spring-mass has one k";
+}
+
+TEST(TaskScenes, AxisSpringsTakesEachAxisItsOwnStiffness) {
+  for (const char* damping : {"0", "3", "auto"}) {
+    SCOPED_TRACE(damping);
+    const ParameterSet given{{"stiffness", 400.0},
+                             {"axis_stiffness", "400,100,0"},
+                             {"mass", 0.2},
+                             {"damping", std::string(damping)}};
+    const ScenePlan plan = planned("axis-springs", given, 3);
+    ASSERT_EQ(plan.per_axis->axes.size(), 3U);
+    AnyTaskScene scene = plan.task_object;
+    std::vector<AnyScene> one;
+    for (int i = 0; i < 3; ++i) {
+      const ParameterSet& own = plan.per_axis->on_axis(static_cast<std::size_t>(i));
+      const std::array<double, 3> k{400.0, 100.0, 0.0};
+      EXPECT_EQ(std::get<double>(own.at("stiffness")), k[static_cast<std::size_t>(i)]);
+      if (std::string(damping) == "auto") {
+        EXPECT_DOUBLE_EQ(std::get<double>(own.at("damping")), period * k[static_cast<std::size_t>(i)])
+            << "T k_i on each axis";
+      }
+      auto outcome = plan_scene("spring-mass", own, period, Motion::linear, 1);
+      ASSERT_TRUE(std::holds_alternative<ScenePlan>(outcome));
+      one.push_back(std::get<ScenePlan>(outcome).scene_object);
+    }
+    AxisVector x(3);
+    x << 0.01, -0.02, 0.005;
+    reset(scene, x);
+    for (int i = 0; i < 3; ++i) reset(one[static_cast<std::size_t>(i)], x(i));
+    AxisVector f;
+    for (int n = 0; n < 500; ++n) {
+      x << 0.01 + 0.02 * std::sin(0.01 * n), -0.02 + 0.01 * std::cos(0.03 * n), 0.005 + 0.001 * n;
+      step(scene, x, f);
+      for (int i = 0; i < 3; ++i)
+        ASSERT_EQ(f(i), step(one[static_cast<std::size_t>(i)], x(i))) << "axis " << i << ", step " << n;
+      if (std::string(damping) != "3") {
+        ASSERT_EQ(f(2), 0.0) << "k = 0 and b = T k = 0: nothing on z";
+      }
+    }
+  }
+  EXPECT_NE(refusal("axis-springs", {{"axis_stiffness", "400,100"}}, 3)
+                .find("axis_stiffness: '400,100' is not "
+                      "accepted; 3 comma-separated"),
+            std::string::npos);
+  EXPECT_NE(
+      refusal("axis-springs", {{"axis_stiffness", "400,-1"}}, 2).find("axis_stiffness: each axis' k from 0"),
+      std::string::npos);
 }
 
 }  // namespace
