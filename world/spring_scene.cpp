@@ -202,8 +202,8 @@ void build_spring(ScenePlan& plan, const SceneContext& context) {
 /// axis_stiffness: each axis' k, N/m; "" gives `stiffness` on every axis.
 AxisVector axis_stiffness(const ParameterSet& p, Eigen::Index axes) {
   const double k = number_of(p, "stiffness");
-  const AxisVector out = parse_axis_vector("axis_stiffness", text_of(p, "axis_stiffness"),
-                                           static_cast<int>(axes), AxisVector::Constant(axes, k));
+  AxisVector out = parse_axis_vector("axis_stiffness", text_of(p, "axis_stiffness"), static_cast<int>(axes),
+                                     AxisVector::Constant(axes, k));
   for (Eigen::Index i = 0; i < axes; ++i) {
     if (!(out(i) >= 0.0 && out(i) <= parameter_range::max_stiffness))
       throw std::invalid_argument(
