@@ -21,6 +21,7 @@
 #include "drivers/loopback/loopback_device.hpp"
 #include "rt/clock.hpp"
 #include "rt/loop_timing.hpp"
+#include "tests/support/alloc_counter.hpp"
 #include "world/gravity.hpp"
 #include "world/scene_catalog.hpp"
 
@@ -180,6 +181,12 @@ TEST(EngineGravity, EachJointItsOwnLimitWithOneCommonFactor) {
   plan->axis_torque_limits << 20.0, 2.0;
   rig.engine.publish(std::move(plan));
   rig.run(5);
+  {
+    // The per-joint limits on the RT path: a fixed-capacity copy, nothing allocated.
+    hapticd::testing::AllocationGuard guard;
+    for (int i = 0; i < 100; ++i) rig.engine.run_cycle(rig.schedule.wait_next());
+    EXPECT_EQ(guard.count(), 0U);
+  }
   rig.plant.simulator(0).set_hand("mode=hold trajectory=ramp from=-0.005 to=0.001 rate=1");
   rig.run(10);
   rig.plant.simulator(0).set_hand("mode=hold trajectory=ramp from=0.001 to=-0.005 rate=1");
