@@ -7,6 +7,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "daemon/config/config.hpp"
 #include "drivers/device.hpp"
 #include "drivers/parameter.hpp"

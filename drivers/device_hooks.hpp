@@ -29,10 +29,10 @@
 #include <string_view>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include "drivers/stop_request.hpp"
-#include "rpc/params.hpp"
+#include "rpc/param_members.hpp"
 #include "world/kinematics.hpp"
 #include "world/parameter.hpp"
 #include "world/plant.hpp"

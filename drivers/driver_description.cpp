@@ -2,6 +2,8 @@
 
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "world/text.hpp"
 
 namespace hapticd::drivers {

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
 #include "world/text.hpp"
 #include "world/units.hpp"
 

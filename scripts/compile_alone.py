@@ -38,7 +38,7 @@ def main():
 
     def check(source):
         e = db[str(Path(source).resolve())]
-        r = subprocess.run(syntax_only(e), cwd=e["directory"], capture_output=True, text=True)
+        r = subprocess.run(syntax_only(e), cwd=e["directory"], capture_output=True, text=True, errors="replace")
         return source, r.returncode, r.stderr
 
     failed = 0
