@@ -283,8 +283,8 @@ std::string Service::describe() const {
           << p->geometry.a4 << ", " << p->geometry.a5 << " m; workspace x " << p->x_min << " to " << p->x_max
           << " m, y " << p->y_min << " to " << p->y_max << " m";
     }
-    for (const auto& note : overlay_.notes) out << "\n" << note;
   }
+  for (const auto& note : overlay_.notes) out << "\n" << note;  // [gravity], [workspace]
   return out.str();
 }
 
@@ -314,8 +314,8 @@ recorder::RecordingHeader Service::header_for(const CurrentScene& scene) const {
     h.notes.push_back("axes: " + std::to_string(model_.axis_names.size()) + ", " +
                       options_.config.device.kinematics +
                       " kinematics: each axis' position, task force (before the limit) and output (sent)");
-    h.notes.insert(h.notes.end(), overlay_.notes.begin(), overlay_.notes.end());
   }
+  h.notes.insert(h.notes.end(), overlay_.notes.begin(), overlay_.notes.end());
   h.notes.push_back("stability: " + scene.stability.summary);
   if (scene.forced) h.notes.push_back("UNSTABLE parameters loaded with force=true");
   // A recording says the origin its positions are measured from (none when
@@ -345,6 +345,10 @@ CurrentScene Service::scene_from(const PlannedScene& planned, const world::Param
     const auto overlay = overlay_.channels(model_.axis_names, model_.info.motion == drivers::Motion::rotary);
     axes.insert(axes.end(), overlay.begin(), overlay.end());
     next.channels.insert(next.channels.begin(), axes.begin(), axes.end());
+  } else {
+    // One axis: [gravity]'s feedforward before the scene's channels, as the engine writes them.
+    const auto overlay = overlay_.channels({}, false);
+    next.channels.insert(next.channels.begin(), overlay.begin(), overlay.end());
   }
   next.stability = planned.stability;
   next.forced = planned.forced;

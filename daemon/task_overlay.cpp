@@ -26,6 +26,11 @@ std::string axis_list(const std::vector<std::string>& names) {
 void add_stage_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, TaskOverlay& out) {
   const config::GravityConfig& g = cfg.gravity;
   const auto& names = device.axis_names;
+  if (g.axis_where.line == 0)
+    throw ConfigError(g.table_where, "gravity.axis",
+                      "[gravity] on a stage with several axes needs axis (the vertical axis' name); "
+                      "accepted: " +
+                          axis_list(names));
   const auto it = std::find(names.begin(), names.end(), g.axis);
   if (it == names.end())
     throw ConfigError(
@@ -53,6 +58,37 @@ void add_stage_gravity(const config::DaemonConfig& cfg, const DeviceModel& devic
                       ", g = " + overlay_number(g.acceleration) + " m/s^2): a feedforward of " +
                       overlay_number(stage.holding(axis)) +
                       " N added after the scene, inside the torque limit (gravity_" + g.axis + ")");
+}
+
+/// [gravity] on a device with one linear axis, vertical: +m g (down
+/// negative) or -m g, the force that holds the axis, after the scene.
+void add_axis_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, TaskOverlay& out) {
+  const config::GravityConfig& g = cfg.gravity;
+  if (g.axis_where.line != 0)
+    throw ConfigError(g.axis_where, "gravity.axis",
+                      "gravity.axis names a stage's vertical axis; this device has one axis, which "
+                      "[gravity] holds; accepted: mass and down without axis");
+  if (device.info.motion == drivers::Motion::rotary)
+    throw ConfigError(g.table_where, "[gravity]",
+                      "[gravity] on one axis is a constant weight on a vertical linear axis; this device "
+                      "is rotary (a weight on a lever varies with the angle); accepted: a linear device");
+  const double weight = g.mass * g.acceleration;  // N
+  const double limit = cfg.device.axis_limit(0);
+  if (weight > limit)
+    throw ConfigError(g.mass_where, "gravity.mass",
+                      "gravity.mass = " + overlay_number(g.mass) + " kg weighs " + overlay_number(weight) +
+                          " N, more than the torque limit " + overlay_number(limit) +
+                          " N: the feedforward could not hold the axis; accepted: a mass up to " +
+                          overlay_number(limit / g.acceleration) + " kg, or a larger torque_limit");
+  const double holding = g.down_positive ? -weight : weight;
+  out.gravity = world::StageWeight{world::AxisVector::Constant(1, holding)};
+  const std::string down = g.down_positive ? "positive" : "negative";
+  out.status["gravity"] = {
+      {"mass", g.mass}, {"acceleration", g.acceleration}, {"down", down}, {"feedforward", holding}};
+  out.notes.push_back("gravity: " + overlay_number(g.mass) + " kg on the axis (down " + down +
+                      ", g = " + overlay_number(g.acceleration) + " m/s^2): a feedforward of " +
+                      overlay_number(holding) +
+                      " N added after the scene, inside the torque limit (gravity)");
 }
 
 /// The holding torque nearest its joint's limit over the pantograph's
@@ -132,6 +168,7 @@ void add_gravity(const config::DaemonConfig& cfg, const DeviceModel& device, Tas
                       "gravity.link_masses is for the pantograph ([device] kinematics = \"pantograph\"); "
                       "accepted on a Cartesian stage: axis, mass and down");
   if (pantograph) return add_pantograph_gravity(cfg, device, out);
+  if (device.axis_names.empty()) return add_axis_gravity(cfg, device, out);
   add_stage_gravity(cfg, device, out);
 }
 
@@ -184,6 +221,7 @@ std::vector<world::ChannelDescription> TaskOverlay::channels(const std::vector<s
   std::vector<world::ChannelDescription> out;
   if (gravity) {
     for (const auto& n : axis_names) out.push_back({"gravity_" + n, rotary ? "N m" : "N"});
+    if (axis_names.empty()) out.push_back({"gravity", "N"});  // one linear axis
   }
   if (workspace) out.push_back({"workspace_penetration", "m"});
   return out;
@@ -194,13 +232,12 @@ TaskOverlay make_task_overlay(const config::DaemonConfig& cfg, const DeviceModel
   out.status = nlohmann::json::object();
   const bool wanted = cfg.gravity.configured || !cfg.workspace.shape.empty();
   if (!wanted) return out;
-  if (device.axis_names.empty()) {
-    const bool gravity = cfg.gravity.configured;
-    throw ConfigError(gravity ? cfg.gravity.table_where : cfg.workspace.shape_where,
-                      gravity ? "[gravity]" : "[workspace]",
-                      std::string(gravity ? "[gravity]" : "[workspace]") +
-                          " is for a device with several axes (issue 22); this one (" + cfg.device.driver +
-                          ") has one; accepted: no [gravity] or [workspace] table");
+  if (device.axis_names.empty() && !cfg.workspace.shape.empty()) {
+    throw ConfigError(cfg.workspace.shape_where, "[workspace]",
+                      "[workspace] is a box or a sphere in the task space of a device with several axes; "
+                      "this one (" +
+                          cfg.device.driver +
+                          ") has one, where a wall scene limits the travel; accepted: no [workspace] table");
   }
   if (cfg.gravity.configured) add_gravity(cfg, device, out);
   if (!cfg.workspace.shape.empty()) add_workspace(cfg, device, out);

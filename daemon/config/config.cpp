@@ -565,8 +565,8 @@ class Parser {
   void check_gravity_model(const toml::table& table, const GravityConfig& gravity,
                            const toml::node* stage_key, const toml::node* handle) const {
     const std::string models =
-        "axis and mass (a stage's vertical axis; down), or link_masses (the pantograph in a vertical "
-        "plane; handle_mass); acceleration with either";
+        "mass (one vertical linear axis, or a stage's vertical axis named by axis; down), or "
+        "link_masses (the pantograph in a vertical plane; handle_mass); acceleration with either";
     if (!gravity.link_masses.empty()) {
       if (stage_key != nullptr)
         fail(stage_key->source(), "gravity",
@@ -578,11 +578,9 @@ class Parser {
     if (handle != nullptr)
       fail(handle->source(), "gravity.handle_mass",
            "gravity.handle_mass goes with link_masses (the pantograph); accepted: " + models);
-    const bool has_axis = gravity.axis_where.line != 0, has_mass = gravity.mass_where.line != 0;
-    if (!has_axis || !has_mass)
-      fail(table.source(), has_axis ? "gravity.mass" : "gravity.axis",
-           std::string("[gravity] needs ") + (has_axis ? "mass (kg)" : "axis (the vertical axis' name)") +
-               "; accepted: " + models);
+    // axis is the device's to ask for: a stage names its vertical axis, one axis has none.
+    if (gravity.mass_where.line == 0)
+      fail(table.source(), "gravity.mass", "[gravity] needs mass (kg); accepted: " + models);
   }
 
   /// [workspace]: shape and the box's or sphere's parameters (checked by the scene planner).

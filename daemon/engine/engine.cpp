@@ -24,8 +24,13 @@ Engine::Engine(EngineOptions options, drivers::Device& device, rt::Clock& clock)
         options_.position_rule);
     task_->gravity = options_.gravity;
     task_->workspace = options_.workspace;
-  } else if (options_.gravity || options_.workspace) {
-    throw std::invalid_argument("gravity compensation and a workspace wall need a device with several axes");
+  } else if (options_.workspace) {
+    throw std::invalid_argument("a workspace wall needs a device with several axes");
+  } else if (options_.gravity) {
+    const auto* stage = std::get_if<world::StageWeight>(&*options_.gravity);
+    if (stage == nullptr || stage->holding.size() != 1)
+      throw std::invalid_argument("one axis takes gravity as the weight on that axis alone");
+    axis_weight_ = stage->holding(0);
   }
 }
 
@@ -292,9 +297,11 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   // position: computing a command now would use the stale scene state.
   const bool output_allowed = !latched_before && !latch_.latched() && !uncalibrated;
   double command = 0.0;
+  axis_feedforward_ = 0.0;
   if (position_valid && plan_ != nullptr && output_allowed) {
     command = world::step(scene_, position);
     if (!std::isfinite(command)) latch(FaultReason::non_finite_command);
+    axis_feedforward_ = axis_weight_.value_or(0.0);  // [gravity]: after the scene
   }
   // One read decides both the output and the sample's latched flag: an estop
   // from the control thread landing after it takes effect next cycle, and
@@ -302,8 +309,9 @@ void Engine::run_cycle(const rt::WakeUp& wake) noexcept {
   const bool output_latched = latched_before || latch_.latched();
   double applied = 0.0;
   if (position_valid && plan_ != nullptr && !output_latched && !uncalibrated) {
-    applied = limit_output(command, plan_->torque_limit);
-    if (applied != command) {
+    const double wanted = command + axis_feedforward_;
+    applied = limit_output(wanted, plan_->torque_limit);
+    if (applied != wanted) {
       sample.flags |= flag_torque_limited;
       bump(torque_limited_);
     }
@@ -330,9 +338,12 @@ void Engine::finish_sample(const rt::WakeUp& wake, TelemetrySample& sample, bool
   if (task_) {
     task_channels(sample);
   } else if (plan_ != nullptr) {
+    // [gravity]'s feedforward first, as on several axes, then the scene's.
+    const std::size_t first = axis_weight_ ? 1 : 0;
+    if (axis_weight_) sample.channels[0] = axis_feedforward_;
     const std::size_t n = world::channel_count(scene_);
-    sample.channel_count = static_cast<std::uint32_t>(n);
-    world::channels(scene_, std::span<double>(sample.channels.data(), n));
+    sample.channel_count = static_cast<std::uint32_t>(first + n);
+    world::channels(scene_, std::span<double>(sample.channels.data() + first, n));
   }
   if (options_.wait_for_telemetry_space) {
     // The recorder keeps draining while the engine stops, so keep waiting a

@@ -47,8 +47,9 @@ struct EngineOptions {
   /// A device with several axes: its kinematics (joints to task space);
   /// nothing: Cartesian on the device's axes. Unused on one axis.
   std::optional<world::Kinematics> kinematics;
-  /// Several axes: the gravity feedforward ([gravity], world/gravity.hpp),
-  /// joint torques added after the scene, inside the common saturation.
+  /// The gravity feedforward ([gravity], world/gravity.hpp), joint torques
+  /// added after the scene, inside the saturation; one axis: a StageWeight
+  /// of one (a vertical linear axis).
   std::optional<world::GravityModel> gravity;
   /// Several axes: the workspace wall ([workspace]: a box or a sphere the
   /// device is held inside), stepped beside every scene and added to its force.
@@ -214,6 +215,10 @@ class Engine {
   PositionStepGuard position_guard_;
   rt::Nanos t0_{0};
   std::unique_ptr<TaskAxes> task_;  ///< a device with several axes; null for one
+  /// One axis with [gravity]: the holding force m g (N, signed: +m g when
+  /// down is negative) and this period's feedforward (0 when none went out).
+  std::optional<double> axis_weight_;
+  double axis_feedforward_ = 0.0;
 
   std::atomic<std::uint64_t> cycle_{0};
   std::atomic<std::uint64_t> read_errors_{0};

@@ -122,9 +122,9 @@ json Service::status() const {
                       {"torque_limit", cfg.device.axis_limit(i)}});
     out["device"]["axes"] = axes;
     out["device"]["kinematics"] = cfg.device.kinematics;
-    // [gravity] and [workspace], only when configured.
-    for (const auto& [key, value] : overlay_.status.items()) out[key] = value;
   }
+  // [gravity] and [workspace], only when configured (one axis: [gravity] alone).
+  for (const auto& [key, value] : overlay_.status.items()) out[key] = value;
   if (rt_report_ != nullptr) {
     out["realtime"] = {{"scheduler_set", rt_report_->scheduler_set},
                        {"priority", rt_report_->priority},

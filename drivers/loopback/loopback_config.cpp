@@ -260,13 +260,20 @@ LoopbackStage loopback_stage_from(const DriverParameters& p) {
   const int count = static_cast<int>(p.integer("axes"));
   LoopbackStage stage;
   if (count == 1) {
-    for (const char* key : {"axis_mass", "axis_damping", "axis_weight", "hands"}) {
+    for (const char* key : {"axis_mass", "axis_damping", "hands"}) {
       if (p.given(key))
         throw ParameterError(key, "loopback: " + std::string(key) +
                                       " is for a stage of several axes; accepted with axes = 2 to " +
                                       std::to_string(max_axes) + " (one axis: mass, damping, hand)");
     }
     stage.axes.push_back(loopback_config_from(p));
+    // One vertical axis: its weight (one number), as on a stage.
+    if (p.given("axis_weight")) {
+      namespace r = world::parameter_range;
+      stage.axes[0].weight =
+          per_axis_numbers("axis_weight", p.text("axis_weight"), 1, -r::max_force, r::max_force, "N")[0];
+      stage.axes[0].validate();
+    }
     stage.hands.push_back(hand_script_from(p));
     return stage;
   }

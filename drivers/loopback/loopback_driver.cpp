@@ -27,8 +27,8 @@ std::vector<ParameterSpec> stage_parameters() {
               "axes > 1: each axis' viscous damping in N s/m, comma-separated; unset: damping on every axis")
           .defaults_to(""),
       P::text("axis_weight",
-              "axes > 1: a constant force on each axis in N, comma-separated (\"0,-0.98\": -m g on a "
-              "vertical y whose positive direction is up, for [gravity]); unset: 0 on every axis")
+              "a constant force on each axis in N, comma-separated (\"0,-0.98\": -m g on a vertical y "
+              "whose positive direction is up, for [gravity]; one axis: one number); unset: 0 on every axis")
           .defaults_to(""),
       P::text("hands",
               "axes > 1: one hand script per axis, separated by ';' (\"mode=hold trajectory=ramp to=0.01 "

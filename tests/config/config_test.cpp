@@ -343,11 +343,10 @@ TEST(ConfigErrors, GravityAndWorkspaceNameTheKeyAndWhatIsAccepted) {
       error_of("[gravity]\naxis = \"y\"\nmass = 1\ndown = \"up\"\n"),
       "t.toml:4:8: gravity.down = \"up\" is out of range; accepted: \"negative\" (the axis points up) or "
       "\"positive\"");
-  EXPECT_EQ(
-      error_of("[gravity]\nmass = 1\n"),
-      "t.toml:1:1: [gravity] needs axis (the vertical axis' name); accepted: axis and mass (a stage's "
-      "vertical axis; down), or link_masses (the pantograph in a vertical plane; handle_mass); acceleration "
-      "with either");
+  EXPECT_EQ(error_of("[gravity]\naxis = \"y\"\n"),
+            "t.toml:1:1: [gravity] needs mass (kg); accepted: mass (one vertical linear axis, or a stage's "
+            "vertical axis named by axis; down), or link_masses (the pantograph in a vertical plane; "
+            "handle_mass); acceleration with either");
   EXPECT_EQ(error_of("[gravity]\naxis = \"y\"\nmass = 1\nweight = 2\n"),
             "t.toml:4:1: unknown key 'weight' in [gravity]; accepted: axis, mass, down, link_masses, "
             "handle_mass, acceleration");
@@ -361,8 +360,8 @@ TEST(ConfigErrors, GravityAndWorkspaceNameTheKeyAndWhatIsAccepted) {
       "[proximal left, distal left, distal right, proximal right]");
   EXPECT_EQ(error_of("[gravity]\nlink_masses = [0.1, 0.1, 0.1, 0.1]\nmass = 1\n"),
             "t.toml:3:8: [gravity] gives both a stage's axis, mass or down and the pantograph's link_masses; "
-            "accepted: axis and mass (a stage's vertical axis; down), or link_masses (the pantograph in a "
-            "vertical plane; handle_mass); acceleration with either");
+            "accepted: mass (one vertical linear axis, or a stage's vertical axis named by axis; down), or "
+            "link_masses (the pantograph in a vertical plane; handle_mass); acceleration with either");
   EXPECT_EQ(error_of("[workspace]\nlow = \"0,0\"\n"),
             "t.toml:1:1: [workspace] needs shape; accepted: \"box\" or \"sphere\"");
   EXPECT_EQ(error_of("[workspace]\nshape = \"cube\"\n"),

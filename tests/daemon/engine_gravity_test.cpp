@@ -6,7 +6,8 @@
 // one common factor; the workspace box holds the device inside while the
 // scene is free and the hand pushes outward, penetrating F/K. The
 // pantograph in a vertical plane: the link masses' feedforward dV/dq holds
-// its handle still; without it the handle falls.
+// its handle still; without it the handle falls. One vertical axis alone:
+// its weight after the scene, limited with it, allocating nothing.
 
 #include <gtest/gtest.h>
 
@@ -118,6 +119,50 @@ struct Rig {
   Engine engine;
   rt::PeriodicSchedule schedule;
 };
+
+/// One vertical axis: y of the stage above alone, a wall far below it.
+std::unique_ptr<LoopPlan> one_axis_wall(double torque_limit, double position) {
+  auto outcome = world::plan_scene(
+      "wall", {{"stiffness", 1000.0}, {"position", position}, {"side", std::string("lower")}}, period_s,
+      world::Motion::linear, 1);
+  if (const auto* error = std::get_if<world::SceneError>(&outcome)) ADD_FAILURE() << error->message;
+  auto plan = std::make_unique<LoopPlan>();
+  plan->scene = std::get<world::ScenePlan>(outcome).scene_object;
+  plan->torque_limit = torque_limit;
+  return plan;
+}
+
+TEST(EngineGravity, OneVerticalAxisTakesItsWeightAfterTheSceneInsideTheLimitAllocatingNothing) {
+  loopback::LoopbackStage s = vertical_stage();
+  s.axes = {s.axes[1]};
+  s.hands = {s.hands[1]};
+  Rig rig(s, options_with(world::StageWeight{world::AxisVector::Constant(1, weight)}, std::nullopt));
+  rig.engine.publish(one_axis_wall(10.0, -1.0));
+  rig.run(5);
+  {
+    hapticd::testing::AllocationGuard guard;
+    for (int i = 0; i < 100; ++i) rig.engine.run_cycle(rig.schedule.wait_next());
+    const auto allocations = guard.count();
+    EXPECT_EQ(allocations, 0U);
+  }
+  const auto samples = rig.run(1000);
+  const std::size_t wall_channels = world::channel_count(one_axis_wall(10.0, -1.0)->scene);
+  double drift = 0.0;
+  for (const auto& sample : samples) {
+    ASSERT_EQ(sample.channel_count, 1U + wall_channels) << "gravity, then the wall's";
+    EXPECT_EQ(sample.channels[0], weight) << "m g, recorded first";
+    EXPECT_EQ(sample.command, 0.0) << "the wall far below: no force";
+    EXPECT_EQ(sample.applied, weight) << "scene plus feedforward";
+    drift = std::max(drift, std::abs(sample.position));
+  }
+  EXPECT_LE(drift, 1e-9) << "held to the encoder's count";
+  // A torque limit below m g: the sum goes out limited, flagged.
+  rig.engine.publish(one_axis_wall(2.0, -1.0));
+  const auto limited = rig.run(3);
+  EXPECT_EQ(limited.back().applied, 2.0);
+  EXPECT_EQ(limited.back().channels[0], weight) << "the feedforward asked for, before the limit";
+  EXPECT_NE(limited.back().flags & hapticd::daemon::flag_torque_limited, 0U);
+}
 
 TEST(EngineGravity, TheFeedforwardHoldsAVerticalAxisStillWithTheFreeScene) {
   Rig rig(vertical_stage(), options_with(y_up(), std::nullopt));
@@ -293,12 +338,17 @@ TEST(EngineGravity, WithoutTheFeedforwardThePantographsHandleFalls) {
   EXPECT_LT(samples.back().channels[7], 0.095 - 1e-3) << "the handle 1 mm lower or more after 50 ms";
 }
 
-TEST(EngineGravity, GravityOnOneAxisIsRefused) {
+TEST(EngineGravity, OneAxisRefusesAnotherDevicesGravityAndAWorkspace) {
   hapticd::drivers::Device device("loopback",
                                   std::make_unique<loopback::LoopbackDevice>(
                                       loopback::LoopbackConfig::defaults(hapticd::drivers::Motion::linear)));
   rt::VirtualClock clock;
-  EXPECT_THROW(Engine(options_with(y_up(), std::nullopt), device, clock), std::invalid_argument);
+  EXPECT_THROW(Engine(options_with(y_up(), std::nullopt), device, clock), std::invalid_argument)
+      << "two holding forces for one axis";
+  world::PantographMasses links{0.1, 0.1, 0.1, 0.1, 0.0, world::standard_gravity};
+  EXPECT_THROW(Engine(options_with(links, std::nullopt), device, clock), std::invalid_argument);
+  EXPECT_THROW(Engine(options_with(std::nullopt, task_scene("box", {})), device, clock),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -9,6 +9,9 @@
 // The pantograph in a vertical plane (the loopback's link_masses): the
 // links' feedforward holds the handle still once the hand lets go, and
 // links too heavy for the torque limit are refused with the worst case.
+// One vertical linear axis (the loopback's one-axis axis_weight): its
+// weight is held after the scene and recorded (gravity_n); without it the
+// axis falls.
 
 #include <gtest/gtest.h>
 
@@ -111,6 +114,60 @@ TEST(Gravity, WithoutTheFeedforwardTheAxisFalls) {
   EXPECT_LT(*std::min_element(y.begin(), y.end()), -0.04);
   std::printf("no gravity: y down to %.3g m over %zu rows\n", *std::min_element(y.begin(), y.end()),
               y.size());
+}
+
+/// One vertical linear axis (0.3 kg, weighing -m g on the loopback), the
+/// hand holding it at 0 to start; a wall far below, so the scene adds nothing.
+std::string vertical_axis(const std::string& sections, const std::string& motion = "linear") {
+  return "[loop]\nperiod = \"1ms\"\nclock = \"virtual\"\n"
+         "[device]\ndriver = \"loopback\"\ntorque_limit = 10.0\n"
+         "[device.loopback]\nmotion = \"" +
+         motion +
+         "\"\nmass = 0.3\ndamping = 0\ncounts = 1e9\naxis_weight = \"-2.941995\"\nhand = \"mode=hold\"\n"
+         "[scene]\nname = \"wall\"\nstiffness = 1000\nposition = -1\nside = \"lower\"\n" +
+         sections;
+}
+
+TEST(Gravity, OneVerticalAxisIsHeldByItsWeightAfterTheScene) {
+  TempDir dir;
+  Daemon daemon(dir, vertical_axis("[gravity]\nmass = 0.3\n"));
+  const auto status = daemon.ctl({"status", "--json"});
+  ASSERT_EQ(status.exit_code, 0) << status.err << daemon.log();
+  const json st = json::parse(status.out);
+  EXPECT_FALSE(st["gravity"].contains("axis")) << st.dump();
+  EXPECT_EQ(st["gravity"]["mass"], 0.3);
+  EXPECT_EQ(st["gravity"]["down"], "negative");
+  EXPECT_NEAR(st["gravity"]["feedforward"].get<double>(), y_mass * g, 1e-12);
+
+  const Recording rec = record_after(daemon, dir, {"mode=free"}, 400);
+  ASSERT_TRUE(rec.has_column("gravity_n")) << "the feedforward recorded, in N";
+  const auto x = rec.values("position_m"), gravity = rec.values("gravity_n");
+  const auto applied = rec.values("applied_n"), flags = rec.values("flags");
+  ASSERT_GT(x.size(), 1000U) << "a second of loop time or more";
+  double drift = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    EXPECT_NEAR(gravity[i], y_mass * g, 1e-12);
+    EXPECT_EQ(applied[i], gravity[i]) << "the wall far below adds nothing";
+    EXPECT_EQ(flags[i], 0.0);
+    drift = std::max(drift, std::abs(x[i]));
+  }
+  // As on the stage: m g and the loopback's -2.941995 N differ by a rounding.
+  EXPECT_LE(drift, resolution * 1.0001) << x.size() << " rows";
+  std::printf("gravity on one axis: |x| at most %.3g m over %zu rows\n", drift, x.size());
+  bool noted = false;
+  for (const auto& c : rec.comments)
+    noted = noted || c.find("gravity: 0.3 kg on the axis") != std::string::npos;
+  EXPECT_TRUE(noted) << "the header says what the feedforward is";
+}
+
+TEST(Gravity, OneVerticalAxisFallsWithoutTheFeedforward) {
+  TempDir dir;
+  Daemon daemon(dir, vertical_axis(""));
+  const Recording rec = record_after(daemon, dir, {"mode=free"}, 400);
+  EXPECT_FALSE(rec.has_column("gravity_n")) << "a one-axis recording as before without [gravity]";
+  const auto x = rec.values("position_m");
+  ASSERT_GT(x.size(), 200U);
+  EXPECT_LT(*std::min_element(x.begin(), x.end()), -0.04) << "g t^2 / 2 = 4.9 cm after 0.1 s";
 }
 
 TEST(Gravity, AWorkspaceBoxHoldsTheDeviceInsideWhileTheHandPushesOut) {
@@ -250,10 +307,18 @@ TEST(Gravity, TheConfigsGravityAndWorkspaceErrorsNameTheKeyAndTheLimit) {
   expect_error(vertical_stage("[gravity]\naxis = \"y\"\n"), "[gravity] needs mass (kg)");
   expect_error(vertical_stage("[gravity]\naxis = \"y\"\nmass = 0.3\nacceleration = 100\n"),
                "gravity.acceleration = 100 is out of range");
-  expect_error(
-      "[device]\ndriver = \"loopback\"\n[device.loopback]\nmotion = \"linear\"\n"
-      "[scene]\nname = \"free\"\n[gravity]\naxis = \"x\"\nmass = 0.1\n",
-      "[gravity] is for a device with several axes (issue 22); this one (loopback) has one");
+  expect_error(vertical_axis("[gravity]\naxis = \"x\"\nmass = 0.1\n"),
+               "gravity.axis names a stage's vertical axis; this device has one axis, which [gravity] "
+               "holds; accepted: mass and down without axis");
+  expect_error(vertical_axis("[gravity]\nmass = 0.3\n", "rotary"),
+               "[gravity] on one axis is a constant weight on a vertical linear axis; this device is rotary");
+  expect_error(vertical_axis("[gravity]\nmass = 2\n"),
+               "gravity.mass = 2 kg weighs 19.61 N, more than the torque limit 10 N");
+  expect_error(vertical_axis("[workspace]\nshape = \"box\"\n"),
+               "[workspace] is a box or a sphere in the task space of a device with several axes; this one "
+               "(loopback) has one");
+  expect_error(vertical_stage("[gravity]\nmass = 0.3\n"),
+               "[gravity] on a stage with several axes needs axis (the vertical axis' name); accepted: x, y");
   expect_error(vertical_pantograph("[gravity]\nlink_masses = [1, 1, 1, 1]\n"),
                "gravity.link_masses: holding the links takes up to ");
   expect_error(vertical_pantograph("[gravity]\naxis = \"q1\"\nmass = 0.1\n"),
@@ -271,6 +336,13 @@ TEST(Gravity, TheConfigsGravityAndWorkspaceErrorsNameTheKeyAndTheLimit) {
   EXPECT_EQ(fine.exit_code, 0) << fine.err;
   EXPECT_NE(fine.out.find("gravity: 0.3 kg on axis y"), std::string::npos) << fine.out;
   EXPECT_NE(fine.out.find("workspace: sphere"), std::string::npos) << fine.out;
+  const auto one_axis = check(vertical_axis("[gravity]\nmass = 0.3\ndown = \"positive\"\n"));
+  EXPECT_EQ(one_axis.exit_code, 0) << one_axis.err;
+  EXPECT_NE(
+      one_axis.out.find("gravity: 0.3 kg on the axis (down positive, g = 9.807 m/s^2): a feedforward of "
+                        "-2.942 N"),
+      std::string::npos)
+      << one_axis.out;
 }
 
 }  // namespace
