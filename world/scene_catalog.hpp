@@ -44,7 +44,8 @@ struct SceneError {
 struct PerAxisJudgement {
   std::string scene;
   ParameterSet parameters;
-  /// Each axis' own set when they differ (axis-springs' axis_stiffness);
+  /// Each axis' own set when they differ (axis-springs' axis_stiffness,
+  /// axis_mass, axis_damping);
   /// empty: `parameters` on every axis.
   std::vector<ParameterSet> axes{};
   const ParameterSet& on_axis(std::size_t i) const { return axes.empty() ? parameters : axes.at(i); }

@@ -199,60 +199,88 @@ void build_spring(ScenePlan& plan, const SceneContext& context) {
   }
 }
 
-/// axis_stiffness: each axis' k, N/m; "" gives `stiffness` on every axis.
-AxisVector axis_stiffness(const ParameterSet& p, Eigen::Index axes) {
-  const double k = number_of(p, "stiffness");
-  AxisVector out = parse_axis_vector("axis_stiffness", text_of(p, "axis_stiffness"), static_cast<int>(axes),
-                                     AxisVector::Constant(axes, k));
+/// axis_<key>: each axis' value, comma-separated; "" gives `fallback` on
+/// every axis. Each within [low, high] (unit), else refused naming the key.
+AxisVector axis_values(const ParameterSet& p, const std::string& key, Eigen::Index axes, double fallback,
+                       double low, double high, const std::string& what, const std::string& unit) {
+  AxisVector out =
+      parse_axis_vector(key, text_of(p, key), static_cast<int>(axes), AxisVector::Constant(axes, fallback));
   for (Eigen::Index i = 0; i < axes; ++i) {
-    if (!(out(i) >= 0.0 && out(i) <= parameter_range::max_stiffness))
+    if (!(out(i) >= low && out(i) <= high))
       throw std::invalid_argument(
-          "axis_stiffness: each axis' k from 0 to " +
-          text::format_significant(parameter_range::max_stiffness, text::precision::message) +
-          " N/m, one per axis");
+          key + ": each axis' " + what + " from " + text::format_significant(low, text::precision::message) +
+          " to " + text::format_significant(high, text::precision::message) + " " + unit + ", one per axis");
   }
   return out;
 }
 
-/// What the gate judges on axis i: spring-mass with that axis' k and b.
+constexpr std::array<const char*, 3> own_axis_keys{"axis_stiffness", "axis_mass", "axis_damping"};
+
+bool axes_differ(const ParameterSet& p) {
+  return std::any_of(own_axis_keys.begin(), own_axis_keys.end(),
+                     [&](const char* key) { return !text_of(p, key).empty(); });
+}
+
+/// What the gate judges on axis i: spring-mass with that axis' k, m and b.
 PerAxisJudgement per_axis_judgement(const ParameterSet& p, const std::array<SpringParameters, max_axes>& axes,
-                                    Eigen::Index n, bool differ) {
+                                    Eigen::Index n) {
   PerAxisJudgement per{"spring-mass", p};
-  per.parameters.erase("axis_stiffness");  // spring-mass has one k
-  if (!differ) return per;
+  for (const char* key : own_axis_keys) per.parameters.erase(key);  // spring-mass has one of each
+  if (!axes_differ(p)) return per;
   for (Eigen::Index i = 0; i < n; ++i) {
     ParameterSet own = per.parameters;
-    own["stiffness"] = axes[static_cast<std::size_t>(i)].stiffness;
-    own["damping"] = axes[static_cast<std::size_t>(i)].damping;
+    const auto& a = axes[static_cast<std::size_t>(i)];
+    own["stiffness"] = a.stiffness;
+    own["mass"] = a.inertia;
+    own["damping"] = a.damping;
     per.axes.push_back(std::move(own));
   }
   return per;
 }
 
+/// Each axis' k, m and b: its own (axis_stiffness, axis_mass, axis_damping)
+/// or the common one; damping auto is T k_i on each axis (Freudenberg 2.24).
+std::array<SpringParameters, max_axes> axis_spring_parameters(ParameterSet& p, const SpringParameters& common,
+                                                              bool auto_damping,
+                                                              const SceneContext& context) {
+  namespace r = parameter_range;
+  const Eigen::Index n = context.axes;
+  const AxisVector k =
+      axis_values(p, "axis_stiffness", n, common.stiffness, 0.0, r::max_stiffness, "k", "N/m");
+  const AxisVector m = axis_values(p, "axis_mass", n, common.inertia, r::min_mass, r::max_mass, "mass", "kg");
+  const bool own_damping = !text_of(p, "axis_damping").empty();
+  const AxisVector b = axis_values(p, "axis_damping", n, common.damping, 0.0, r::max_damping, "b", "N s/m");
+  std::array<SpringParameters, max_axes> axes;
+  axes.fill(common);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    auto& a = axes[static_cast<std::size_t>(i)];
+    a.stiffness = k(i);
+    a.inertia = m(i);
+    a.damping = own_damping ? b(i) : auto_damping ? context.period_s * k(i) : common.damping;
+  }
+  std::fill(axes.begin() + n, axes.end(), axes[0]);  // built, never stepped: of the same kind
+  return axes;
+}
+
 void build_axis_springs(ScenePlan& plan, const SceneContext& context) {
   ParameterSet& p = plan.parameters;
-  const Eigen::Index n = context.axes;
-  const AxisVector k = axis_stiffness(p, n);
   const bool auto_damping = std::holds_alternative<std::string>(p["damping"]);
   SpringParameters sp;
   sp.stiffness = number_of(p, "stiffness");
   sp.inertia = number_of(p, "mass");
   sp.damping = auto_damping ? context.period_s * sp.stiffness : number_of(p, "damping");
   sp.integrator = *parse_integrator(text_of(p, "integrator"));
+  const bool own_damping = !text_of(p, "axis_damping").empty();
   if (auto_damping) {
     p["damping"] = sp.damping;
-    plan.notes.push_back("damping auto = T k = " + text::format_quantity(sp.damping, "N s/m") +
-                         " on every axis (Freudenberg 2.24)" +
-                         (text_of(p, "axis_stiffness").empty() ? "" : ", T k_i with axis_stiffness"));
+    if (!own_damping)
+      plan.notes.push_back("damping auto = T k = " + text::format_quantity(sp.damping, "N s/m") +
+                           " on every axis (Freudenberg 2.24)" +
+                           (text_of(p, "axis_stiffness").empty() ? "" : ", T k_i with axis_stiffness"));
   }
-  std::array<SpringParameters, max_axes> axes;
-  axes.fill(sp);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    auto& a = axes[static_cast<std::size_t>(i)];
-    a.stiffness = k(i);
-    if (auto_damping) a.damping = context.period_s * k(i);
-  }
-  std::fill(axes.begin() + n, axes.end(), axes[0]);  // built, never stepped: of the same kind
+  if (own_damping) plan.notes.push_back("damping: each axis its own (axis_damping); damping unused");
+  const auto axes = axis_spring_parameters(p, sp, auto_damping, context);
+  const Eigen::Index n = context.axes;
   const double t = context.period_s;
   const bool undamped =
       std::all_of(axes.begin(), axes.begin() + n, [](const auto& a) { return a.damping == 0.0; });
@@ -264,7 +292,7 @@ void build_axis_springs(ScenePlan& plan, const SceneContext& context) {
     set_task_scene(plan, AxisSpringsScene<SpringDamping::relative>(axes, t, n));
   }
   // Judged per axis: spring-mass with these parameters (auto resolved) on each.
-  plan.per_axis = per_axis_judgement(p, axes, n, !text_of(p, "axis_stiffness").empty());
+  plan.per_axis = per_axis_judgement(p, axes, n);
 }
 
 constexpr const char* spring_hint =
@@ -289,12 +317,21 @@ SceneDescription AxisSpringsEntry::describe() {
   for (auto& spec : spring_parameters(false)) {
     if (!spec.name.starts_with("passivity")) parameters.push_back(std::move(spec));
   }
-  ParameterSpec own_k = ParameterSpec::text("axis_stiffness",
-                                            "each axis' spring k, comma-separated (\"400,100\"), 0 to the "
-                                            "stiffness range each; empty: stiffness on every axis")
-                            .defaults_to("");
-  own_k.unit = "N/m";
-  parameters.insert(parameters.begin() + 1, std::move(own_k));
+  const auto own = [](const char* key, const char* unit, const char* summary) {
+    ParameterSpec spec = ParameterSpec::text(key, summary).defaults_to("");
+    spec.unit = unit;
+    return spec;
+  };
+  parameters.insert(parameters.begin() + 1,
+                    own("axis_stiffness", "N/m",
+                        "each axis' spring k, comma-separated (\"400,100\"), 0 to the stiffness range each; "
+                        "empty: stiffness on every axis"));
+  parameters.insert(parameters.begin() + 3,
+                    own("axis_mass", "kg",
+                        "each axis' virtual mass, comma-separated (\"0.5,2\"); empty: mass on every axis"));
+  parameters.insert(parameters.begin() + 5,
+                    own("axis_damping", "N s/m",
+                        "each axis' damper b, comma-separated; empty: damping on every axis (auto: T k_i)"));
   return {
       .name = "axis-springs",
       .reference = "Freudenberg 2, 2.19-2.24 on each axis (issue 22)",

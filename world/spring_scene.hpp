@@ -156,7 +156,8 @@ struct SpringMassEntry {
 /// `axis-springs` (issue 22): today's spring-mass on each task axis of a
 /// Cartesian stage, axis i's virtual mass tied to x_i alone, so the force
 /// on axis i is axis i's spring-mass force. Every axis takes the same law
-/// but for its own stiffness (axis_stiffness); the springs beyond the
+/// with its own k, m and b when given (axis_stiffness, axis_mass,
+/// axis_damping); the springs beyond the
 /// device's axes are built and never stepped (no allocation). The gate
 /// judges it per axis, exactly (StabilityRule::per_axis).
 template <SpringDamping D>

@@ -352,6 +352,37 @@ TEST(TaskGate, AxisSpringsWithEachAxisItsOwnStiffnessIsJudgedWithThatAxisK) {
       << std::get<GateRefusal>(y_fails).message;
 }
 
+TEST(TaskGate, AxisSpringsWithEachAxisItsOwnMassAndDampingIsJudgedWithThemOnItsAxis) {
+  // axis_mass and axis_damping: each axis is judged as spring-mass with its
+  // own virtual m and b on that axis of the device, and with nothing else.
+  const GateDevice device = stage({{0.3, 0.0}, {0.05, 0.0}});
+  const auto accepted = [](const auto& outcome) { return std::holds_alternative<GateAccepted>(outcome); };
+  const auto alone = [&](double device_mass, double k, double m, double b) {
+    return gate_scene("spring-mass", {{"stiffness", k}, {"mass", m}, {"damping", b}},
+                      rigid_device(device_mass, 0.0, period, 0, world::Motion::linear), false);
+  };
+  int differs_from_common = 0;
+  for (const double k : {1e3, 3e3, 1e4, 3e4, 1e5, 3e5, 1e6}) {
+    const world::ParameterSet own{
+        {"stiffness", k}, {"mass", 0.5}, {"damping", 30.0}, {"axis_mass", "0.2,2"}, {"axis_damping", "40,5"}};
+    const bool every_axis = accepted(alone(0.3, k, 0.2, 40.0)) && accepted(alone(0.05, k, 2.0, 5.0));
+    const auto outcome = gate_scene("axis-springs", own, device, false);
+    EXPECT_EQ(accepted(outcome), every_axis) << "K = " << k;
+    const bool common = accepted(alone(0.3, k, 0.5, 30.0)) && accepted(alone(0.05, k, 0.5, 30.0));
+    if (common != every_axis) ++differs_from_common;
+    // x (b = 40) holds where y (b = 5) does not: y is named, with its own limit.
+    if (accepted(alone(0.3, k, 0.2, 40.0)) && !accepted(alone(0.05, k, 2.0, 5.0))) {
+      ASSERT_TRUE(std::holds_alternative<GateRefusal>(outcome));
+      const auto& refusal = std::get<GateRefusal>(outcome);
+      EXPECT_TRUE(refusal.message.starts_with("axis-springs on axis y (m = 0.05 kg")) << refusal.message;
+      const auto y_alone = alone(0.05, k, 2.0, 5.0);
+      ASSERT_TRUE(refusal.stiffness_limit && std::get<GateRefusal>(y_alone).stiffness_limit);
+      EXPECT_EQ(*refusal.stiffness_limit, *std::get<GateRefusal>(y_alone).stiffness_limit);
+    }
+  }
+  EXPECT_GT(differs_from_common, 0) << "the own m and b change some verdict: the test can tell them apart";
+}
+
 TEST(TaskGate, AxisSpringsOnAPantographCannotBeAssessedSayingWhy) {
   const GateDevice device = pantograph({{5e-4, 0.0}, {5e-4, 0.0}}, TaskBox{-0.02, 0.06, 0.07, 0.12});
   const auto outcome = gate_scene("axis-springs", {}, device, false);

@@ -251,6 +251,48 @@ TEST(TaskScenes, AxisSpringsTakesEachAxisItsOwnStiffness) {
       std::string::npos);
 }
 
+TEST(TaskScenes, AxisSpringsTakesEachAxisItsOwnMassAndDamping) {
+  const ParameterSet given{{"stiffness", 400.0},
+                           {"axis_mass", "0.2,1.5"},
+                           {"axis_damping", "2,0.5"},
+                           {"damping", "auto"},
+                           {"axis_stiffness", "400,900"}};
+  const ScenePlan plan = planned("axis-springs", given, 2);
+  ASSERT_EQ(plan.per_axis->axes.size(), 2U);
+  const std::array<double, 2> k{400.0, 900.0}, m{0.2, 1.5}, b{2.0, 0.5};
+  AnyTaskScene scene = plan.task_object;
+  std::vector<AnyScene> one;
+  for (std::size_t i = 0; i < 2; ++i) {
+    const ParameterSet& own = plan.per_axis->on_axis(i);
+    EXPECT_EQ(std::get<double>(own.at("stiffness")), k[i]);
+    EXPECT_EQ(std::get<double>(own.at("mass")), m[i]);
+    EXPECT_EQ(std::get<double>(own.at("damping")), b[i]) << "axis_damping over damping = auto";
+    EXPECT_EQ(own.count("axis_mass") + own.count("axis_damping"), 0U) << "spring-mass has one of each";
+    auto outcome = plan_scene("spring-mass", own, period, Motion::linear, 1);
+    ASSERT_TRUE(std::holds_alternative<ScenePlan>(outcome));
+    one.push_back(std::get<ScenePlan>(outcome).scene_object);
+  }
+  AxisVector x(2);
+  x << 0.01, -0.02;
+  reset(scene, x);
+  for (std::size_t i = 0; i < 2; ++i) reset(one[i], x(static_cast<Eigen::Index>(i)));
+  AxisVector f;
+  for (int n = 0; n < 500; ++n) {
+    x << 0.01 + 0.02 * std::sin(0.01 * n), -0.02 + 0.01 * std::cos(0.03 * n);
+    step(scene, x, f);
+    for (std::size_t i = 0; i < 2; ++i)
+      ASSERT_EQ(f(static_cast<Eigen::Index>(i)), step(one[i], x(static_cast<Eigen::Index>(i))))
+          << "axis " << i << ", step " << n;
+  }
+  EXPECT_NE(
+      refusal("axis-springs", {{"axis_mass", "0.2,0"}}, 2).find("axis_mass: each axis' mass from 1e-09"),
+      std::string::npos);
+  EXPECT_NE(refusal("axis-springs", {{"axis_damping", "-1,2"}}, 2).find("axis_damping: each axis' b from 0"),
+            std::string::npos);
+  EXPECT_NE(refusal("axis-springs", {{"axis_mass", "1,2,3"}}, 2).find("axis_mass: '1,2,3' is not accepted"),
+            std::string::npos);
+}
+
 }  // namespace
 
 }  // namespace task_scenes_test
