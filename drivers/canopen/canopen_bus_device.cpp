@@ -71,6 +71,7 @@ CanopenBusDevice::~CanopenBusDevice() = default;
 void CanopenBusDevice::configure(const LoopContext& loop) {
   stop_ = loop.stop;
   configured_ = false;
+  homing_.reset();
   clear_requested_.store(false, std::memory_order_relaxed);
   disable_requested_.store(false, std::memory_order_relaxed);
   if (!(loop.period_s > 0.0)) throw SetupError("canopen: the loop period must be > 0 s", "period");
@@ -181,7 +182,88 @@ bool CanopenBusDevice::any(bool (CyclicExchange::*test)() const noexcept) const 
   return std::any_of(nodes_.begin(), nodes_.end(), [&](const auto& n) { return ((*n->exchange).*test)(); });
 }
 
+template <class Use>
+void CanopenBusDevice::with_each_node_sdo(Use&& use) {
+  const auto timeout =
+      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+  SocketLink link(socket_);
+  for (auto& node : nodes_) {
+    SdoClient sdo(link, node->config.node_id, timeout, stop_);
+    use(*node, sdo);
+  }
+}
+
+void CanopenBusDevice::run_homing() {
+  const std::string step = "canopen: homing nodes " + node_list_words(config_.node_ids);
+  const HomingSettings settings = homing_settings(config_);
+  try {
+    with_each_node_sdo([](Node& node, SdoClient& sdo) {
+      prepare_homing(sdo, homing_settings(node.config), node.setup.notes);
+    });
+  } catch (const StopRequested&) {
+    throw StopRequested(abandoned(step));
+  }
+  std::vector<HomingSequence> sequences(
+      nodes_.size(),
+      HomingSequence(periods_in(enable_timeout_s, period_s_), periods_in(settings.timeout_s, period_s_)));
+  for (auto& node : nodes_) node->exchange->set_enabled(true);
+  double home = 0.0;
+  drive_homing(sequences, home);
+  for (auto& node : nodes_) {
+    node->exchange->set_homing_start(false);
+    node->exchange->set_enabled(false);
+  }
+  run_periods([] { return false; }, 2);  // Disable Voltage, bit 4 low
+  if (stop_.stop_requested()) throw StopRequested(abandoned(step));
+  std::uint64_t longest = 0;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const Node& node = *nodes_[i];
+    longest = std::max(longest, sequences[i].homing_periods());
+    if (sequences[i].phase() == HomingPhase::completed) continue;
+    HomingVerdict verdict = describe(sequences[i], node.config.node_id, settings.method, period_s_);
+    if (node.exchange->faulted())
+      verdict.text += ": " + describe(node.exchange->fault(), node.exchange->settings());
+    throw SetupError("axis " + std::to_string(i + 1) + ": " + verdict.text, verdict.key);
+  }
+  with_each_node_sdo(
+      [](Node&, SdoClient& sdo) { select_mode(sdo, cia402::Mode::cyclic_synchronous_torque, "homing"); });
+  homing_ = DeviceHoming{settings.method,
+                         "CiA 402 homing method " + std::to_string(settings.method) + " (" +
+                             std::string(cia402::describe_homing_method(settings.method)) + ") on nodes " +
+                             node_list_words(config_.node_ids),
+                         static_cast<double>(longest) * period_s_, longest, home};
+}
+
+void CanopenBusDevice::drive_homing(std::vector<HomingSequence>& sequences, double& home) {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_s_));
+  auto next = Clock::now();
+  std::array<Reading, max_axes> readings;
+  const std::array<double, max_axes> zero{};
+  const auto finished = [&] {
+    const bool failed = std::any_of(sequences.begin(), sequences.end(),
+                                    [](const auto& s) { return s.phase() == HomingPhase::failed; });
+    return failed || std::all_of(sequences.begin(), sequences.end(), [](const auto& s) { return s.done(); });
+  };
+  // Every node in the same periods, one SYNC for all; bounded by each
+  // sequence's own limits (enable, then homing_timeout), cut by a stop or
+  // by the first node that fails.
+  while (!finished() && !stop_.stop_requested()) {
+    if (read_axes(std::span<Reading>(readings.data(), nodes_.size())) == IoResult::ok)
+      home = readings[0].position;
+    for (std::size_t i = 0; i < nodes_.size(); ++i) {
+      CyclicExchange& x = *nodes_[i]->exchange;
+      if (!sequences[i].done())
+        sequences[i].step({x.operational(), x.faulted(), x.statusword(), x.counters().tpdos});
+      x.set_homing_start(sequences[i].start_bit());
+    }
+    (void)write_axes(std::span<const double>(zero.data(), nodes_.size()));
+    next += period;
+    std::this_thread::sleep_until(next);
+  }
+}
+
 void CanopenBusDevice::enable() {
+  if (config_.homing && !homing_) run_homing();
   for (auto& node : nodes_) node->exchange->set_enabled(true);
   const bool ok = run_periods(
       [this] {

@@ -22,8 +22,12 @@
 /// other traffic) is checked first in configure(), before the bus is
 /// touched, and refused with the bits per period and the bit rate.
 ///
-/// Threads as in canopen_device.hpp; no homing and no commissioning SDO
-/// methods with several drives (refused in the config; one drive has both).
+/// With homing = "cia402" every node homes before the loop, all in the same
+/// periods with the same method (homing.hpp), each back in cyclic
+/// synchronous torque after; a node that fails names its axis.
+///
+/// Threads as in canopen_device.hpp; no commissioning SDO methods with
+/// several drives (one drive has them).
 
 #include <atomic>
 #include <cstdint>
@@ -39,6 +43,7 @@
 #include "drivers/canopen/cyclic_exchange.hpp"
 #include "drivers/canopen/drive_setup.hpp"
 #include "drivers/canopen/exchange_status.hpp"
+#include "drivers/canopen/homing.hpp"
 #include "drivers/device_hooks.hpp"
 
 namespace hapticd::drivers::canopen {
@@ -79,6 +84,8 @@ class CanopenBusDevice final : public DeviceHooks {
 
   DeviceModel model() const override;
   DeviceHealth health() const override;
+  /// Every node's homing, when asked for: the method, the longest node's time, axis 1's home.
+  std::optional<DeviceHoming> homing() const override { return homing_; }
   /// "interface unix:/x, node 1 (vendor ..., serial ...), node 2 (...)".
   std::string identity() const override;
 
@@ -99,6 +106,10 @@ class CanopenBusDevice final : public DeviceHooks {
   bool any(bool (CyclicExchange::*test)() const noexcept) const;
   /// "axis 2 (node 2): <the node's fault in words>" for the first faulted axis, "" if none.
   std::string fault_words() const;
+  void run_homing();
+  void drive_homing(std::vector<HomingSequence>& sequences, double& home);
+  template <class Use>
+  void with_each_node_sdo(Use&& use);
   void drain_socket() noexcept;  ///< RT
   void publish_all() noexcept;   ///< RT
 
@@ -109,6 +120,7 @@ class CanopenBusDevice final : public DeviceHooks {
   cia301::BusBudget budget_;
   std::vector<std::unique_ptr<Node>> nodes_;
   bool configured_ = false;  ///< every node set up and primed
+  std::optional<DeviceHoming> homing_;
   std::atomic<bool> clear_requested_{false};
   std::atomic<bool> disable_requested_{false};
   std::atomic<std::uint64_t> reads_{0};

@@ -16,7 +16,8 @@ void require(bool ok, const std::string& message, const std::string& key) {
 bool positive(double v) { return std::isfinite(v) && v > 0.0; }
 
 /// The keys of several drives on one bus: 2 to max_axes distinct node-IDs,
-/// none hapticd's, one mass and damping per axis, no homing.
+/// none hapticd's, one mass and damping per axis (homing: every node with
+/// the same method, canopen_bus_device.cpp).
 void validate_nodes(const CanopenConfig& c) {
   if (c.node_ids.empty()) {
     require(c.axis_mass.empty(), "axis_mass is for several drives (node_ids = \"1,2\"); one drive: mass",
@@ -53,8 +54,6 @@ void validate_nodes(const CanopenConfig& c) {
   for (double m : c.axis_mass) require(positive(m), "axis_mass: each mass must be > 0", "axis_mass");
   for (double b : c.axis_damping)
     require(std::isfinite(b) && b >= 0.0, "axis_damping: each damping must be >= 0", "axis_damping");
-  require(!c.homing, "homing = \"cia402\" is for one drive; several drives (node_ids) home with \"none\"",
-          "homing");
 }
 
 }  // namespace

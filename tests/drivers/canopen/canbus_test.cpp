@@ -3,7 +3,8 @@
 // the sender; simulated drives join it as members; the driver's hooks for
 // several drives (CanopenBusDevice) run one SYNC for all, each node's PDOs,
 // heartbeat and EMCY, zero every axis when one node faults, check the bus
-// budget of all nodes first, and allocate nothing per period. Real time, in
+// budget of all nodes first, and allocate nothing per period; with homing
+// every node homes in the same periods. Real time, in
 // one process: the bus, each drive and the loop in their own threads.
 
 #include <gtest/gtest.h>
@@ -13,6 +14,8 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <thread>
@@ -241,8 +244,7 @@ TEST(CanopenBusConfig, TheKeysOfSeveralDrivesAreCheckedNamingTheKey) {
   EXPECT_EQ(refused_key(c), "axis_mass: axis_mass has 1 masses; accepted: one per node in node_ids (2)");
   c.axis_mass = {0.1, 0.3};
   c.homing = true;
-  EXPECT_EQ(refused_key(c),
-            "homing: homing = \"cia402\" is for one drive; several drives (node_ids) home with \"none\"");
+  EXPECT_EQ(refused_key(c), "accepted") << "every node homes with the same method";
   canopen::CanopenConfig one;
   one.interface = "can0";
   one.axis_mass = {0.1, 0.2};
@@ -262,7 +264,7 @@ class RigidPlant final : public sim::DrivePlant {
     x += v * period_s + 0.5 * a * period_s * period_s;
     v += a * period_s;
   }
-  double x = 0.0, v = 0.0;
+  std::atomic<double> x = 0.0, v = 0.0;  // stepped by the bus member's thread
 
  private:
   double mass_;
@@ -272,6 +274,9 @@ sim::DriveSettings drive_settings(std::uint8_t node) {
   sim::DriveSettings s;
   s.node_id = node;
   s.rated_torque_mnm = 1000;
+  s.supported_modes |= 1U << 5;  // homing too
+  s.limit_switches = {-0.5, 0.5};
+  s.moving_mass = node == 1 ? 0.1 : 0.3;  // the plants' masses below
   return s;
 }
 
@@ -337,6 +342,68 @@ class TwoDrivesOnTheBus : public ::testing::Test {
   std::array<std::atomic<double>, 2> forces{};
   std::atomic<IoResult> last_read{IoResult::ok};
 };
+
+TEST_F(TwoDrivesOnTheBus, EveryNodeHomesInTheSamePeriodsAndTorqueFlowsAfterInCyclicSynchronousTorque) {
+  // Method 17 (the negative limit switch): each drive moves its own plant to
+  // the switch at -0.5 m and backs off it; both in the same periods.
+  plant1.x = 0.2;
+  plant2.x = -0.1;
+  canopen::CanopenConfig c = two_node_config("unix:" + path);
+  c.homing = true;
+  c.homing_method = 17;
+  c.home_offset = 0.25;
+  c.homing_speed_switch = 1.0;
+  c.homing_speed_zero = 0.2;
+  c.homing_acceleration = 10.0;
+  c.homing_timeout = 5.0;
+  device = std::make_unique<canopen::CanopenBusDevice>(c);
+  device->configure({period_s});
+  device->enable();
+  const auto homing = device->homing();
+  ASSERT_TRUE(homing.has_value());
+  EXPECT_EQ(homing->method, 17);
+  EXPECT_EQ(homing->description, "CiA 402 homing method 17 (on the negative limit switch) on nodes 1, 2");
+  // The farther plant (0.7 m at 1 m/s, then off the switch at 0.2 m/s) sets the time.
+  EXPECT_GT(homing->periods, 700u);
+  EXPECT_LT(homing->periods, 3000u);
+  std::printf("two nodes homed on their negative switches in %llu periods\n",
+              static_cast<unsigned long long>(homing->periods));
+  for (const double x : {plant1.x.load(), plant2.x.load()}) {
+    EXPECT_GT(x, -0.5) << "off the switch";
+    EXPECT_NEAR(x, -0.5, 0.05);
+  }
+  // Each drive measures from its own switch's edge: the home reads -home_offset.
+  start_loop(0.0, 0.0);
+  std::array<Reading, 2> r;
+  std::this_thread::sleep_for(20ms);
+  stop_loop();
+  ASSERT_EQ(device->read_axes(r), IoResult::ok);
+  EXPECT_NEAR(r[0].position, -0.25 + (plant1.x + 0.5), 0.002);
+  EXPECT_NEAR(r[1].position, -0.25 + (plant2.x + 0.5), 0.002);
+  EXPECT_NEAR(homing->home_position, -0.25 + (plant1.x + 0.5), 0.002) << "axis 1's first reading after it";
+  // Both back in mode 10: each axis' torque reaches its own drive.
+  start_loop(0.3, -0.6);
+  EXPECT_TRUE(eventually([&] {
+    return std::abs(member1->applied_force() - 0.3) < 1e-3 && std::abs(member2->applied_force() + 0.6) < 1e-3;
+  })) << member1->applied_force()
+      << " " << member2->applied_force();
+}
+
+TEST_F(TwoDrivesOnTheBus, ANodeThatCannotHomeIsNamedWithItsAxisAndKey) {
+  canopen::CanopenConfig c = two_node_config("unix:" + path);
+  c.homing = true;
+  c.homing_method = 1;  // on the index pulse: these drives have none
+  device = std::make_unique<canopen::CanopenBusDevice>(c);
+  device->configure({period_s});
+  try {
+    device->enable();
+    FAIL() << "homed without an index pulse";
+  } catch (const hapticd::drivers::DeviceError& e) {
+    EXPECT_EQ(e.key(), "homing_method") << e.what();
+    EXPECT_NE(std::string(e.what()).find("0x6098"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(device->homing().has_value());
+}
 
 TEST_F(TwoDrivesOnTheBus, EachAxisTorqueReachesItsOwnDriveAndNothingAllocatesPerPeriod) {
   open();
