@@ -52,6 +52,18 @@ struct CanopenBusDevice::Node {
   PublishedExchange published;
 };
 
+/// Each node's SDO client in turn, on one link over the bus socket (non-RT).
+template <class Use>
+void CanopenBusDevice::with_each_node_sdo(Use&& use) {
+  const auto timeout =
+      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+  SocketLink link(socket_);
+  for (auto& node : nodes_) {
+    SdoClient sdo(link, node->config.node_id, timeout, stop_);
+    use(*node, sdo, link);
+  }
+}
+
 CanopenBusDevice::CanopenBusDevice(CanopenConfig config) : config_(std::move(config)) {
   validate(config_);
   if (config_.node_ids.size() < 2)
@@ -91,14 +103,11 @@ void CanopenBusDevice::configure(const LoopContext& loop) {
   } catch (const std::runtime_error& e) {
     throw SetupError(e.what(), "interface");
   }
-  const auto timeout =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
   try {
+    with_each_node_sdo([this](Node& node, SdoClient& sdo, SocketLink& link) {
+      node.setup = setup_drive(sdo, link, setup_options(node.config, period_s_));
+    });
     SocketLink link(socket_);
-    for (auto& node : nodes_) {
-      SdoClient sdo(link, node->config.node_id, timeout, stop_);
-      node->setup = setup_drive(sdo, link, setup_options(node->config, period_s_));
-    }
     for (auto& node : nodes_) {
       node->exchange.emplace(cyclic_settings(node->config, node->setup,
                                              scaling(node->config, node->setup.rated_torque_mnm), period_s_));
@@ -182,22 +191,11 @@ bool CanopenBusDevice::any(bool (CyclicExchange::*test)() const noexcept) const 
   return std::any_of(nodes_.begin(), nodes_.end(), [&](const auto& n) { return ((*n->exchange).*test)(); });
 }
 
-template <class Use>
-void CanopenBusDevice::with_each_node_sdo(Use&& use) {
-  const auto timeout =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
-  SocketLink link(socket_);
-  for (auto& node : nodes_) {
-    SdoClient sdo(link, node->config.node_id, timeout, stop_);
-    use(*node, sdo);
-  }
-}
-
 void CanopenBusDevice::run_homing() {
   const std::string step = "canopen: homing nodes " + node_list_words(config_.node_ids);
   const HomingSettings settings = homing_settings(config_);
   try {
-    with_each_node_sdo([](Node& node, SdoClient& sdo) {
+    with_each_node_sdo([](Node& node, SdoClient& sdo, SocketLink&) {
       prepare_homing(sdo, homing_settings(node.config), node.setup.notes);
     });
   } catch (const StopRequested&) {
@@ -225,8 +223,9 @@ void CanopenBusDevice::run_homing() {
       verdict.text += ": " + describe(node.exchange->fault(), node.exchange->settings());
     throw SetupError("axis " + std::to_string(i + 1) + ": " + verdict.text, verdict.key);
   }
-  with_each_node_sdo(
-      [](Node&, SdoClient& sdo) { select_mode(sdo, cia402::Mode::cyclic_synchronous_torque, "homing"); });
+  with_each_node_sdo([](Node&, SdoClient& sdo, SocketLink&) {
+    select_mode(sdo, cia402::Mode::cyclic_synchronous_torque, "homing");
+  });
   homing_ = DeviceHoming{settings.method,
                          "CiA 402 homing method " + std::to_string(settings.method) + " (" +
                              std::string(cia402::describe_homing_method(settings.method)) + ") on nodes " +
@@ -369,16 +368,15 @@ void CanopenBusDevice::disable() noexcept {
 }
 
 void CanopenBusDevice::close() noexcept {
-  const auto timeout =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
-  for (auto& node : nodes_) {
-    if (!node->exchange) continue;
-    try {
-      SocketLink link(socket_);
-      SdoClient sdo(link, node->config.node_id, timeout, stop_);
-      release_drive(sdo, link, node->config.node_id);
-    } catch (...) {
-    }
+  try {
+    with_each_node_sdo([](Node& node, SdoClient& sdo, SocketLink& link) {
+      if (!node.exchange) return;
+      try {
+        release_drive(sdo, link, node.config.node_id);
+      } catch (...) {  // the next node's dead-man is undone all the same
+      }
+    });
+  } catch (...) {
   }
   socket_.close();
   for (auto& node : nodes_) node->exchange.reset();
