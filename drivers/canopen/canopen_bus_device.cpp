@@ -195,8 +195,14 @@ void CanopenBusDevice::run_homing() {
   const std::string step = "canopen: homing nodes " + node_list_words(config_.node_ids);
   const HomingSettings settings = homing_settings(config_);
   try {
-    with_each_node_sdo([](Node& node, SdoClient& sdo, SocketLink&) {
-      prepare_homing(sdo, homing_settings(node.config), node.setup.notes);
+    std::size_t axis = 0;
+    with_each_node_sdo([&](Node& node, SdoClient& sdo, SocketLink&) {
+      ++axis;
+      try {
+        prepare_homing(sdo, homing_settings(node.config), node.setup.notes);
+      } catch (const SetupError& e) {
+        throw SetupError("axis " + std::to_string(axis) + ": " + e.what(), homing_key(e.key()));
+      }
     });
   } catch (const StopRequested&) {
     throw StopRequested(abandoned(step));
@@ -218,19 +224,38 @@ void CanopenBusDevice::run_homing() {
     const Node& node = *nodes_[i];
     longest = std::max(longest, sequences[i].homing_periods());
     if (sequences[i].phase() == HomingPhase::completed) continue;
-    HomingVerdict verdict = describe(sequences[i], node.config.node_id, settings.method, period_s_);
+    HomingVerdict verdict = describe(sequences[i], node.config.node_id,
+                                     static_cast<std::int8_t>(node.config.homing_method), period_s_);
     if (node.exchange->faulted())
       verdict.text += ": " + describe(node.exchange->fault(), node.exchange->settings());
-    throw SetupError("axis " + std::to_string(i + 1) + ": " + verdict.text, verdict.key);
+    throw SetupError("axis " + std::to_string(i + 1) + ": " + verdict.text, homing_key(verdict.key));
   }
   with_each_node_sdo([](Node&, SdoClient& sdo, SocketLink&) {
     select_mode(sdo, cia402::Mode::cyclic_synchronous_torque, "homing");
   });
-  homing_ = DeviceHoming{settings.method,
-                         "CiA 402 homing method " + std::to_string(settings.method) + " (" +
-                             std::string(cia402::describe_homing_method(settings.method)) + ") on nodes " +
-                             node_list_words(config_.node_ids),
+  homing_ = DeviceHoming{nodes_.front()->config.homing_method, homing_words(),
                          static_cast<double>(longest) * period_s_, longest, home};
+}
+
+std::string CanopenBusDevice::homing_key(const std::string& key) const {
+  const bool own = (key == "homing_method" && !config_.axis_homing_method.empty()) ||
+                   (key == "home_offset" && !config_.axis_home_offset.empty());
+  return own ? "axis_" + key : key;
+}
+
+std::string CanopenBusDevice::homing_words() const {
+  const auto method_words = [](int method) {
+    return "method " + std::to_string(method) + " (" +
+           std::string(cia402::describe_homing_method(static_cast<std::int8_t>(method))) + ")";
+  };
+  if (config_.axis_homing_method.empty())
+    return "CiA 402 homing " + method_words(config_.homing_method) + " on nodes " +
+           node_list_words(config_.node_ids);
+  std::string words = "CiA 402 homing";
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    words += std::string(i ? ", node " : ": node ") + std::to_string(nodes_[i]->config.node_id) + " " +
+             method_words(nodes_[i]->config.homing_method);
+  return words;
 }
 
 void CanopenBusDevice::drive_homing(std::vector<HomingSequence>& sequences, double& home) {

@@ -23,8 +23,9 @@
 /// touched, and refused with the bits per period and the bit rate.
 ///
 /// With homing = "cia402" every node homes before the loop, all in the same
-/// periods with the same method (homing.hpp), each back in cyclic
-/// synchronous torque after; a node that fails names its axis.
+/// periods, each with its own method and offset when axis_homing_method,
+/// axis_home_offset are given (homing.hpp); each back in cyclic synchronous
+/// torque after; a node that fails names its axis.
 ///
 /// Threads as in canopen_device.hpp; no commissioning SDO methods with
 /// several drives (one drive has them).
@@ -107,6 +108,10 @@ class CanopenBusDevice final : public DeviceHooks {
   /// "axis 2 (node 2): <the node's fault in words>" for the first faulted axis, "" if none.
   std::string fault_words() const;
   void run_homing();
+  /// "CiA 402 homing method 17 (...) on nodes 1, 2", or each node's method when they differ.
+  std::string homing_words() const;
+  /// The key a homing failure blames: axis_homing_method (axis_home_offset) when that list gave the value.
+  std::string homing_key(const std::string& key) const;
   void drive_homing(std::vector<HomingSequence>& sequences, double& home);
   template <class Use>
   void with_each_node_sdo(Use&& use);

@@ -15,15 +15,32 @@ void require(bool ok, const std::string& message, const std::string& key) {
 
 bool positive(double v) { return std::isfinite(v) && v > 0.0; }
 
+/// A per-axis list has one value per node, or none (the common key's value on every node).
+void require_one_per_node(std::size_t given, std::size_t nodes, const std::string& what, const char* key) {
+  require(given == 0 || given == nodes,
+          std::string(key) + " has " + std::to_string(given) + " " + what +
+              "; accepted: one per node in node_ids (" + std::to_string(nodes) + ")",
+          key);
+}
+
+/// The per-axis keys of a config without node_ids, each refused naming the one-drive key.
+void refuse_axis_keys_for_one_drive(const CanopenConfig& c) {
+  const auto one_drive = [](bool empty, const char* key, const char* instead) {
+    require(empty, std::string(key) + " is for several drives (node_ids = \"1,2\"); one drive: " + instead,
+            key);
+  };
+  one_drive(c.axis_mass.empty(), "axis_mass", "mass");
+  one_drive(c.axis_damping.empty(), "axis_damping", "damping");
+  one_drive(c.axis_homing_method.empty(), "axis_homing_method", "homing_method");
+  one_drive(c.axis_home_offset.empty(), "axis_home_offset", "home_offset");
+}
+
 /// The keys of several drives on one bus: 2 to max_axes distinct node-IDs,
-/// none hapticd's, one mass and damping per axis (homing: every node with
-/// the same method, canopen_bus_device.cpp).
+/// none hapticd's, one mass, damping, homing method and home offset per
+/// axis or none (canopen_bus_device.cpp).
 void validate_nodes(const CanopenConfig& c) {
   if (c.node_ids.empty()) {
-    require(c.axis_mass.empty(), "axis_mass is for several drives (node_ids = \"1,2\"); one drive: mass",
-            "axis_mass");
-    require(c.axis_damping.empty(),
-            "axis_damping is for several drives (node_ids = \"1,2\"); one drive: damping", "axis_damping");
+    refuse_axis_keys_for_one_drive(c);
     return;
   }
   const std::size_t n = c.node_ids.size();
@@ -43,17 +60,18 @@ void validate_nodes(const CanopenConfig& c) {
           "node_ids: node " + std::to_string(c.node_ids[i]) + " is named twice; each axis has its own drive",
           "node_ids");
   }
-  require(c.axis_mass.empty() || c.axis_mass.size() == n,
-          "axis_mass has " + std::to_string(c.axis_mass.size()) +
-              " masses; accepted: one per node in node_ids (" + std::to_string(n) + ")",
-          "axis_mass");
-  require(c.axis_damping.empty() || c.axis_damping.size() == n,
-          "axis_damping has " + std::to_string(c.axis_damping.size()) +
-              " dampings; accepted: one per node in node_ids (" + std::to_string(n) + ")",
-          "axis_damping");
+  require_one_per_node(c.axis_mass.size(), n, "masses", "axis_mass");
+  require_one_per_node(c.axis_damping.size(), n, "dampings", "axis_damping");
+  require_one_per_node(c.axis_homing_method.size(), n, "homing methods", "axis_homing_method");
+  require_one_per_node(c.axis_home_offset.size(), n, "home offsets", "axis_home_offset");
   for (double m : c.axis_mass) require(positive(m), "axis_mass: each mass must be > 0", "axis_mass");
   for (double b : c.axis_damping)
     require(std::isfinite(b) && b >= 0.0, "axis_damping: each damping must be >= 0", "axis_damping");
+  for (int m : c.axis_homing_method)
+    require(m >= -128 && m <= 127, "axis_homing_method: each method must be -128..127 (0x6098 is INTEGER8)",
+            "axis_homing_method");
+  for (double o : c.axis_home_offset)
+    require(std::isfinite(o), "axis_home_offset: each offset must be a finite number", "axis_home_offset");
 }
 
 }  // namespace
@@ -67,11 +85,32 @@ CanopenConfig axis_config(const CanopenConfig& c, std::size_t axis) {
   a.node_ids.clear();
   a.axis_mass.clear();
   a.axis_damping.clear();
+  a.axis_homing_method.clear();
+  a.axis_home_offset.clear();
   a.node_id = c.node_ids.at(axis);
   if (!c.axis_mass.empty()) a.mass = c.axis_mass.at(axis);
   if (!c.axis_damping.empty()) a.damping = c.axis_damping.at(axis);
+  if (!c.axis_homing_method.empty()) a.homing_method = c.axis_homing_method.at(axis);
+  if (!c.axis_home_offset.empty()) a.home_offset = c.axis_home_offset.at(axis);
   return a;
 }
+
+namespace {
+
+/// Axis `axis`'s own homing values fit their objects; a refusal names the
+/// per-axis key the value came from.
+void check_axis_homing(const CanopenConfig& c, std::size_t axis) {
+  try {
+    (void)homing_settings(axis_config(c, axis));
+  } catch (const ConfigError& e) {
+    const bool own = (e.key() == "home_offset" && !c.axis_home_offset.empty()) ||
+                     (e.key() == "homing_method" && !c.axis_homing_method.empty());
+    if (!own) throw;
+    throw ConfigError("axis " + std::to_string(axis + 1) + ": " + e.what(), "axis_" + e.key());
+  }
+}
+
+}  // namespace
 
 void validate(const CanopenConfig& c) {
   require(!c.interface.empty(),
@@ -119,7 +158,10 @@ void validate(const CanopenConfig& c) {
   require(c.homing_method >= -128 && c.homing_method <= 127,
           "homing_method must be -128..127 (0x6098 is INTEGER8)", "homing_method");
   require(positive(c.homing_timeout), "homing_timeout must be > 0", "homing_timeout");
-  if (c.homing) (void)homing_settings(c);  // every value fits its object
+  if (c.homing) {
+    (void)homing_settings(c);  // every value fits its object
+    for (std::size_t i = 0; i < c.node_ids.size(); ++i) check_axis_homing(c, i);
+  }
 }
 
 namespace {

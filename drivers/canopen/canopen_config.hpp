@@ -51,6 +51,10 @@ struct CanopenConfig {
   double homing_speed_zero = 0;    ///< 0x6099:2, rad/s (m/s); 0: the drive's own
   double homing_acceleration = 0;  ///< 0x609A, rad/s^2 (m/s^2); 0: the drive's own
   double homing_timeout = 20.0;    ///< s, from the start command to homing attained
+  /// With node_ids: each node's own 0x6098 method and 0x607C offset (each
+  /// axis has its own switches); empty: homing_method, home_offset on every node.
+  std::vector<int> axis_homing_method;
+  std::vector<double> axis_home_offset;
 };
 
 /// A setting that cannot work, naming the key.
@@ -67,7 +71,7 @@ class ConfigError : public std::invalid_argument {
 /// The drives hapticd runs: node_ids, or node_id alone.
 std::vector<std::uint8_t> drive_nodes(const CanopenConfig& config);
 /// The settings of axis `axis` (0-based) of a config with node_ids: its
-/// node_id, mass and damping; everything else shared.
+/// node_id, mass, damping, homing method and home offset; everything else shared.
 CanopenConfig axis_config(const CanopenConfig& config, std::size_t axis);
 
 /// Checks ranges and the relations between keys (the heartbeat timeout must

@@ -45,6 +45,14 @@ std::vector<ParameterSpec> homing_parameters() {
           .defaults_to(0.0, "0: the drive's own")
           .at_least(0.0)
           .at_most(1e9),
+      P::text("axis_homing_method",
+              "with node_ids: each node's 0x6098 homing method, comma-separated (\"17,18\"); unset: "
+              "homing_method on every node")
+          .defaults_to(""),
+      P::text("axis_home_offset",
+              "with node_ids: each node's 0x607C home offset (rad | m), comma-separated; unset: home_offset "
+              "on every node")
+          .defaults_to(""),
       P::duration("homing_timeout", "from the start command to homing completed")
           .defaults_to(d.homing_timeout)
           .above(0.0)
@@ -151,6 +159,21 @@ std::vector<double> number_list(const DriverParameters& p, const std::string& ke
   return out;
 }
 
+/// "17,18" -> {17, 18}: whole numbers only (the range is validate()'s).
+std::vector<int> method_list(const DriverParameters& p) {
+  const std::string accepted =
+      "one 0x6098 method (-128..127) per node in node_ids, comma-separated (\"17,18\")";
+  std::vector<int> methods;
+  for (const double m : number_list(p, "axis_homing_method", accepted)) {
+    if (m != std::floor(m) || std::abs(m) > 1e6)
+      throw ParameterError("axis_homing_method",
+                           "device.canopen.axis_homing_method = \"" + p.text("axis_homing_method") +
+                               "\": " + std::to_string(m) + " is no whole number; accepted: " + accepted);
+    methods.push_back(static_cast<int>(m));
+  }
+  return methods;
+}
+
 std::vector<std::uint8_t> node_list(const DriverParameters& p) {
   const std::string accepted = "node-IDs 1..127, comma-separated, one per axis (\"1,2\")";
   std::vector<std::uint8_t> nodes;
@@ -195,6 +218,9 @@ CanopenConfig canopen_config_from(const DriverParameters& p) {
   c.homing_speed_zero = p.number("homing_speed_zero");
   c.homing_acceleration = p.number("homing_acceleration");
   c.homing_timeout = p.duration_s("homing_timeout");
+  c.axis_homing_method = method_list(p);
+  c.axis_home_offset = number_list(
+      p, "axis_home_offset", "one offset (rad | m) per node in node_ids, comma-separated (\"0.25,-0.1\")");
   try {
     validate(c);
   } catch (const ConfigError& e) {

@@ -245,11 +245,30 @@ TEST(CanopenBusConfig, TheKeysOfSeveralDrivesAreCheckedNamingTheKey) {
   c.axis_mass = {0.1, 0.3};
   c.homing = true;
   EXPECT_EQ(refused_key(c), "accepted") << "every node homes with the same method";
+  c.axis_homing_method = {17, 18, 19};
+  EXPECT_EQ(
+      refused_key(c),
+      "axis_homing_method: axis_homing_method has 3 homing methods; accepted: one per node in node_ids (2)");
+  c.axis_homing_method = {17, 200};
+  EXPECT_EQ(refused_key(c),
+            "axis_homing_method: axis_homing_method: each method must be -128..127 (0x6098 is INTEGER8)");
+  c.axis_homing_method = {17, 18};
+  c.axis_home_offset = {0.25, 1e9};  // 1e9 m at 16384 increments per metre: beyond INTEGER32
+  const std::string offset = refused_key(c);
+  EXPECT_EQ(offset.rfind("axis_home_offset: axis 2: home_offset = ", 0), 0U) << offset;
+  EXPECT_NE(offset.find("beyond 0x607C"), std::string::npos) << offset;
+  c.axis_home_offset = {0.25, -0.1};
+  EXPECT_EQ(refused_key(c), "accepted") << "each node its own method and offset";
   canopen::CanopenConfig one;
   one.interface = "can0";
   one.axis_mass = {0.1, 0.2};
   EXPECT_EQ(refused_key(one),
             "axis_mass: axis_mass is for several drives (node_ids = \"1,2\"); one drive: mass");
+  one.axis_mass.clear();
+  one.axis_homing_method = {17, 18};
+  EXPECT_EQ(refused_key(one),
+            "axis_homing_method: axis_homing_method is for several drives (node_ids = "
+            "\"1,2\"); one drive: homing_method");
 }
 
 // ---- two simulated drives as members of the bus, the driver's hooks ----------
@@ -389,6 +408,43 @@ TEST_F(TwoDrivesOnTheBus, EveryNodeHomesInTheSamePeriodsAndTorqueFlowsAfterInCyc
       << " " << member2->applied_force();
 }
 
+TEST_F(TwoDrivesOnTheBus, EachNodeHomesWithItsOwnMethodAndOffset) {
+  // Node 1 on its negative switch (method 17), node 2 on its positive one
+  // (18), each with its own 0x607C: each measures from its own switch's edge.
+  plant1.x = 0.2;
+  plant2.x = -0.1;
+  canopen::CanopenConfig c = two_node_config("unix:" + path);
+  c.homing = true;
+  c.axis_homing_method = {17, 18};
+  c.axis_home_offset = {0.25, -0.1};
+  c.homing_speed_switch = 1.0;
+  c.homing_speed_zero = 0.2;
+  c.homing_acceleration = 10.0;
+  c.homing_timeout = 5.0;
+  device = std::make_unique<canopen::CanopenBusDevice>(c);
+  device->configure({period_s});
+  device->enable();
+  const auto homing = device->homing();
+  ASSERT_TRUE(homing.has_value());
+  EXPECT_EQ(homing->method, 17) << "axis 1's";
+  EXPECT_EQ(homing->description,
+            "CiA 402 homing: node 1 method 17 (on the negative limit switch), node 2 method 18 (on the "
+            "positive limit switch)");
+  std::printf("node 1 on its negative switch, node 2 on its positive one: %llu periods\n",
+              static_cast<unsigned long long>(homing->periods));
+  EXPECT_GT(plant1.x, -0.5) << "off the negative switch";
+  EXPECT_NEAR(plant1.x, -0.5, 0.05);
+  EXPECT_LT(plant2.x, 0.5) << "off the positive switch";
+  EXPECT_NEAR(plant2.x, 0.5, 0.05);
+  start_loop(0.0, 0.0);
+  std::array<Reading, 2> r;
+  std::this_thread::sleep_for(20ms);
+  stop_loop();
+  ASSERT_EQ(device->read_axes(r), IoResult::ok);
+  EXPECT_NEAR(r[0].position, -0.25 + (plant1.x + 0.5), 0.002);
+  EXPECT_NEAR(r[1].position, 0.1 + (plant2.x - 0.5), 0.002);
+}
+
 TEST_F(TwoDrivesOnTheBus, ANodeThatCannotHomeIsNamedWithItsAxisAndKey) {
   canopen::CanopenConfig c = two_node_config("unix:" + path);
   c.homing = true;
@@ -401,6 +457,22 @@ TEST_F(TwoDrivesOnTheBus, ANodeThatCannotHomeIsNamedWithItsAxisAndKey) {
   } catch (const hapticd::drivers::DeviceError& e) {
     EXPECT_EQ(e.key(), "homing_method") << e.what();
     EXPECT_NE(std::string(e.what()).find("0x6098"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(device->homing().has_value());
+}
+
+TEST_F(TwoDrivesOnTheBus, ANodeWhoseOwnMethodItLacksIsNamedWithItsAxisAndThePerAxisKey) {
+  canopen::CanopenConfig c = two_node_config("unix:" + path);
+  c.homing = true;
+  c.axis_homing_method = {37, 1};  // node 2 on the index pulse: it has none
+  device = std::make_unique<canopen::CanopenBusDevice>(c);
+  device->configure({period_s});
+  try {
+    device->enable();
+    FAIL() << "homed without an index pulse";
+  } catch (const hapticd::drivers::DeviceError& e) {
+    EXPECT_EQ(e.key(), "axis_homing_method") << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind("axis 2: ", 0), 0U) << e.what();
   }
   EXPECT_FALSE(device->homing().has_value());
 }

@@ -10,7 +10,10 @@
 //     the axis and the node in `hapticctl status`, and `fault clear` brings
 //     both back;
 //   - a period the bus cannot carry for two nodes is refused at start with
-//     the bits per period and the bit rate.
+//     the bits per period and the bit rate;
+//   - homing = "cia402" with each node's own method and offset
+//     (axis_homing_method, axis_home_offset): both drives home before the
+//     loop, each on its own switch, and the loop starts from the homes.
 
 #include <gtest/gtest.h>
 
@@ -261,6 +264,53 @@ TEST(CanopenBus, APeriodTheBusCannotCarryForTwoNodesIsRefusedWithTheFigures) {
                      "Mbit/s: a 0.5 ms period needs 1.22 Mbit/s, above classic CAN's 1 Mbit/s"),
             std::string::npos)
       << log;
+}
+
+TEST(CanopenBus, EachDriveHomesOnItsOwnSwitchWithItsOwnMethodBeforeTheLoop) {
+  TempDir dir;
+  SimulatedCanBus bus(dir, 70);
+  const std::vector<std::string> extra = {"--rated-torque", "4", "--limit-switches", "-0.5,0.5"};
+  auto node1 = SimulatedDrive::member(dir, bus.interface(), 1, "mode=free", axis_plant(0.1), extra, 70);
+  auto node2 = SimulatedDrive::member(dir, bus.interface(), 2, "mode=free", axis_plant(0.3), extra, 70);
+  // Node 1 on its negative switch, node 2 on its positive one; a box far
+  // larger than the travel, so nothing pushes after.
+  const std::string keys =
+      "homing = \"cia402\"\naxis_homing_method = \"17,18\"\naxis_home_offset = \"0.25,-0.1\"\n"
+      "homing_speed_switch = 1.0\nhoming_speed_zero = 0.2\nhoming_acceleration = 10.0\nhoming_timeout = "
+      "\"10s\"\n"
+      "[scene]\nname = \"box\"\nlow = \"-2,-2\"\nhigh = \"2,2\"\nstiffness = 400\ndamping = 2\n";
+  Daemon d(dir, canbus_config(bus.interface(), "", keys), {"--record", "run.csv"});
+  const auto status = [&] {
+    const auto r = d.ctl({"status", "--json"});
+    return r.exit_code == 0 ? json::parse(r.out) : json::object();
+  };
+  ASSERT_TRUE(eventually(
+      [&] {
+        const json s = status();
+        return s.contains("cycle") && s["cycle"].get<double>() > 300;
+      },
+      30s))
+      << d.log() << bus.log();
+  const json c = status()["calibration"];
+  EXPECT_EQ(c["how"], "homed") << c.dump();
+  EXPECT_EQ(c["homing_method"], 17) << "axis 1's";
+  EXPECT_NE(d.ctl({"status"})
+                .out.find("CiA 402 homing: node 1 method 17 (on the negative limit switch), node 2 "
+                          "method 18 (on the positive limit switch)"),
+            std::string::npos)
+      << d.ctl({"status"}).out;
+  EXPECT_EQ(d.stop(), 0) << d.log();
+  // Each axis reads its own -home_offset at its own switch's edge and stopped just off it.
+  const Recording rec = read_recording(dir.path / "run.csv");
+  ASSERT_FALSE(rec.rows.empty());
+  const double x = rec.values("position_x_m").front(), y = rec.values("position_y_m").front();
+  EXPECT_GT(x, -0.25 - 1e-6);
+  EXPECT_LT(x, -0.25 + 0.05) << "just above the negative switch";
+  EXPECT_LT(y, 0.1 + 1e-6);
+  EXPECT_GT(y, 0.1 - 0.05) << "just below the positive switch";
+  std::cout
+      << "two drives homed through hapticd, node 1 on its negative switch, node 2 on its positive one, in "
+      << c.value("homing_periods", 0U) << " periods; first positions " << x << " m, " << y << " m\n";
 }
 
 }  // namespace
