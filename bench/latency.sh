@@ -14,7 +14,7 @@
 # or more after the deadline (hapticd's overruns; cyclictest's histogram
 # from the period up), per 10,000 cycles.
 #
-# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--telemetry] [--axes N] [--out DIR]
+# usage: bench/latency.sh [--rounds N] [--slice S] [--periods "1000 250 100"] [--load] [--telemetry] [--axes N] [--bare] [--out DIR]
 #   --load  adds two hapticd variants per round: under control-plane load
 #           (bench/hapticd_load: 16 clients streaming telemetry at 1 kHz, one
 #           param.set 1,000 times a second, every reply naming its cycle),
@@ -30,11 +30,15 @@
 #           task scene `box` (a 2 cm cube, K = 400 N/m) with the hand on x
 #           moving through two of its faces, tau = J^T F; reported against
 #           cyclictest and against the same round's one-axis hapticd.
+#   --bare  adds each hapticd variant's twin that records nothing (no
+#           --record: the recorder thread idles, nothing is written to the
+#           disk), reported against its recording twin in the same rounds:
+#           what the recorder's disk writes on the other CPU cost the loop.
 #   env: CPU (1: the RT CPU), OTHER_CPU (0), PRIORITY (80), BUILD (build), WARMUP_S (0.5)
 # Needs root (SCHED_FIFO, /dev/cpu_dma_latency, mlockall) like cyclictest.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-rounds=10 slice=3 periods="1000 250 100" load=0 telemetry=0 axes=0 out=""
+rounds=10 slice=3 periods="1000 250 100" load=0 telemetry=0 axes=0 bare=0 out=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rounds) rounds="$2"; shift 2 ;;
@@ -43,8 +47,9 @@ while [[ $# -gt 0 ]]; do
     --load) load=1; shift ;;
     --telemetry) telemetry=1; shift ;;
     --axes) axes="$2"; shift 2 ;;
+    --bare) bare=1; shift ;;
     --out) out="$2"; shift 2 ;;
-    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--telemetry] [--axes N] [--out DIR]" >&2; exit 2 ;;
+    *) echo "usage: $0 [--rounds N] [--slice S] [--periods \"1000 250 100\"] [--load] [--telemetry] [--axes N] [--bare] [--out DIR]" >&2; exit 2 ;;
   esac
 done
 cpu="${CPU:-1}" other="${OTHER_CPU:-0}" prio="${PRIORITY:-80}" warmup="${WARMUP_S:-0.5}"
@@ -69,6 +74,10 @@ variants=(cyclictest hapticd)
 if [[ "$axes" != 0 ]]; then
   [[ "$axes" =~ ^[2-6]$ ]] || { echo "--axes takes 2 to 6 (got '$axes')" >&2; exit 2; }
   variants+=("axes$axes")
+fi
+if [[ "$bare" == 1 ]]; then
+  variants+=(hapticd-bare)
+  [[ "$axes" != 0 ]] && variants+=("axes$axes-bare")
 fi
 
 # ---- the RT CPU's own accounting (/proc/stat, USER_HZ ticks): how busy it
@@ -115,6 +124,7 @@ device_and_scene() {  # variant
     return
   fi
   local n="${1#axes}" low high masses hands
+  n="${n%-bare}"
   low="$(printf -- '-0.01,%.0s' $(seq "$n"))" high="$(printf -- '0.01,%.0s' $(seq "$n"))"
   masses="$(printf -- '0.1,%.0s' $(seq "$n"))"
   hands="mode=hold trajectory=sine amplitude=0.015 frequency=1$(printf -- '; mode=hold%.0s' $(seq 2 "$n"))"
@@ -162,7 +172,9 @@ hapticd_slice() {  # period_us variant file
     sinkport="$(cat "$dir/sink.port")"
   fi
   hapticd_config "$period" "$variant" "$dir/s.sock" "$dir" "$sinkport" >"$dir/h.toml"
-  "$hapticd" --config "$dir/h.toml" --record rec.csv >"$dir/log" 2>&1 &
+  local record=(--record rec.csv)
+  [[ "$variant" == *-bare ]] && record=()
+  "$hapticd" --config "$dir/h.toml" "${record[@]}" >"$dir/log" 2>&1 &
   local pid=$!
   for _ in $(seq 200); do
     [[ -S "$dir/s.sock" ]] && "$hapticctl" --socket "$dir/s.sock" status >/dev/null 2>&1 && break
@@ -186,7 +198,7 @@ hapticd_slice() {  # period_us variant file
     wait "$loadpid" || load_ok=0
     cp "$dir/load.json" "$out/load-$period-$variant-$round.json" 2>/dev/null || true
   fi
-  "${ctl[@]}" record stop --json >"$dir/record.json" || true
+  [[ "$variant" == *-bare ]] || "${ctl[@]}" record stop --json >"$dir/record.json" || true
   kill -TERM "$pid"; wait "$pid" || true
   if [[ -n "$sinkpid" ]]; then
     kill -TERM "$sinkpid"; wait "$sinkpid" || true
@@ -199,6 +211,7 @@ hapticd_slice() {  # period_us variant file
   # Losses: none allowed in the recording; every change acknowledged under load.
   local lost
   lost=$(jq -r '.dropped_ring + .dropped_write + .cycle_gaps' "$dir/record.json" 2>/dev/null || echo "?")
+  [[ "$variant" == *-bare ]] && lost=0  # records nothing, loses nothing
   echo "$lost" >"$result.lost"
   if [[ -n "$loadpid" ]]; then
     jq -c '{sets_sent, sets_acknowledged, sets_failed, sets_unanswered, ack_ms, notifications_received,
@@ -252,6 +265,10 @@ for period in $periods; do
       printf '  %-16s p50 %s  p99 %s  p99.9 %s   (%s / hapticd without it, same rounds)\n' "" \
         "$(ratios 1 hapticd)" "$(ratios 2 hapticd)" "$(ratios 3 hapticd)" "$v"
     fi
+    if [[ "$v" == *-bare ]]; then
+      printf '  %-16s p50 %s  p99 %s  p99.9 %s   (%s / %s, recording, same rounds)\n' "" \
+        "$(ratios 1 "${v%-bare}")" "$(ratios 2 "${v%-bare}")" "$(ratios 3 "${v%-bare}")" "$v" "${v%-bare}"
+    fi
     if [[ "$v" == telemetry ]]; then
       for ((r = 1; r <= rounds; r++)); do cat "$out/telemetry-$period-$r.json" 2>/dev/null; done | jq -s -r '"  " +
         "                 telemetry datagrams sent \(map(.datagrams_sent) | add), samples dropped by the daemon " +
@@ -268,6 +285,22 @@ for period in $periods; do
     late_slices() { for ((r = 1; r <= rounds; r++)); do awk '{ printf "%.0f\n", $5 * $6 / 1e4 }' "$out/$period-$1-$r"; done | median_spread; }
     printf '  %-16s late cycles per slice: %s (cyclictest %s), median (min-max)\n' "" "$(late_slices "$v")" \
       "$(late_slices cyclictest)"
+    # Paired by round (one round's slices ran back to back): the rounds in
+    # which this variant was late more often than cyclictest, and fewer
+    # times; a two-sided sign test over the rounds that differ. Blind to how
+    # big one slice's burst is, which the totals above are not.
+    late_pairs() {
+      for ((r = 1; r <= rounds; r++)); do
+        awk 'NR == FNR { a = sprintf("%.0f", $5 * $6 / 1e4) + 0; next }
+             { b = sprintf("%.0f", $5 * $6 / 1e4) + 0; print (a > b) ? 1 : (a < b) ? -1 : 0 }' \
+          "$out/$period-$1-$r" "$out/$period-cyclictest-$r"
+      done | awk '$1 > 0 { m++ } $1 < 0 { f++ } $1 == 0 { e++ } END {
+        n = m + f; k = (m < f) ? m : f; c = 1; s = 0
+        for (i = 0; i <= k; i++) { s += c; c = c * (n - i) / (i + 1) }
+        p = (n > 0) ? 2 * s / 2 ^ n : 1; if (p > 1) p = 1
+        printf "more in %d rounds, fewer in %d, as many in %d (sign test p = %.2f)", m, f, e, p }'
+    }
+    printf '  %-16s late cycles against cyclictest, round by round: %s\n' "" "$(late_pairs "$v")"
     cpu_col() { for ((r = 1; r <= rounds; r++)); do awk -v c="$2" '{ print $c }' "$out/$period-$1-$r.cpu"; done | median_of; }
     printf '  %-16s the RT CPU busy %s %% (cyclictest %s %%, hapticd %s %%), stolen by the host %s ms/s (%s, %s); medians of the slices\n' \
       "" "$(cpu_col "$v" 1)" "$(cpu_col cyclictest 1)" "$(cpu_col hapticd 1)" "$(cpu_col "$v" 2)" \
