@@ -1,5 +1,5 @@
 // hapticctl device [describe] | device call METHOD [key=value ...] | device zero
-//          | device sdo read INDEX SUB [--type T] | device sdo write INDEX SUB VALUE [--type T]
+//          | device sdo read INDEX SUB [--type T] [--node N] | device sdo write INDEX SUB VALUE [--type T]
 //
 // What the device is (its driver, the parameters in force from the driver's
 // own description, its state and model) and the methods its driver adds;
@@ -46,6 +46,7 @@ void print_description(const nlohmann::json& result) {
 
 /// "0x6041:00 statusword = 567 (raw 0x00000237, u16)"
 void print_sdo(const nlohmann::json& r) {
+  if (r.contains("node")) std::cout << "node " << r["node"].get<int>() << ": ";  // one of several drives
   std::cout << r["index"].get<std::string>() << ":" << std::setw(2) << std::setfill('0') << std::hex
             << r["sub"].get<int>() << std::dec << std::setfill(' ');
   if (!r["name"].get<std::string>().empty()) std::cout << " " << r["name"].get<std::string>();
@@ -58,6 +59,7 @@ void print_sdo(const nlohmann::json& r) {
 void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
   struct Args {
     std::string index, sub, value, type;
+    int node = 0;  ///< 0: the one drive
   };
   auto args = std::make_shared<Args>();
   auto* sdo =
@@ -67,6 +69,7 @@ void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
     nlohmann::json p = {{"index", args->index}, {"sub", args->sub}};
     if (with_value) p["value"] = args->value;
     if (!args->type.empty()) p["type"] = args->type;
+    if (args->node != 0) p["node"] = args->node;
     return p;
   };
   auto* read = sdo->add_subcommand("read", "INDEX SUB: e.g. sdo read 0x6041 0");
@@ -83,6 +86,8 @@ void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
   for (auto* c : {read, write})
     c->add_option("--type", args->type,
                   "u8, u16, u32, i8, i16, i32 or bool: needed for objects the driver does not know");
+  read->add_option("--node", args->node, "with several drives on one bus (node_ids): the node-ID to read")
+      ->check(CLI::Range(1, 127));
   read->callback([&opts, params] {
     auto result = detail::call(opts, "device.sdo.read", params(false));
     if (opts.json) return detail::print_json(result);

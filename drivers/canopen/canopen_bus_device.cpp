@@ -12,6 +12,7 @@
 #include "drivers/canopen/device_settings.hpp"
 #include "drivers/canopen/frame_links.hpp"
 #include "drivers/canopen/loop_handover.hpp"
+#include "rt/spsc_ring.hpp"
 #include "world/text.hpp"
 
 namespace hapticd::drivers::canopen {
@@ -20,6 +21,8 @@ using cia301::Frame;
 using Clock = std::chrono::steady_clock;
 
 namespace {
+
+constexpr std::size_t node_sdo_ring_capacity = 64;  // answers of one transfer at a time, and late ones
 
 std::string node_list_words(std::span<const std::uint8_t> nodes) {
   std::string out;
@@ -50,18 +53,39 @@ struct CanopenBusDevice::Node {
   SetupResult setup;
   std::optional<CyclicExchange> exchange;
   PublishedExchange published;
+  /// The loop's read_axes() -> this node's SDO client (commissioning).
+  rt::SpscRing<cia301::Frame> sdo_answers{node_sdo_ring_capacity};
 };
 
 /// Each node's SDO client in turn, on one link over the bus socket (non-RT).
 template <class Use>
 void CanopenBusDevice::with_each_node_sdo(Use&& use) {
-  const auto timeout =
-      std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
   SocketLink link(socket_);
   for (auto& node : nodes_) {
-    SdoClient sdo(link, node->config.node_id, timeout, stop_);
+    SdoClient sdo(link, node->config.node_id, sdo_timeout(), stop_);
     use(*node, sdo, link);
   }
+}
+
+std::chrono::microseconds CanopenBusDevice::sdo_timeout() const {
+  return std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
+}
+
+SdoAccess CanopenBusDevice::sdo_read(std::uint8_t node_id, cia301::ObjectAddress address,
+                                     std::optional<cia301::DataType> type) {
+  const auto it =
+      std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& n) { return n->config.node_id == node_id; });
+  if (it == nodes_.end())
+    throw std::invalid_argument("node " + std::to_string(node_id) +
+                                " is not one of this device's drives; accepted: node_ids " +
+                                node_list_words(config_.node_ids));
+  std::lock_guard lock(sdo_mutex_);
+  // The loop owns the socket's receive side: the answer comes through it.
+  if (!loop_running())
+    throw std::invalid_argument("the loop is not running: with several drives an SDO read goes through it");
+  RingLink link(socket_, (*it)->sdo_answers);
+  SdoClient sdo(link, node_id, sdo_timeout(), stop_);
+  return describe_access(address, sdo.read(address), type);
 }
 
 CanopenBusDevice::CanopenBusDevice(CanopenConfig config) : config_(std::move(config)) {
@@ -460,7 +484,8 @@ void CanopenBusDevice::drain_socket() noexcept {
       return;
     }
     // Each exchange takes its own node's COB-IDs; an error frame is the bus', every node's.
-    for (auto& node : nodes_) (void)node->exchange->on_frame(f);
+    for (auto& node : nodes_)
+      if (node->exchange->on_frame(f) == FrameUse::sdo_response) node->sdo_answers.try_push(f);
   }
 }
 

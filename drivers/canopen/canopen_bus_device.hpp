@@ -27,12 +27,19 @@
 /// axis_home_offset are given (homing.hpp); each back in cyclic synchronous
 /// torque after; a node that fails names its axis.
 ///
-/// Threads as in canopen_device.hpp; no commissioning SDO methods with
-/// several drives (one drive has them).
+/// Commissioning: device.sdo.read with `node` reads any object of that node
+/// while the loop runs (the request goes out on the socket, the answer comes
+/// back through the loop's read_axes() and that node's SPSC ring, as one
+/// drive's). device.sdo.write is one drive's only: with several, the 0x6076
+/// read-back after a write would have to rescale one node in the loop.
+///
+/// Threads as in canopen_device.hpp.
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -41,6 +48,7 @@
 #include "drivers/canopen/301/bus_budget.hpp"
 #include "drivers/canopen/can_socket.hpp"
 #include "drivers/canopen/canopen_config.hpp"
+#include "drivers/canopen/commissioning.hpp"
 #include "drivers/canopen/cyclic_exchange.hpp"
 #include "drivers/canopen/drive_setup.hpp"
 #include "drivers/canopen/exchange_status.hpp"
@@ -89,6 +97,12 @@ class CanopenBusDevice final : public DeviceHooks {
   std::optional<DeviceHoming> homing() const override { return homing_; }
   /// "interface unix:/x, node 1 (vendor ..., serial ...), node 2 (...)".
   std::string identity() const override;
+  /// device.sdo.read (index, sub, node [, type]).
+  std::vector<DeviceMethod> methods() override;
+
+  /// Reads `address` of node `node` by SDO while the loop runs (non-RT).
+  /// Throws std::invalid_argument (no such node, the loop not running) or SdoError.
+  SdoAccess sdo_read(std::uint8_t node, cia301::ObjectAddress address, std::optional<cia301::DataType> type);
 
   // ---- observation, from configure() on (any non-RT thread) ----
   /// What the loop published last of axis `axis` (0-based).
@@ -115,8 +129,9 @@ class CanopenBusDevice final : public DeviceHooks {
   void drive_homing(std::vector<HomingSequence>& sequences, double& home);
   template <class Use>
   void with_each_node_sdo(Use&& use);
-  void drain_socket() noexcept;  ///< RT
-  void publish_all() noexcept;   ///< RT
+  std::chrono::microseconds sdo_timeout() const;  ///< the config's, per transfer
+  void drain_socket() noexcept;                   ///< RT
+  void publish_all() noexcept;                    ///< RT
 
   const CanopenConfig config_;
   StopToken stop_;
@@ -130,6 +145,7 @@ class CanopenBusDevice final : public DeviceHooks {
   std::atomic<bool> disable_requested_{false};
   std::atomic<std::uint64_t> reads_{0};
   std::atomic<std::uint64_t> publications_{0};
+  std::mutex sdo_mutex_;  ///< one commissioning transfer at a time (non-RT)
 };
 
 }  // namespace hapticd::drivers::canopen

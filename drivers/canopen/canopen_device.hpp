@@ -33,6 +33,7 @@
 #include "drivers/canopen/301/bus_budget.hpp"
 #include "drivers/canopen/can_socket.hpp"
 #include "drivers/canopen/canopen_config.hpp"
+#include "drivers/canopen/commissioning.hpp"
 #include "drivers/canopen/cyclic_exchange.hpp"
 #include "drivers/canopen/drive_setup.hpp"
 #include "drivers/canopen/exchange_status.hpp"
@@ -43,16 +44,6 @@
 namespace hapticd::drivers::canopen {
 
 inline constexpr int max_frames_per_period = 32;
-
-/// The value of one commissioning access.
-struct SdoAccess {
-  cia301::ObjectAddress address;
-  std::uint32_t raw = 0;
-  std::optional<cia301::DataType> type;  ///< known for the standard objects of this subset
-  std::int64_t value = 0;                ///< raw interpreted in `type` (raw itself when unknown)
-  std::string name;                      ///< the standard name, "" if unknown
-  std::string note;  ///< what the write changed for hapticd (a new torque unit), "" if nothing
-};
 
 /// A torque unit handed to the loop: 0x6076 read back and found changed.
 struct TorqueUnitChange {
@@ -140,8 +131,6 @@ class CanopenDevice final : public DeviceHooks {
   /// Runs `use` over the SDO link of the socket's owner (frame_links.hpp):
   /// the ring while `loop_owns_socket`, else the socket itself.
   void with_sdo_link(bool loop_owns_socket, const std::function<void(FrameLink&)>& use);
-  SdoAccess access(cia301::ObjectAddress address, std::uint32_t raw,
-                   std::optional<cia301::DataType> type) const;
   /// Reads 0x6076 back over `link` (sdo_mutex_ held); a new unit goes to the
   /// exchange at its next read(), with a fault first when `fault_if_changed`.
   /// Returns a note ("" if unchanged). Throws SetupError.

@@ -1,10 +1,12 @@
 // The canopen hooks' commissioning part: device.sdo.read and
 // device.sdo.write, and the 0x6076 read-back that keeps the torque unit the
-// drive's (README.md, "Commissioning").
+// drive's (README.md, "Commissioning"); with several drives on one bus,
+// device.sdo.read of the node named.
 
 #include <cmath>
 
 #include "drivers/canopen/402/objects.hpp"
+#include "drivers/canopen/canopen_bus_device.hpp"
 #include "drivers/canopen/canopen_device.hpp"
 #include "drivers/canopen/commissioning.hpp"
 #include "rpc/jsonrpc.hpp"
@@ -58,6 +60,20 @@ std::optional<cia301::DataType> type_param(const json& params) {
   return type;
 }
 
+/// The node-ID of one of several drives: required, 1..127 (the device says whether it is one of its).
+std::uint8_t node_param(const json& params, const std::vector<std::uint8_t>& nodes) {
+  std::string accepted;
+  for (const std::uint8_t n : nodes) accepted += (accepted.empty() ? "" : ", ") + std::to_string(n);
+  if (!params.contains("node"))
+    throw RpcError(code::invalid_params,
+                   "missing 'node': several drives share this bus; name one of node_ids " + accepted);
+  const std::int64_t node = integer_param(params, "node");
+  if (node < 1 || node > 127)
+    throw RpcError(code::invalid_params,
+                   "node " + std::to_string(node) + " is no node-ID (1..127); accepted: one of " + accepted);
+  return static_cast<std::uint8_t>(node);
+}
+
 json to_json(const SdoAccess& a) {
   json j = {{"index", world::text::format_hex(a.address.index, 4)},
             {"sub", a.address.sub},
@@ -70,18 +86,6 @@ json to_json(const SdoAccess& a) {
 }
 
 }  // namespace
-
-SdoAccess CanopenDevice::access(cia301::ObjectAddress address, std::uint32_t raw,
-                                std::optional<cia301::DataType> type) const {
-  SdoAccess a;
-  a.address = address;
-  a.raw = raw;
-  const auto info = cia402::find_standard_object(address);
-  a.type = type ? type : info ? std::optional(info->type) : std::nullopt;
-  a.value = a.type ? cia301::from_raw(*a.type, raw) : static_cast<std::int64_t>(raw);
-  a.name = info ? std::string(info->name) : "";
-  return a;
-}
 
 std::string CanopenDevice::recheck_torque_unit(FrameLink& link, bool fault_if_changed) {
   if (!setup_.rated_torque_from_drive) return "";              // no 0x6076: the config's rated_torque stands
@@ -128,7 +132,7 @@ SdoAccess CanopenDevice::sdo_read(cia301::ObjectAddress address, std::optional<c
     SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
     raw = sdo.read(address);
   });
-  return access(address, raw, type);
+  return describe_access(address, raw, type);
 }
 
 SdoAccess CanopenDevice::sdo_write(cia301::ObjectAddress address, std::int64_t value,
@@ -144,7 +148,7 @@ SdoAccess CanopenDevice::sdo_write(cia301::ObjectAddress address, std::int64_t v
                                 std::string(cia301::short_name(t)) + " (" + cia301::to_string(address) + ")");
   std::lock_guard lock(sdo_mutex_);
   const bool was_enabled = enabled_.load(std::memory_order_acquire);
-  SdoAccess a = access(address, *raw, t);
+  SdoAccess a = describe_access(address, *raw, t);
   with_sdo_link(was_enabled, [&](FrameLink& link) {
     SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
     // Any write may change 0x6076 (a restore, a manufacturer's motor object):
@@ -207,6 +211,31 @@ std::vector<DeviceMethod> CanopenDevice::methods() {
   read.members = {index, sub, type};
   write.members = {index, sub, {"value", rpc::ParamType::integer_or_string}, type};
   return {read, write};
+}
+
+std::vector<DeviceMethod> CanopenBusDevice::methods() {
+  DeviceMethod read{
+      "device.sdo.read", false,
+      "read an object of one drive on the bus by SDO: node, index, sub [, type] (commissioning)",
+      [this](const json& params) {
+        const std::uint8_t node = node_param(params, config_.node_ids);
+        const cia301::ObjectAddress a = address_param(params);
+        const auto type = type_param(params);
+        try {
+          json j = to_json(sdo_read(node, a, type));
+          j["node"] = node;
+          return j;
+        } catch (const std::invalid_argument& e) {  // not one of ours, no loop
+          throw RpcError(code::refused, e.what());
+        } catch (const SdoError& e) {
+          throw RpcError(code::refused, e.what());
+        }
+      }};
+  read.members = {{"node", rpc::ParamType::integer_or_string},
+                  {"index", rpc::ParamType::integer_or_string},
+                  {"sub", rpc::ParamType::integer_or_string},
+                  {"type", rpc::ParamType::string}};
+  return {read};
 }
 
 }  // namespace hapticd::drivers::canopen

@@ -137,4 +137,16 @@ std::uint8_t parse_sub_index(const std::string& text) {
   return static_cast<std::uint8_t>(parse_number(text, 0xFF, "sub-index"));
 }
 
+SdoAccess describe_access(cia301::ObjectAddress address, std::uint32_t raw,
+                          std::optional<cia301::DataType> type) {
+  SdoAccess a;
+  a.address = address;
+  a.raw = raw;
+  const auto info = cia402::find_standard_object(address);
+  a.type = type ? type : info ? std::optional(info->type) : std::nullopt;
+  a.value = a.type ? cia301::from_raw(*a.type, raw) : static_cast<std::int64_t>(raw);
+  a.name = info ? std::string(info->name) : "";
+  return a;
+}
+
 }  // namespace hapticd::drivers::canopen

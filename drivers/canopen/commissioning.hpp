@@ -15,6 +15,21 @@
 
 namespace hapticd::drivers::canopen {
 
+/// The value of one commissioning access.
+struct SdoAccess {
+  cia301::ObjectAddress address;
+  std::uint32_t raw = 0;
+  std::optional<cia301::DataType> type;  ///< known for the standard objects of this subset
+  std::int64_t value = 0;                ///< raw interpreted in `type` (raw itself when unknown)
+  std::string name;                      ///< the standard name, "" if unknown
+  std::string note;  ///< what the write changed for hapticd (a new torque unit), "" if nothing
+};
+
+/// `raw` as read from (or written to) `address`, in `type`, else the
+/// object's standard type when this subset knows it, with its name.
+SdoAccess describe_access(cia301::ObjectAddress address, std::uint32_t raw,
+                          std::optional<cia301::DataType> type);
+
 /// The role of an object whose value changes the meaning or the bound of
 /// what hapticd sends or reads ("motor rated torque: the scale of every
 /// torque hapticd sends"); nullopt for any other. The list, with why each is

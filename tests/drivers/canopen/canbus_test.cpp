@@ -477,6 +477,30 @@ TEST_F(TwoDrivesOnTheBus, ANodeWhoseOwnMethodItLacksIsNamedWithItsAxisAndThePerA
   EXPECT_FALSE(device->homing().has_value());
 }
 
+TEST_F(TwoDrivesOnTheBus, CommissioningReadsTheNamedNodesObjectsThroughTheLoop) {
+  plant1.x = 0.2;
+  plant2.x = -0.1;
+  open();
+  device->enable();
+  // No loop: nothing would drain the answer off the socket.
+  EXPECT_THROW((void)device->sdo_read(2, {0x6061, 0}, std::nullopt), std::invalid_argument);
+  start_loop(0.0, 0.0);
+  const canopen::SdoAccess mode = device->sdo_read(2, {0x6061, 0}, std::nullopt);
+  EXPECT_EQ(mode.value, 10) << "cyclic synchronous torque";
+  EXPECT_EQ(mode.name, "modes of operation display");
+  // Each node answers for its own plant (0x6064: node 1's at +0.2, node 2's at -0.1).
+  EXPECT_GT(device->sdo_read(1, {0x6064, 0}, std::nullopt).value, 0);
+  EXPECT_LT(device->sdo_read(2, {0x6064, 0}, std::nullopt).value, 0);
+  try {
+    (void)device->sdo_read(5, {0x6061, 0}, std::nullopt);
+    FAIL() << "read a node that is not on the bus";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "node 5 is not one of this device's drives; accepted: node_ids 1, 2");
+  }
+  EXPECT_EQ(last_read.load(), IoResult::ok) << "the loop ran on through the transfers";
+  stop_loop();
+}
+
 TEST_F(TwoDrivesOnTheBus, EachAxisTorqueReachesItsOwnDriveAndNothingAllocatesPerPeriod) {
   open();
   EXPECT_EQ(device->axes(), 2);

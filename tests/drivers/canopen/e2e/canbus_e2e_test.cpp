@@ -13,7 +13,8 @@
 //     the bits per period and the bit rate;
 //   - homing = "cia402" with each node's own method and offset
 //     (axis_homing_method, axis_home_offset): both drives home before the
-//     loop, each on its own switch, and the loop starts from the homes.
+//     loop, each on its own switch, and the loop starts from the homes;
+//     `hapticctl device sdo read ... --node N` reads the node named.
 
 #include <gtest/gtest.h>
 
@@ -299,6 +300,18 @@ TEST(CanopenBus, EachDriveHomesOnItsOwnSwitchWithItsOwnMethodBeforeTheLoop) {
                           "method 18 (on the positive limit switch)"),
             std::string::npos)
       << d.ctl({"status"}).out;
+  // Commissioning reads name the node: both back in cyclic synchronous torque after homing.
+  for (const char* node : {"1", "2"}) {
+    const auto mode = d.ctl({"device", "sdo", "read", "0x6061", "0", "--node", node});
+    ASSERT_EQ(mode.exit_code, 0) << mode.err;
+    EXPECT_EQ(mode.out, "node " + std::string(node) +
+                            ": 0x6061:00 modes of operation display = 10 (raw 0x0000000A, i8)\n");
+  }
+  const auto unnamed = d.ctl({"device", "sdo", "read", "0x6061", "0"});
+  EXPECT_NE(unnamed.exit_code, 0);
+  EXPECT_NE(unnamed.err.find("missing 'node': several drives share this bus; name one of node_ids 1, 2"),
+            std::string::npos)
+      << unnamed.err;
   EXPECT_EQ(d.stop(), 0) << d.log();
   // Each axis reads its own -home_offset at its own switch's edge and stopped just off it.
   const Recording rec = read_recording(dir.path / "run.csv");
