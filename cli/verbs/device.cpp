@@ -1,5 +1,6 @@
 // hapticctl device [describe] | device call METHOD [key=value ...] | device zero
-//          | device sdo read INDEX SUB [--type T] [--node N] | device sdo write INDEX SUB VALUE [--type T]
+//          | device sdo read INDEX SUB [--type T] [--node N]
+//          | device sdo write INDEX SUB VALUE [--type T] [--node N]
 //
 // What the device is (its driver, the parameters in force from the driver's
 // own description, its state and model) and the methods its driver adds;
@@ -86,8 +87,9 @@ void add_sdo_commands(CLI::App& device, CommonOptions& opts) {
   for (auto* c : {read, write})
     c->add_option("--type", args->type,
                   "u8, u16, u32, i8, i16, i32 or bool: needed for objects the driver does not know");
-  read->add_option("--node", args->node, "with several drives on one bus (node_ids): the node-ID to read")
-      ->check(CLI::Range(1, 127));
+  for (auto* c : {read, write})
+    c->add_option("--node", args->node, "with several drives on one bus (node_ids): the drive's node-ID")
+        ->check(CLI::Range(1, 127));
   read->callback([&opts, params] {
     auto result = detail::call(opts, "device.sdo.read", params(false));
     if (opts.json) return detail::print_json(result);

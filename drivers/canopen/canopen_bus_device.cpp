@@ -23,6 +23,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 constexpr std::size_t node_sdo_ring_capacity = 64;  // answers of one transfer at a time, and late ones
+constexpr std::size_t node_unit_ring_capacity = 4;  // one change per write, taken the next period
 
 std::string node_list_words(std::span<const std::uint8_t> nodes) {
   std::string out;
@@ -55,6 +56,9 @@ struct CanopenBusDevice::Node {
   PublishedExchange published;
   /// The loop's read_axes() -> this node's SDO client (commissioning).
   rt::SpscRing<cia301::Frame> sdo_answers{node_sdo_ring_capacity};
+  /// A commissioning write's new 0x6076 -> the loop's read_axes().
+  rt::SpscRing<TorqueUnitChange> unit_changes{node_unit_ring_capacity};
+  std::atomic<std::uint32_t> rated_torque_mnm{0};  ///< the unit of this node's 0x6071, as the loop uses it
 };
 
 /// Each node's SDO client in turn, on one link over the bus socket (non-RT).
@@ -71,21 +75,81 @@ std::chrono::microseconds CanopenBusDevice::sdo_timeout() const {
   return std::chrono::microseconds(static_cast<std::int64_t>(std::llround(config_.sdo_timeout * 1e6)));
 }
 
+std::size_t CanopenBusDevice::axis_of_node(std::uint8_t node_id) const {
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (nodes_[i]->config.node_id == node_id) return i;
+  throw std::invalid_argument("node " + std::to_string(node_id) +
+                              " is not one of this device's drives; accepted: node_ids " +
+                              node_list_words(config_.node_ids));
+}
+
+template <class Use>
+auto CanopenBusDevice::with_node_sdo(std::size_t axis, Use&& use) {
+  // The loop owns the socket's receive side: the answer comes through it (sdo_mutex_ held).
+  if (!loop_running())
+    throw std::invalid_argument(
+        "the loop is not running: with several drives an SDO transfer goes through it");
+  Node& node = *nodes_[axis];
+  RingLink link(socket_, node.sdo_answers);
+  SdoClient sdo(link, node.config.node_id, sdo_timeout(), stop_);
+  return use(node, sdo);
+}
+
 SdoAccess CanopenBusDevice::sdo_read(std::uint8_t node_id, cia301::ObjectAddress address,
                                      std::optional<cia301::DataType> type) {
-  const auto it =
-      std::find_if(nodes_.begin(), nodes_.end(), [&](const auto& n) { return n->config.node_id == node_id; });
-  if (it == nodes_.end())
-    throw std::invalid_argument("node " + std::to_string(node_id) +
-                                " is not one of this device's drives; accepted: node_ids " +
-                                node_list_words(config_.node_ids));
+  const std::size_t axis = axis_of_node(node_id);
   std::lock_guard lock(sdo_mutex_);
-  // The loop owns the socket's receive side: the answer comes through it.
-  if (!loop_running())
-    throw std::invalid_argument("the loop is not running: with several drives an SDO read goes through it");
-  RingLink link(socket_, (*it)->sdo_answers);
-  SdoClient sdo(link, node_id, sdo_timeout(), stop_);
-  return describe_access(address, sdo.read(address), type);
+  const std::uint32_t raw = with_node_sdo(axis, [&](Node&, SdoClient& sdo) { return sdo.read(address); });
+  return describe_access(address, raw, type);
+}
+
+SdoAccess CanopenBusDevice::sdo_write(std::uint8_t node_id, cia301::ObjectAddress address, std::int64_t value,
+                                      std::optional<cia301::DataType> type) {
+  const std::size_t axis = axis_of_node(node_id);
+  const bool was_enabled = enabled_.load(std::memory_order_acquire);
+  if (was_enabled) {
+    if (const auto why = refused_while_enabled(address)) throw std::invalid_argument(*why);
+  }
+  const cia301::DataType t = write_type(address, type);
+  const auto raw = cia301::to_raw(t, value);
+  if (!raw)
+    throw std::invalid_argument(std::to_string(value) + " does not fit " +
+                                std::string(cia301::short_name(t)) + " (" + cia301::to_string(address) + ")");
+  std::lock_guard lock(sdo_mutex_);
+  SdoAccess a = describe_access(address, *raw, t);
+  with_node_sdo(axis, [&](Node& node, SdoClient& sdo) {
+    // Any write may change 0x6076: read back after each, also after an abort.
+    try {
+      sdo.write(address, *raw, cia301::size_of(t));
+    } catch (const SdoError& e) {
+      std::string note;
+      try {
+        note = recheck_torque_unit(axis, node, sdo, was_enabled);
+      } catch (const SetupError& unreadable) {
+        throw SetupError(std::string(e.what()) + "; " + unreadable.what(), unreadable.key());
+      }
+      if (note.empty()) throw;
+      throw SdoError(std::string(e.what()) + "; " + note, e.outcome());
+    }
+    a.note = recheck_torque_unit(axis, node, sdo, was_enabled);
+  });
+  return a;
+}
+
+std::string CanopenBusDevice::recheck_torque_unit(std::size_t axis, Node& node, SdoClient& sdo,
+                                                  bool fault_if_changed) {
+  if (!node.setup.rated_torque_from_drive) return "";  // no 0x6076: the config's rated_torque stands
+  const TorqueUnitCheck check = check_torque_unit(
+      sdo, node.config, node.rated_torque_mnm.load(std::memory_order_acquire), fault_if_changed);
+  if (!check.change) return "";
+  if (!node.unit_changes.try_push(*check.change))
+    throw SetupError("the loop has not taken the last torque unit yet", "");
+  if (!check.problem.empty())
+    throw SetupError(check.problem + ": every axis held at zero (fault latched)", "rated_torque");
+  node.rated_torque_mnm.store(check.change->after_mnm, std::memory_order_release);
+  return torque_unit_note(node.config.node_id, *check.change,
+                          "axis " + std::to_string(axis + 1) + "'s torque",
+                          "the drives were enabled: every axis held at zero");
 }
 
 CanopenBusDevice::CanopenBusDevice(CanopenConfig config) : config_(std::move(config)) {
@@ -135,6 +199,7 @@ void CanopenBusDevice::configure(const LoopContext& loop) {
     for (auto& node : nodes_) {
       node->exchange.emplace(cyclic_settings(node->config, node->setup,
                                              scaling(node->config, node->setup.rated_torque_mnm), period_s_));
+      node->rated_torque_mnm.store(node->setup.rated_torque_mnm, std::memory_order_release);
       node->published.publish(*node->exchange);
       if (!link.send(cia301::encode_nmt(cia301::NmtCommand::start, node->config.node_id)))
         throw SetupError("cannot send NMT start to node " + std::to_string(node->config.node_id) + ": " +
@@ -333,6 +398,7 @@ void CanopenBusDevice::enable() {
       throw StopRequested(abandoned("canopen: enabling nodes " + node_list_words(config_.node_ids)));
     throw SetupError("the drives could not be enabled: " + why, "");
   }
+  enabled_.store(true, std::memory_order_release);
 }
 
 std::string CanopenBusDevice::clear_fault() {
@@ -403,6 +469,7 @@ void CanopenBusDevice::await_reset_by_loop() const {
 }
 
 void CanopenBusDevice::disable() noexcept {
+  enabled_.store(false, std::memory_order_release);
   try {
     disable_requested_.store(true, std::memory_order_release);
     if (loop_running()) {
@@ -430,6 +497,7 @@ void CanopenBusDevice::close() noexcept {
   socket_.close();
   for (auto& node : nodes_) node->exchange.reset();
   configured_ = false;
+  enabled_.store(false, std::memory_order_release);
 }
 
 // ---- RT ----------------------------------------------------------------------
@@ -456,6 +524,7 @@ IoResult CanopenBusDevice::read_axes(std::span<Reading> out) noexcept {
   if (disable_requested_.exchange(false, std::memory_order_acq_rel))
     for (auto& node : nodes_) node->exchange->set_enabled(false);
   drain_socket();
+  apply_torque_units();
   bool faulted = false, valid = true;
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
     const CycleReading r = nodes_[i]->exchange->begin_period();
@@ -466,6 +535,16 @@ IoResult CanopenBusDevice::read_axes(std::span<Reading> out) noexcept {
   }
   if (faulted) return IoResult::fault;  // one node's fault zeroes every axis
   return valid ? IoResult::ok : IoResult::error;
+}
+
+void CanopenBusDevice::apply_torque_units() noexcept {
+  TorqueUnitChange change;
+  for (auto& node : nodes_) {
+    while (node->unit_changes.try_pop(change)) {
+      if (change.fault) node->exchange->on_torque_unit_changed(change.before_mnm, change.after_mnm);
+      if (change.after_mnm != 0) node->exchange->set_force_per_permille(change.force_per_permille);
+    }
+  }
 }
 
 void CanopenBusDevice::drain_socket() noexcept {

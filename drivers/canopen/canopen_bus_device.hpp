@@ -27,11 +27,12 @@
 /// axis_home_offset are given (homing.hpp); each back in cyclic synchronous
 /// torque after; a node that fails names its axis.
 ///
-/// Commissioning: device.sdo.read with `node` reads any object of that node
-/// while the loop runs (the request goes out on the socket, the answer comes
-/// back through the loop's read_axes() and that node's SPSC ring, as one
-/// drive's). device.sdo.write is one drive's only: with several, the 0x6076
-/// read-back after a write would have to rescale one node in the loop.
+/// Commissioning: device.sdo.read and device.sdo.write with `node` reach any
+/// object of that node while the loop runs (the request goes out on the
+/// socket, the answer comes back through the loop's read_axes() and that
+/// node's SPSC ring), with one drive's rules: what scales or bounds the
+/// torque is refused while enabled, and 0x6076 is read back after every
+/// write; a new unit reaches that node's exchange through its own ring.
 ///
 /// Threads as in canopen_device.hpp.
 
@@ -103,6 +104,13 @@ class CanopenBusDevice final : public DeviceHooks {
   /// Reads `address` of node `node` by SDO while the loop runs (non-RT).
   /// Throws std::invalid_argument (no such node, the loop not running) or SdoError.
   SdoAccess sdo_read(std::uint8_t node, cia301::ObjectAddress address, std::optional<cia301::DataType> type);
+  /// Writes it, as one drive's sdo_write (canopen_device.hpp): while enabled
+  /// what scales or bounds the torque is refused; 0x6076 is read back after
+  /// every write and a new unit rescales that node's axis from the next
+  /// period (while enabled: a fault that zeroes every axis). Throws as
+  /// sdo_read, or SetupError (0x6076 unreadable).
+  SdoAccess sdo_write(std::uint8_t node, cia301::ObjectAddress address, std::int64_t value,
+                      std::optional<cia301::DataType> type);
 
   // ---- observation, from configure() on (any non-RT thread) ----
   /// What the loop published last of axis `axis` (0-based).
@@ -130,8 +138,15 @@ class CanopenBusDevice final : public DeviceHooks {
   template <class Use>
   void with_each_node_sdo(Use&& use);
   std::chrono::microseconds sdo_timeout() const;  ///< the config's, per transfer
-  void drain_socket() noexcept;                   ///< RT
-  void publish_all() noexcept;                    ///< RT
+  /// The 0-based axis of a node-ID; throws std::invalid_argument naming node_ids.
+  std::size_t axis_of_node(std::uint8_t node_id) const;
+  /// `use(node, sdo)` over that node's ring while the loop runs; throws std::invalid_argument if it does not.
+  template <class Use>
+  auto with_node_sdo(std::size_t axis, Use&& use);
+  std::string recheck_torque_unit(std::size_t axis, Node& node, SdoClient& sdo, bool fault_if_changed);
+  void apply_torque_units() noexcept;  ///< RT: takes what recheck_torque_unit() handed over
+  void drain_socket() noexcept;        ///< RT
+  void publish_all() noexcept;         ///< RT
 
   const CanopenConfig config_;
   StopToken stop_;
@@ -143,6 +158,7 @@ class CanopenBusDevice final : public DeviceHooks {
   std::optional<DeviceHoming> homing_;
   std::atomic<bool> clear_requested_{false};
   std::atomic<bool> disable_requested_{false};
+  std::atomic<bool> enabled_{false};  ///< enable() done, not disabled since (guards the commissioning writes)
   std::atomic<std::uint64_t> reads_{0};
   std::atomic<std::uint64_t> publications_{0};
   std::mutex sdo_mutex_;  ///< one commissioning transfer at a time (non-RT)

@@ -53,6 +53,21 @@ struct TorqueUnitChange {
   bool fault = false;               ///< latch torque_unit_changed (the drive is enabled)
 };
 
+/// 0x6076 read back after a commissioning write, against the unit in use
+/// (`before_mnm`): the change to hand to the loop, none when unchanged. An
+/// unreadable 0x6076 throws SetupError (key rated_torque) unless
+/// `fault_if_changed`; then it is a change with after_mnm = 0 and `problem`.
+struct TorqueUnitCheck {
+  std::optional<TorqueUnitChange> change;
+  std::string problem;  ///< why 0x6076 could not be read back, "" if it was
+};
+TorqueUnitCheck check_torque_unit(SdoClient& sdo, const CanopenConfig& config, std::uint32_t before_mnm,
+                                  bool fault_if_changed);
+/// "node 1's 0x6076 motor rated torque is now 2000 mN m (was 1000): hapticd
+/// scales <scaled> by it<; held | from now on>".
+std::string torque_unit_note(std::uint8_t node, const TorqueUnitChange& change, const std::string& scaled,
+                             const std::string& held);
+
 class CanopenDevice final : public DeviceHooks {
  public:
   /// Validates the config (throws ConfigError naming the key).

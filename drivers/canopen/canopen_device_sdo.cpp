@@ -87,18 +87,16 @@ json to_json(const SdoAccess& a) {
 
 }  // namespace
 
-std::string CanopenDevice::recheck_torque_unit(FrameLink& link, bool fault_if_changed) {
-  if (!setup_.rated_torque_from_drive) return "";              // no 0x6076: the config's rated_torque stands
-  SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);  // gives way to SIGTERM
-  const std::uint32_t before = rated_torque_mnm();
+TorqueUnitCheck check_torque_unit(SdoClient& sdo, const CanopenConfig& config, std::uint32_t before_mnm,
+                                  bool fault_if_changed) {
   TorqueUnitChange change;
-  change.before_mnm = before;
+  change.before_mnm = before_mnm;
   change.fault = fault_if_changed;
   std::string problem;
   try {
     const auto drive = read_rated_torque(sdo);
-    change.after_mnm = torque_unit(
-        drive, static_cast<std::uint32_t>(std::llround(config_.rated_torque * 1e3)), config_.node_id);
+    change.after_mnm = torque_unit(drive, static_cast<std::uint32_t>(std::llround(config.rated_torque * 1e3)),
+                                   config.node_id);
   } catch (const SdoError& e) {
     problem = std::string(
                   "cannot read back 0x6076 motor rated torque, the unit of every torque hapticd "
@@ -108,20 +106,34 @@ std::string CanopenDevice::recheck_torque_unit(FrameLink& link, bool fault_if_ch
     problem = e.what();
   }
   if (!problem.empty() && !fault_if_changed) throw SetupError(problem, "rated_torque");
-  if (problem.empty() && change.after_mnm == before) return "";
+  if (problem.empty() && change.after_mnm == before_mnm) return {};
   if (problem.empty())
-    change.force_per_permille = canopen::scaling(config_, change.after_mnm).force_per_permille;
+    change.force_per_permille = canopen::scaling(config, change.after_mnm).force_per_permille;
   else
     change.after_mnm = 0;  // enabled and unreadable: a fault, the scale unchanged
-  if (!unit_changes_->try_push(change))
+  return {change, problem};
+}
+
+std::string torque_unit_note(std::uint8_t node, const TorqueUnitChange& change, const std::string& scaled,
+                             const std::string& held) {
+  return "node " + std::to_string(node) + "'s 0x6076 motor rated torque is now " +
+         std::to_string(change.after_mnm) + " mN m (was " + std::to_string(change.before_mnm) +
+         "): hapticd scales " + scaled + " by it" +
+         (change.fault ? "; " + held + " (fault latched) until fault clear" : " from now on");
+}
+
+std::string CanopenDevice::recheck_torque_unit(FrameLink& link, bool fault_if_changed) {
+  if (!setup_.rated_torque_from_drive) return "";              // no 0x6076: the config's rated_torque stands
+  SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);  // gives way to SIGTERM
+  const TorqueUnitCheck check = check_torque_unit(sdo, config_, rated_torque_mnm(), fault_if_changed);
+  if (!check.change) return "";
+  if (!unit_changes_->try_push(*check.change))
     throw SetupError("the loop has not taken the last torque unit yet", "");
-  if (!problem.empty()) throw SetupError(problem + ": torque held at zero (fault latched)", "rated_torque");
-  rated_torque_mnm_.store(change.after_mnm, std::memory_order_release);
-  return "node " + std::to_string(config_.node_id) + "'s 0x6076 motor rated torque is now " +
-         std::to_string(change.after_mnm) + " mN m (was " + std::to_string(before) +
-         "): hapticd scales every torque by it" +
-         (fault_if_changed ? "; the drive was enabled: torque held at zero (fault latched) until fault clear"
-                           : " from now on");
+  if (!check.problem.empty())
+    throw SetupError(check.problem + ": torque held at zero (fault latched)", "rated_torque");
+  rated_torque_mnm_.store(check.change->after_mnm, std::memory_order_release);
+  return torque_unit_note(config_.node_id, *check.change, "every torque",
+                          "the drive was enabled: torque held at zero");
 }
 
 SdoAccess CanopenDevice::sdo_read(cia301::ObjectAddress address, std::optional<cia301::DataType> type) {
@@ -214,28 +226,48 @@ std::vector<DeviceMethod> CanopenDevice::methods() {
 }
 
 std::vector<DeviceMethod> CanopenBusDevice::methods() {
+  // As one drive's, with the node named; the answer names it too.
+  const auto refused = [](const auto& call) {
+    try {
+      return call();
+    } catch (const std::invalid_argument& e) {  // not one of ours, no loop, refused while enabled
+      throw RpcError(code::refused, e.what());
+    } catch (const SdoError& e) {
+      throw RpcError(code::refused, e.what());
+    } catch (const SetupError& e) {  // 0x6076 read back: unreadable, or against rated_torque
+      throw RpcError(code::refused, e.what());
+    }
+  };
   DeviceMethod read{
       "device.sdo.read", false,
       "read an object of one drive on the bus by SDO: node, index, sub [, type] (commissioning)",
-      [this](const json& params) {
+      [this, refused](const json& params) {
         const std::uint8_t node = node_param(params, config_.node_ids);
         const cia301::ObjectAddress a = address_param(params);
         const auto type = type_param(params);
-        try {
-          json j = to_json(sdo_read(node, a, type));
-          j["node"] = node;
-          return j;
-        } catch (const std::invalid_argument& e) {  // not one of ours, no loop
-          throw RpcError(code::refused, e.what());
-        } catch (const SdoError& e) {
-          throw RpcError(code::refused, e.what());
-        }
+        json j = refused([&] { return to_json(sdo_read(node, a, type)); });
+        j["node"] = node;
+        return j;
       }};
-  read.members = {{"node", rpc::ParamType::integer_or_string},
-                  {"index", rpc::ParamType::integer_or_string},
-                  {"sub", rpc::ParamType::integer_or_string},
-                  {"type", rpc::ParamType::string}};
-  return {read};
+  DeviceMethod write{"device.sdo.write", true,
+                     "write an object of one drive on the bus by SDO: node, index, sub, value [, type]; what "
+                     "scales or bounds the torque only while disabled",
+                     [this, refused](const json& params) {
+                       const std::uint8_t node = node_param(params, config_.node_ids);
+                       const cia301::ObjectAddress a = address_param(params);
+                       const std::int64_t value = integer_param(params, "value");
+                       const auto type = type_param(params);
+                       json j = refused([&] { return to_json(sdo_write(node, a, value, type)); });
+                       j["node"] = node;
+                       return j;
+                     }};
+  const rpc::ParamMember node{"node", rpc::ParamType::integer_or_string};
+  const rpc::ParamMember index{"index", rpc::ParamType::integer_or_string};
+  const rpc::ParamMember sub{"sub", rpc::ParamType::integer_or_string};
+  const rpc::ParamMember type{"type", rpc::ParamType::string};
+  read.members = {node, index, sub, type};
+  write.members = {node, index, sub, {"value", rpc::ParamType::integer_or_string}, type};
+  return {read, write};
 }
 
 }  // namespace hapticd::drivers::canopen

@@ -501,6 +501,39 @@ TEST_F(TwoDrivesOnTheBus, CommissioningReadsTheNamedNodesObjectsThroughTheLoop) 
   stop_loop();
 }
 
+TEST_F(TwoDrivesOnTheBus, CommissioningWritesRescaleOnlyTheNamedNodeAndWhatScalesTheTorqueWaitsForDisable) {
+  open();
+  device->enable();
+  start_loop(0.3, -0.6);
+  try {
+    (void)device->sdo_write(2, {0x6076, 0}, 2000, std::nullopt);
+    FAIL() << "rescaled a drive while enabled";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("0x6076:00 motor rated torque: the scale of every torque", 0), 0U)
+        << e.what();
+  }
+  stop_loop();
+  device->disable();
+  start_loop(0.0, 0.0);
+  const canopen::SdoAccess a = device->sdo_write(2, {0x6076, 0}, 2000, std::nullopt);
+  EXPECT_EQ(
+      a.note,
+      "node 2's 0x6076 motor rated torque is now 2000 mN m (was 1000): hapticd scales axis 2's torque by "
+      "it from now on");
+  EXPECT_EQ(device->sdo_read(2, {0x6076, 0}, std::nullopt).value, 2000);
+  EXPECT_EQ(device->sdo_read(1, {0x6076, 0}, std::nullopt).value, 1000) << "node 1 untouched";
+  stop_loop();
+  device->enable();
+  // Node 2 gets -300 per mille of its new 2 N m (not -600 of the old 1 N m): -0.6 N m either way.
+  start_loop(0.3, -0.6);
+  EXPECT_TRUE(eventually([&] {
+    return std::abs(member1->applied_force() - 0.3) < 1e-3 && std::abs(member2->applied_force() + 0.6) < 1e-3;
+  })) << member1->applied_force()
+      << " " << member2->applied_force();
+  EXPECT_EQ(device->exchange_status(1).torque_permille, -300);
+  EXPECT_EQ(device->exchange_status(0).torque_permille, 300);
+}
+
 TEST_F(TwoDrivesOnTheBus, EachAxisTorqueReachesItsOwnDriveAndNothingAllocatesPerPeriod) {
   open();
   EXPECT_EQ(device->axes(), 2);

@@ -14,7 +14,8 @@
 //   - homing = "cia402" with each node's own method and offset
 //     (axis_homing_method, axis_home_offset): both drives home before the
 //     loop, each on its own switch, and the loop starts from the homes;
-//     `hapticctl device sdo read ... --node N` reads the node named.
+//     `hapticctl device sdo read ... --node N` reads the node named, and a
+//     write of what scales its torque is refused while enabled.
 
 #include <gtest/gtest.h>
 
@@ -307,6 +308,9 @@ TEST(CanopenBus, EachDriveHomesOnItsOwnSwitchWithItsOwnMethodBeforeTheLoop) {
     EXPECT_EQ(mode.out, "node " + std::string(node) +
                             ": 0x6061:00 modes of operation display = 10 (raw 0x0000000A, i8)\n");
   }
+  const auto guarded = d.ctl({"device", "sdo", "write", "0x6076", "0", "2000", "--node", "2"});
+  EXPECT_NE(guarded.exit_code, 0) << "a drive rescaled while enabled";
+  EXPECT_NE(guarded.err.find("0x6076:00 motor rated torque"), std::string::npos) << guarded.err;
   const auto unnamed = d.ctl({"device", "sdo", "read", "0x6061", "0"});
   EXPECT_NE(unnamed.exit_code, 0);
   EXPECT_NE(unnamed.err.find("missing 'node': several drives share this bus; name one of node_ids 1, 2"),
