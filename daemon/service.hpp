@@ -127,6 +127,8 @@ class Service {
   /// on it (else refused, naming the scene and its limit); the scene's verdict
   /// is redone on it. Control thread only (model_ is read there).
   nlohmann::json replace_model(DeviceModel next);
+  /// device.model.set on a device with several axes: refused, naming them (a model describes one axis).
+  void refuse_model_of_one_axis_on_a_stage() const;
   nlohmann::json status() const;
   nlohmann::json fault_detail() const;
   nlohmann::json stats() const;

@@ -34,6 +34,20 @@ json Service::replace_model(DeviceModel next) {
               {"scene", {{"name", scene.name}, {"stability", to_json(planned.stability)}}}};
 }
 
+void Service::refuse_model_of_one_axis_on_a_stage() const {
+  // A model file or an identified model describes one axis; on a stage it
+  // would replace every axis' mass and damping, and the scene registry's
+  // view of the axes with them (README, "Limitations").
+  const int axes = device_.device->axes();
+  if (axes == 1) return;
+  std::string names;
+  for (const auto& name : model_.axis_names) names += (names.empty() ? "" : ", ") + name;
+  throw RpcError(code::refused, "device.model.set describes one axis and this device has " +
+                                    std::to_string(axes) + " (" + names +
+                                    "): each axis' mass and damping come from [device." +
+                                    options_.config.device.driver + "] in the config");
+}
+
 void Service::register_model_methods(control::ControlServer& server) {
   server.register_method(
       "device.model", [this](const json&, const PeerInfo&) { return to_json(model_); }, Access::read);
@@ -41,6 +55,7 @@ void Service::register_model_methods(control::ControlServer& server) {
   server.register_method(
       "device.model.set", {{"model", rpc::ParamType::object}, {"file", rpc::ParamType::string}},
       [this](const json& params, const PeerInfo&) {
+        refuse_model_of_one_axis_on_a_stage();
         if (!params.contains("model")) {
           throw RpcError(code::invalid_params,
                          "device.model.set needs \"model\": {plant, motion, period, ...} (docs/config.md, "

@@ -221,6 +221,34 @@ TEST(Axes, TheConfigsAxisErrorsNameTheKey) {
 // axis-springs: today's spring-mass on each axis, judged per axis with the
 // axis' own mass; on the stage each axis rings at its own virtual mass'
 // frequency and the other axis feels nothing.
+// A model file (hapticctl identify --apply, device.model.set) describes one
+// axis: on a stage it would replace every axis' mass and damping, and with
+// them the axes the scene registry sees (a one-axis chirp then loaded on
+// the stage). Refused, naming the axes; the stage's model stays.
+TEST(Axes, DeviceModelSetOfOneAxisIsRefusedOnAStageNamingItsAxes) {
+  TempDir dir;
+  Daemon daemon(dir, stage_config());
+  RawConnection c(daemon.socket());
+  const json model{
+      {"plant", "rigid"}, {"motion", "linear"}, {"period", 0.001}, {"mass", 0.001}, {"damping", 0}};
+  ASSERT_TRUE(c.send(
+      json{{"jsonrpc", "2.0"}, {"id", 1}, {"method", "device.model.set"}, {"params", {{"model", model}}}}
+          .dump() +
+      "\n"));
+  const json reply = json::parse(c.read_line(), nullptr, false);
+  ASSERT_TRUE(reply.contains("error")) << reply.dump();
+  EXPECT_EQ(reply["error"]["code"], -32000);
+  EXPECT_EQ(
+      reply["error"]["message"],
+      "device.model.set describes one axis and this device has 2 (x, y): each axis' mass and damping come "
+      "from [device.loopback] in the config");
+  const auto chirp = daemon.ctl({"load", "chirp"});
+  EXPECT_NE(chirp.exit_code, 0) << "a one-axis scene on the stage";
+  const json status = json::parse(daemon.ctl({"status", "--json"}).out);
+  EXPECT_EQ(status.at("device").at("model_source"), "config") << status.at("device").dump();
+  ASSERT_EQ(daemon.stop(), 0) << daemon.log();
+}
+
 TEST(Axes, AxisSpringsOnATwoAxisStageThroughTheDaemon) {
   TempDir dir;
   Daemon daemon(dir,
