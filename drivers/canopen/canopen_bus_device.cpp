@@ -107,31 +107,12 @@ SdoAccess CanopenBusDevice::sdo_write(std::uint8_t node_id, cia301::ObjectAddres
                                       std::optional<cia301::DataType> type) {
   const std::size_t axis = axis_of_node(node_id);
   const bool was_enabled = enabled_.load(std::memory_order_acquire);
-  if (was_enabled) {
-    if (const auto why = refused_while_enabled(address)) throw std::invalid_argument(*why);
-  }
-  const cia301::DataType t = write_type(address, type);
-  const auto raw = cia301::to_raw(t, value);
-  if (!raw)
-    throw std::invalid_argument(std::to_string(value) + " does not fit " +
-                                std::string(cia301::short_name(t)) + " (" + cia301::to_string(address) + ")");
+  const CheckedWrite write = checked_write(address, value, type, was_enabled);
   std::lock_guard lock(sdo_mutex_);
-  SdoAccess a = describe_access(address, *raw, t);
+  SdoAccess a = describe_access(address, write.raw, write.type);
   with_node_sdo(axis, [&](Node& node, SdoClient& sdo) {
-    // Any write may change 0x6076: read back after each, also after an abort.
-    try {
-      sdo.write(address, *raw, cia301::size_of(t));
-    } catch (const SdoError& e) {
-      std::string note;
-      try {
-        note = recheck_torque_unit(axis, node, sdo, was_enabled);
-      } catch (const SetupError& unreadable) {
-        throw SetupError(std::string(e.what()) + "; " + unreadable.what(), unreadable.key());
-      }
-      if (note.empty()) throw;
-      throw SdoError(std::string(e.what()) + "; " + note, e.outcome());
-    }
-    a.note = recheck_torque_unit(axis, node, sdo, was_enabled);
+    a.note = write_and_recheck(sdo, address, write,
+                               [&] { return recheck_torque_unit(axis, node, sdo, was_enabled); });
   });
   return a;
 }

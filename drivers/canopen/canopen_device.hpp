@@ -63,6 +63,21 @@ struct TorqueUnitCheck {
 };
 TorqueUnitCheck check_torque_unit(SdoClient& sdo, const CanopenConfig& config, std::uint32_t before_mnm,
                                   bool fault_if_changed);
+/// A commissioning write after its rules (commissioning.hpp): what scales or
+/// bounds the torque refused while `enabled`, the type, the value fitting it.
+/// Throws std::invalid_argument naming what was wrong.
+struct CheckedWrite {
+  cia301::DataType type;
+  std::uint32_t raw = 0;
+};
+CheckedWrite checked_write(cia301::ObjectAddress address, std::int64_t value,
+                           std::optional<cia301::DataType> type, bool enabled);
+/// Sends it, then `recheck()` (0x6076 read back) after it, also after an
+/// abort: the drive may have taken part of it. Returns the recheck's note;
+/// an abort comes back as SdoError with the note, or SetupError when 0x6076
+/// is unreadable.
+std::string write_and_recheck(SdoClient& sdo, cia301::ObjectAddress address, const CheckedWrite& write,
+                              const std::function<std::string()>& recheck);
 /// "node 1's 0x6076 motor rated torque is now 2000 mN m (was 1000): hapticd
 /// scales <scaled> by it<; held | from now on>".
 std::string torque_unit_note(std::uint8_t node, const TorqueUnitChange& change, const std::string& scaled,

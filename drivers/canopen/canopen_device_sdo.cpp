@@ -147,10 +147,9 @@ SdoAccess CanopenDevice::sdo_read(cia301::ObjectAddress address, std::optional<c
   return describe_access(address, raw, type);
 }
 
-SdoAccess CanopenDevice::sdo_write(cia301::ObjectAddress address, std::int64_t value,
-                                   std::optional<cia301::DataType> type) {
-  if (!exchange_) throw std::invalid_argument("the drive is not configured");
-  if (enabled_.load(std::memory_order_acquire)) {
+CheckedWrite checked_write(cia301::ObjectAddress address, std::int64_t value,
+                           std::optional<cia301::DataType> type, bool enabled) {
+  if (enabled) {
     if (const auto why = refused_while_enabled(address)) throw std::invalid_argument(*why);
   }
   const cia301::DataType t = write_type(address, type);
@@ -158,27 +157,37 @@ SdoAccess CanopenDevice::sdo_write(cia301::ObjectAddress address, std::int64_t v
   if (!raw)
     throw std::invalid_argument(std::to_string(value) + " does not fit " +
                                 std::string(cia301::short_name(t)) + " (" + cia301::to_string(address) + ")");
+  return {t, *raw};
+}
+
+std::string write_and_recheck(SdoClient& sdo, cia301::ObjectAddress address, const CheckedWrite& write,
+                              const std::function<std::string()>& recheck) {
+  // Any write may change 0x6076 (a restore, a manufacturer's motor object).
+  try {
+    sdo.write(address, write.raw, cia301::size_of(write.type));
+  } catch (const SdoError& e) {
+    std::string note;
+    try {
+      note = recheck();
+    } catch (const SetupError& unreadable) {
+      throw SetupError(std::string(e.what()) + "; " + unreadable.what(), unreadable.key());
+    }
+    if (note.empty()) throw;
+    throw SdoError(std::string(e.what()) + "; " + note, e.outcome());
+  }
+  return recheck();
+}
+
+SdoAccess CanopenDevice::sdo_write(cia301::ObjectAddress address, std::int64_t value,
+                                   std::optional<cia301::DataType> type) {
+  if (!exchange_) throw std::invalid_argument("the drive is not configured");
+  const CheckedWrite write = checked_write(address, value, type, enabled_.load(std::memory_order_acquire));
   std::lock_guard lock(sdo_mutex_);
   const bool was_enabled = enabled_.load(std::memory_order_acquire);
-  SdoAccess a = describe_access(address, *raw, t);
+  SdoAccess a = describe_access(address, write.raw, write.type);
   with_sdo_link(was_enabled, [&](FrameLink& link) {
     SdoClient sdo(link, config_.node_id, sdo_timeout(), stop_);
-    // Any write may change 0x6076 (a restore, a manufacturer's motor object):
-    // it is read back after each, also after an abort (the drive may have
-    // taken part of it).
-    try {
-      sdo.write(address, *raw, cia301::size_of(t));
-    } catch (const SdoError& e) {
-      std::string note;
-      try {
-        note = recheck_torque_unit(link, was_enabled);
-      } catch (const SetupError& unreadable) {
-        throw SetupError(std::string(e.what()) + "; " + unreadable.what(), unreadable.key());
-      }
-      if (note.empty()) throw;
-      throw SdoError(std::string(e.what()) + "; " + note, e.outcome());
-    }
-    a.note = recheck_torque_unit(link, was_enabled);
+    a.note = write_and_recheck(sdo, address, write, [&] { return recheck_torque_unit(link, was_enabled); });
   });
   return a;
 }

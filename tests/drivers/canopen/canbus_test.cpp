@@ -203,6 +203,17 @@ canopen::CanopenConfig two_node_config(const std::string& interface) {
   return c;
 }
 
+/// Homing on a limit switch 0.7 m away at most: 1 m/s to it, 0.2 m/s off it.
+canopen::CanopenConfig homing_config(const std::string& interface) {
+  canopen::CanopenConfig c = two_node_config(interface);
+  c.homing = true;
+  c.homing_speed_switch = 1.0;
+  c.homing_speed_zero = 0.2;
+  c.homing_acceleration = 10.0;
+  c.homing_timeout = 5.0;
+  return c;
+}
+
 TEST(CanopenBusDevice, ConfigureRefusesAPeriodTheBusCannotCarryBeforeTouchingIt) {
   canopen::CanopenBusDevice device(two_node_config("unix:/nonexistent/bus"));
   try {
@@ -367,14 +378,9 @@ TEST_F(TwoDrivesOnTheBus, EveryNodeHomesInTheSamePeriodsAndTorqueFlowsAfterInCyc
   // the switch at -0.5 m and backs off it; both in the same periods.
   plant1.x = 0.2;
   plant2.x = -0.1;
-  canopen::CanopenConfig c = two_node_config("unix:" + path);
-  c.homing = true;
+  canopen::CanopenConfig c = homing_config("unix:" + path);
   c.homing_method = 17;
   c.home_offset = 0.25;
-  c.homing_speed_switch = 1.0;
-  c.homing_speed_zero = 0.2;
-  c.homing_acceleration = 10.0;
-  c.homing_timeout = 5.0;
   device = std::make_unique<canopen::CanopenBusDevice>(c);
   device->configure({period_s});
   device->enable();
@@ -413,14 +419,9 @@ TEST_F(TwoDrivesOnTheBus, EachNodeHomesWithItsOwnMethodAndOffset) {
   // (18), each with its own 0x607C: each measures from its own switch's edge.
   plant1.x = 0.2;
   plant2.x = -0.1;
-  canopen::CanopenConfig c = two_node_config("unix:" + path);
-  c.homing = true;
+  canopen::CanopenConfig c = homing_config("unix:" + path);
   c.axis_homing_method = {17, 18};
   c.axis_home_offset = {0.25, -0.1};
-  c.homing_speed_switch = 1.0;
-  c.homing_speed_zero = 0.2;
-  c.homing_acceleration = 10.0;
-  c.homing_timeout = 5.0;
   device = std::make_unique<canopen::CanopenBusDevice>(c);
   device->configure({period_s});
   device->enable();
